@@ -1,0 +1,38 @@
+"""Exceptions raised by observer_cad.
+
+Every error a user can provoke is an :class:`ObserverCadError`; its message is one
+line that names the problem and where it is (model file, symbol, equation). The CLI
+prints that line and exits with status 2.
+"""
+from __future__ import annotations
+
+
+class ObserverCadError(Exception):
+    """Base class of every error observer_cad raises on purpose."""
+
+
+class ModelError(ObserverCadError, ValueError):
+    """A plant model is malformed (undeclared symbol, wrong role, not affine, ...)."""
+
+
+class DimensionError(ModelError):
+    """Lengths or shapes of the model's parts do not agree."""
+
+
+class InfeasibleDesignError(ObserverCadError):
+    """No design satisfies the requested conditions.
+
+    ``attempts`` lists, for every k tried, the condition that failed.
+    """
+
+    def __init__(self, message: str, attempts: tuple = ()):
+        super().__init__(message)
+        self.attempts = tuple(attempts)
+
+
+class CertificateError(ObserverCadError):
+    """A synthesised design failed the independent re-check of its defining identities."""
+
+
+class UsageError(ObserverCadError):
+    """An option given to the CLI or a public function is invalid."""

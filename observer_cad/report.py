@@ -1,0 +1,100 @@
+"""Human-readable and JSON renderings of models, structures and designs."""
+from __future__ import annotations
+
+import sympy as sp
+
+from .design import Design
+from .structure import Structure
+
+__all__ = ["format_matrix", "format_structure", "format_design", "structure_to_json"]
+
+
+def format_matrix(name: str, M, indent: str = "  ") -> str:
+    """A matrix as aligned rows: ``name = [ a  b ]`` with later rows under the first."""
+    M = sp.Matrix(M)
+    head = f"{indent}{name} = "
+    if M.rows == 0 or M.cols == 0:
+        return f"{head}(empty, {M.rows}x{M.cols})"
+    cells = [[str(M[i, j]) for j in range(M.cols)] for i in range(M.rows)]
+    widths = [max(len(cells[i][j]) for i in range(M.rows)) for j in range(M.cols)]
+    lines = []
+    for i in range(M.rows):
+        body = "  ".join(cells[i][j].rjust(widths[j]) for j in range(M.cols))
+        lines.append((head if i == 0 else " " * len(head)) + f"[ {body} ]")
+    return "\n".join(lines)
+
+
+def _mark(holds: bool, required: bool = True) -> str:
+    if holds:
+        return "[ ok ]"
+    return "[FAIL]" if required else "[ -- ]"
+
+
+def structure_to_json(st: Structure) -> dict:
+    m = st.model
+
+    def rows(M):
+        M = sp.Matrix(M)
+        return [[str(M[i, j]) for j in range(M.cols)] for i in range(M.rows)]
+    return {
+        "model": m.name, "time": m.time, "source": m.source,
+        "states": [s.name for s in m.states], "inputs": [s.name for s in m.inputs],
+        "outputs": {f"y{i + 1}": str(h) for i, h in enumerate(m.outputs)},
+        "faults": [s.name for s in m.faults], "disturbances": [s.name for s in m.disturbances],
+        "noise": [s.name for s in m.noise],
+        "parameters": {p.name: (None if v is None else str(v)) for p, v in m.parameters.items()},
+        "bounds": {s.name: [str(lo), str(hi)] for s, (lo, hi) in m.bounds.items()},
+        "domain": [str(r) for r in m.domain],
+        "matrices": {name: rows(getattr(st, name)) for name in ("F", "G", "H", "C", "D", "L", "W")},
+        "nonlinear": [{"function": str(t.function.xreplace({t.argument: sp.Symbol("s")})),
+                       "argument": str((t.row * sp.Matrix(m.states))[0, 0]),
+                       "row": [str(e) for e in t.row]} for t in st.terms],
+    }
+
+
+def format_structure(st: Structure) -> str:
+    m = st.model
+    names = lambda seq: ", ".join(s.name for s in seq) or "-"  # noqa: E731
+    out = [f"Model {m.name} ({m.time} time{', from ' + m.source if m.source else ''})",
+           f"  states       x = ({names(m.states)})",
+           f"  inputs       u = ({names(m.inputs)})",
+           f"  outputs      " + ", ".join(f"y{i + 1} = {h}" for i, h in enumerate(m.outputs)),
+           f"  faults       d = ({names(m.faults)})",
+           f"  disturbances rho = ({names(m.disturbances)})",
+           f"  noise        w = ({names(m.noise)})"]
+    if m.parameters:
+        out.append("  parameters   " + ", ".join(
+            f"{p} = {'(no value)' if v is None else v}" for p, v in m.parameters.items()))
+    if m.bounds:
+        out.append("  bounds       " + ", ".join(f"{s} in [{lo}, {hi}]" for s, (lo, hi) in m.bounds.items()))
+    if m.domain:
+        out.append("  domain       " + ", ".join(str(r) for r in m.domain))
+    lhs = "x(t+1)" if m.time == "discrete" else "dx/dt"
+    out.append(f"\n  {lhs} = F x + G u + C Psi(x, u) + D d + L rho,   y = H x + W w\n")
+    for name in ("F", "G", "H", "C", "D", "L", "W"):
+        out.append(format_matrix(name, getattr(st, name)))
+    if st.terms:
+        out.append("\n  nonlinear terms Psi_j = phi_j(A_j x, u):")
+        for j, t in enumerate(st.terms, 1):
+            ax = (t.row * sp.Matrix(m.states))[0, 0]
+            out.append(f"    Psi_{j} = {t.of_state(m.states)}    (A_{j} = {list(t.row)}, argument {ax})")
+    return "\n".join(out)
+
+
+def format_design(d: Design) -> str:
+    out = [f"Design for {d.model_name}: estimate {d.unknown_input}"
+           + (f", decoupled from {', '.join(d.decoupled)}" if d.decoupled else "")
+           + f" — {d.form} form, k = {d.k}, {'symbolic' if d.symbolic else 'numeric'}"
+           f" ({d.method} arithmetic)", ""]
+    out.append("  x*' = F* x* + J* y + G* u + D* d,   y* = H* x* = R* y,   x* = Phi x\n")
+    for name, M in d.ordered_matrices:
+        out.append(format_matrix(name, M))
+    out.append("\nConditions")
+    for c in d.conditions:
+        out.append(f"  {_mark(c.holds, c.required)} {c.name}: {c.detail}"
+                   + (f"  [{c.reference}]" if c.reference else ""))
+    out.append("\nAssumptions" + ("" if d.assumptions else ": none (exact for all parameter values)"))
+    for a in d.assumptions:
+        out.append(f"  {a}")
+    out.append(f"\nChoice\n  {d.choice}")
+    return "\n".join(out)
