@@ -328,7 +328,12 @@ def _design_exact(model, st, target, dec, D, L, *, symbolic, single_row) -> Desi
     best = None
     for vec in variants:
         mats = build(vec)
-        assume = _assumption_set(mats, mats["Phi"], k, mats["D_star"][r, 0]) | minimality
+        if single_row:
+            sens = mats["D_star"][r, 0]
+        else:  # D* ≠ 0: fails only where every entry vanishes (their common factor)
+            nums = [sp.fraction(sp.together(e))[0] for e in mats["D_star"] if e != 0]
+            sens = sp.gcd_list(nums) if len(nums) > 1 else (nums[0] if nums else None)
+        assume = _assumption_set(mats, mats["Phi"], k, sens) | minimality
         if best is None or len(assume) < len(best[1]):
             best = (mats, assume, vec)
     mats, assume, v = best
@@ -411,7 +416,7 @@ def _choose_member(members, F, H, D, k, single_row):
         for idx, v in cands:
             R, J, Phi = member_to_phi(v, F, H, k)
             ds = (Phi * D).applyfunc(sp.cancel)
-            if ds[r, 0] == 0:
+            if (ds[r, 0] == 0) if single_row else (ds == sp.zeros(*ds.shape)):
                 if idx is not None:
                     rejected.append(f"member {idx + 1} is not sensitive (Φ D = 0 in row {r + 1})")
                 continue
