@@ -377,7 +377,7 @@ def _design_exact(model, st, target, dec, D, L, *, symbolic, single_row) -> Desi
         conditions=tuple(conds), assumptions=assumptions, certificate=cert,
         unknown_input=tname, decoupled=tuple(s.name for s in dec), symbolic=symbolic,
         method="exact", choice=choice, attempts=tuple(attempts),
-        null_space=tuple(members))
+        null_space=tuple(members), time=model.time)
 
 
 def _ystar(R) -> str:
@@ -440,130 +440,472 @@ def _to_np(M):
     return np.array(M.evalf(), dtype=float)
 
 
+def _np_exact(M) -> np.ndarray:
+    """A numeric sympy matrix as floats, every entry correctly rounded.
+
+    Rational matrices are read from their DomainMatrix (``p / q`` in Python is
+    correctly rounded, and 3,600 entries take under a millisecond, against ~50 ms for
+    ``evalf``, which also keeps 15 digits only); anything else goes through
+    ``evalf(20)``.
+    """
+    r, c = M.shape
+    if r == 0 or c == 0:
+        return np.zeros((r, c))
+    rep = getattr(M, "_rep", None)
+    dom = getattr(rep, "domain", None)
+    if dom is not None and (dom.is_QQ or dom.is_ZZ):
+        return np.array([float(e) for e in rep.to_list_flat()], dtype=float).reshape(r, c)
+    return np.array(sp.Matrix(M).evalf(20), dtype=float)
+
+
+def _to_sympy_float(A) -> sp.Matrix:
+    """A float array as a sympy matrix (exact zeros stay Integer 0)."""
+    A = np.atleast_2d(np.asarray(A, dtype=float))
+    r, c = A.shape
+    if r == 0 or c == 0:
+        return sp.zeros(r, c)
+    zero = sp.Integer(0)
+    return sp.Matrix(r, c, [zero if x == 0.0 else sp.Float(float(x)) for x in A.ravel()])
+
+
+def _pow2(x):
+    """The powers of two nearest to x > 0 (elementwise): scaling by them is exact."""
+    return np.exp2(np.round(np.log2(x)))
+
+
+def _growth(P, k, hnorm):
+    """α with |H Fᵏ| ≈ αᵏ |H|: the mean growth of the Krylov rows (1 if undefined).
+
+    Building (W L) from F/α (exactly a row and column scaling of it, undone for the
+    members) keeps H Fʲ, the W and the L⁽ᵏ⁾ parts of each row at comparable sizes,
+    whatever the scale of F.
+    """
+    g = float(np.linalg.norm(P[k]))
+    if not (g > 0 and hnorm > 0 and np.isfinite(g)):
+        return 1.0
+    return float((g / hnorm) ** (1.0 / k))
+
+
+def _equilibrate(M, sweeps: int = 20):
+    """Ruiz equilibration: row and column scale factors (powers of two) such that
+    ``M / rs[:, None] / cs[None, :]`` has every nonzero row and column of max-norm
+    within a factor of about 2 of 1.
+
+    Each sweep divides rows and columns by the square roots of their max-norms; it
+    converges to a scaling that does not depend on any diagonal scaling M had to
+    begin with (so F and F/10, whose (W L) differ by exactly such a scaling, give the
+    same decisions). Powers of two: no rounding, structural zeros stay zero.
+    """
+    A = np.abs(M)
+    rs = np.ones(M.shape[0])
+    cs = np.ones(M.shape[1])
+    if A.size == 0:
+        return rs, cs
+    for _ in range(sweeps):
+        r = A.max(axis=1)
+        c = A.max(axis=0)
+        r[r == 0] = 1.0
+        c[c == 0] = 1.0
+        if max(np.max(np.abs(np.log2(r))), np.max(np.abs(np.log2(c)))) <= 1.0:
+            break
+        dr = _pow2(np.sqrt(r))
+        dc = _pow2(np.sqrt(c))
+        A = A / dr[:, None] / dc[None, :]
+        rs *= dr
+        cs *= dc
+    return rs, cs
+
+
+def _scaled_left_null(M, rtol):
+    """Left null space of M, computed on its equilibrated version (:func:`_equilibrate`).
+
+    Column scaling leaves the left null space unchanged; a left null vector w of the
+    scaled matrix is ``w / rs`` for M. Returns ``(members (rows, for M), w
+    (orthonormal rows, scaled space), rs, FloatRank)``.
+    """
+    rs, cs = _equilibrate(M)
+    Nw, fr = linalg.float_left_null_space(M / rs[:, None] / cs[None, :], rtol=rtol)
+    return Nw / rs[None, :], Nw, rs, fr
+
+
+def _toeplitz_float(PX, k, l, q):  # noqa: E741 - the papers' name
+    """Block upper-triangular Toeplitz X⁽ᵏ⁾ (METHOD §2a) from PX[j] = H Fʲ X (l×q).
+
+    Block (b, j) = H F^{j−b} X for j ≥ b; the last block row is zero. With X = L it
+    is L⁽ᵏ⁾; with X = D column i gives D*_{i+1} = v · X⁽ᵏ⁾[:, i] for a member v.
+    """
+    out = np.zeros((l * (k + 1), k * q))
+    if q:
+        for b in range(k):
+            for j in range(b, k):
+                out[b * l:(b + 1) * l, j * q:(j + 1) * q] = PX[j - b]
+    return out
+
+
+def _phi_float(U, F, H, k, l):  # noqa: E741
+    """Φ of each member (rows of U = (R*, −J*_1, …, −J*_k)): an (s, k, n) array."""
+    U = np.atleast_2d(U)
+    rows = [U[:, :l] @ H]
+    for i in range(k - 1):
+        # Φ_{i+1} = Φ_i F − J*_i H, and −J*_i is block i+1 of the member
+        rows.append(rows[-1] @ F + U[:, l * (i + 1):l * (i + 2)] @ H)
+    return np.stack(rows, axis=1)
+
+
+def _phi_ref(U, pn, k, l):  # noqa: E741
+    """Size of each Φ_i without cancellation: Σ_b |v_b| |H F^{i−b}| (an (s, k) array).
+
+    Φ_{i+1} = Σ_{b≤i} v_b H F^{i−b} for a member v = (v_0, …, v_k) (METHOD §2a); a row
+    far below this reference is zero up to rounding (e.g. R* H = 0 when H has
+    dependent rows), however it looks after scaling it to unit norm.
+    """
+    U = np.atleast_2d(U)
+    vb = np.stack([np.linalg.norm(U[:, l * b:l * (b + 1)], axis=1) for b in range(k)], axis=1)
+    ref = np.zeros((U.shape[0], k))
+    for i in range(k):
+        ref[:, i] = sum(vb[:, b] * pn[i - b] for b in range(i + 1))
+    return ref
+
+
+def _float_common_conditions(H, D, L, rtol):
+    """The necessary decoupling condition and the matching condition by SVD, with evidence.
+
+    Rows of H and columns of D and L are scaled to unit norm first (ranks are invariant
+    under it; the decisions become scale-free).
+    """
+    def unit_rows(A):
+        s = np.linalg.norm(A, axis=1)
+        s[s == 0] = 1.0
+        return A / s[:, None]
+
+    Hu = unit_rows(H)
+    Du = unit_rows(D.T).T
+    fH = linalg.float_rank(Hu, rtol=rtol)
+    conds = []
+    name = "decoupling necessary condition rank [H; L0] < rank H + rank L0"
+    if L.shape[1]:
+        L0, fL = linalg.float_left_null_space(unit_rows(L.T).T, rtol=rtol)
+        rL0 = L0.shape[0]
+        fHL0 = linalg.float_rank(np.vstack([Hu, L0]), rtol=rtol)
+        ok = fHL0.rank < fH.rank + rL0
+        conds.append(Condition(
+            name, ok,
+            f"rank [H; L0] = {fHL0.rank}, rank H + rank L0 = {fH.rank} + {rL0} = {fH.rank + rL0}"
+            f" (SVD, rows of H and columns of L scaled to unit norm, L0 the orthonormal left"
+            f" null space of L: [H; L0] {fHL0.evidence()}; H {fH.evidence()};"
+            f" L {fL.evidence()})",
+            "seed 000 eq. (2.4)"))
+    else:
+        conds.append(Condition(name, True, "no disturbances to decouple from (L0 = I)",
+                               "seed 000 eq. (2.4)"))
+    # the entries of Hu Du are cosines H_i·D / (|H_i| |D|): an absolute cut is scale-free
+    cut = rtol if rtol is not None else linalg._default_rtol(H.shape)
+    fHD = linalg.float_rank(Hu @ Du, atol=cut, rtol=cut)
+    rHD, rD = fHD.rank, linalg.float_rank(Du, atol=cut, rtol=cut).rank
+    conds.append(Condition(
+        "matching condition rank(HD) = rank(D)", rHD == rD,
+        f"rank HD = {rHD}, rank D = {rD}" + ("" if rHD == rD else
+                                              " (the input does not reach y directly)")
+        + f" (SVD of the cosines H_i·D/(|H_i| |D|): {fHD.evidence()})",
+        "seed 000 Remark 1", required=False))
+    return conds
+
+
+class _SingleThreadBLAS:
+    """Context manager: OpenBLAS limited to one thread, restored afterwards.
+
+    The float path's matrices are at most a few hundred wide, where BLAS threads bring
+    nothing; but OpenBLAS's threaded kernels (used for the singular vectors from ~64
+    rows on) stall for ~0.1 s per call when another process occupies the second core
+    of a 2-core machine (measured: an 80×77 ``svd`` 96 ms instead of 1 ms, the n = 60
+    design 1.4 s instead of 0.02 s). numpy has no API for it, so the library numpy
+    loaded is found in ``/proc/self/maps`` (Linux) and its ``*set_num_threads*`` is
+    called through ctypes, as threadpoolctl does. Anything unexpected: a no-op.
+    Not re-entrant across threads (the setting is process-wide).
+    """
+
+    _funcs = None  # (get, set) or () when unavailable
+
+    @classmethod
+    def _find(cls):
+        if cls._funcs is not None:
+            return cls._funcs
+        cls._funcs = ()
+        try:
+            import ctypes
+            with open("/proc/self/maps") as fh:
+                paths = (line.split()[-1] for line in fh if line.strip())
+                libs = sorted({q for q in paths if "openblas" in q.lower() and ".so" in q})
+            for lib in libs:
+                h = ctypes.CDLL(lib)
+                for suffix in ("64_", ""):
+                    for prefix in ("scipy_openblas", "openblas"):
+                        get = getattr(h, f"{prefix}_get_num_threads{suffix}", None)
+                        set_ = getattr(h, f"{prefix}_set_num_threads{suffix}", None)
+                        if get is not None and set_ is not None:
+                            get.restype = ctypes.c_int
+                            set_.argtypes = [ctypes.c_int]
+                            cls._funcs = (get, set_)
+                            return cls._funcs
+        except Exception:  # pragma: no cover - platform without /proc or ctypes quirks
+            cls._funcs = ()
+        return cls._funcs
+
+    def __enter__(self):
+        funcs = self._find()
+        self._old = None
+        if funcs:
+            try:
+                self._old = funcs[0]()
+                if self._old != 1:
+                    funcs[1](1)
+            except Exception:  # pragma: no cover
+                self._old = None
+        return self
+
+    def __exit__(self, *exc):
+        if self._old is not None and self._old != 1:
+            try:
+                self._funcs[1](self._old)
+            except Exception:  # pragma: no cover
+                pass
+        return False
+
+
 def _design_float(model, st, target, dec, D, L, *, single_row, rtol) -> Design:
-    F, G, H, Cm = (_to_np(M) for M in (st.F, st.G, st.H, st.C))
-    Dn, Ln = _to_np(D), _to_np(L)
-    n, l = st.n, st.l
+    """The canonical-form design by SVD (METHOD §2a); see :func:`_design_float_core`."""
+    with _SingleThreadBLAS():
+        return _design_float_core(model, st, target, dec, D, L, single_row=single_row, rtol=rtol)
+
+
+def _design_float_core(model, st, target, dec, D, L, *, single_row, rtol) -> Design:
+    """The canonical-form design by SVD (METHOD §2a), certified on the original matrices.
+
+    Numerics.
+
+    * Scale: (W⁽ᵏ⁾ L⁽ᵏ⁾) is built from F/α, α = (|H Fᵏ| / |H|)^{1/k} the mean growth of
+      the Krylov rows. That is exactly a row and column scaling of the original
+      matrix (a member v of the scaled one gives the member v_b α^b, block b, of the
+      original); without it a contractive F (F/10 of a random F) buries the W part of
+      each row under the L⁽ᵏ⁾ part and the rank decisions go wrong (k = 8 or 5 instead
+      of 9 at n = 60 in testing).
+    * Every rank decision is then an SVD of the Ruiz-equilibrated matrix (powers of
+      two: no rounding, structural zeros stay zero) with the cut
+      ``max(shape)·eps·1e3·σ_1`` (or ``rtol·σ_1``), reported with the singular values
+      on both sides of it and their distance to the cut.
+    * "D* enters row r only" is linear in the member: D*_{i+1} = v · D⁽ᵏ⁾[:, i], D⁽ᵏ⁾
+      the block Toeplitz of D built like L⁽ᵏ⁾, so the members doing so are the left
+      null space of (W L⁽ᵏ⁾ D⁽ᵏ⁾_others), computed in one SVD like the rank condition
+      (not by a second null space of a computed, already rounded basis).
+    * Sensitivity and rank Φ are judged relative to ρ_i = Σ_b |v_b| |H F^(i−1−b)|, the
+      size row Φ_i would have without cancellation (:func:`_phi_ref`): |Φ_i D|/(ρ_i |D|)
+      and Φ with rows divided by ρ_i. Scaling a row to unit norm instead would turn a
+      row that is zero up to rounding (R* H = 0 when H has dependent rows) into a
+      "sensitive, full-rank" one.
+    * Φ, J* come from the recurrence with the original F and H, and the certificate
+      is evaluated on the ORIGINAL matrices (relative residuals, tolerance 1e-8, or
+      100·rtol when a larger rtol is given).
+    """
+    F, G, H, Cm = (_np_exact(M) for M in (st.F, st.G, st.H, st.C))
+    Dn, Ln = _np_exact(D), _np_exact(L)
+    n, l = st.n, st.l  # noqa: E741
     p = Ln.shape[1]
     tname = target.name
 
-    def frank(M):
-        return linalg.float_rank(M, rtol=rtol).rank
-    conds = [c for c in _common_conditions(st, D, L, lambda M: frank(_to_np(M)))]
+    conds = _float_common_conditions(H, Dn, Ln, rtol)
     if not conds[0].holds:
         raise InfeasibleDesignError(
             f"{model.where}: no model decoupled from {', '.join(s.name for s in dec)} exists:"
             f" the necessary condition fails ({conds[0].detail})", (conds[0].detail,))
+
+    dnorm = float(np.linalg.norm(Dn))
+    P, PL, PD = [H], [H @ Ln], [H @ Dn]  # H Fʲ, H Fʲ L, H Fʲ D, extended as k grows
+    hnorm = float(np.linalg.norm(H))
     attempts = []
-    HF = [H]
-    for _ in range(n):
-        HF.append(HF[-1] @ F)
-    HFL = [h @ Ln for h in HF] if p else []
     chosen = None
     for k in range(1, n):
-        W = np.vstack([HF[k - i] for i in range(k + 1)])
-        Lk = np.zeros((l * (k + 1), k * p))
-        for i in range(k):
-            for j in range(i, k):
-                Lk[i * l:(i + 1) * l, j * p:(j + 1) * p] = HFL[j - i]
-        M = np.hstack([W, Lk])
-        # row scaling for conditioning: v (S M) = 0  <=>  (v S) M = 0
-        s = np.linalg.norm(M, axis=1)
-        s[s == 0] = 1.0
-        N, fr = linalg.float_left_null_space(M / s[:, None], rtol=rtol)
+        while len(P) <= k:
+            P.append(P[-1] @ F)
+            PL.append(P[-1] @ Ln)
+            PD.append(P[-1] @ Dn)
+        alpha = _growth(P, k, hnorm)
+        sc = alpha ** -np.arange(k + 1.0)  # H (F/α)ʲ = H Fʲ α^-j
+        M = np.hstack([np.vstack([P[k - b] * sc[k - b] for b in range(k + 1)]),
+                       _toeplitz_float([X * c for X, c in zip(PL, sc)], k, l, p)])
+        back = np.repeat(alpha ** np.arange(k + 1.0), l)  # member of M̃ -> member of M
+        U, _, _, fr = _scaled_left_null(M, rtol)
         need = l * (k + 1)
-        if N.shape[0] == 0:
+        if U.shape[0] == 0:
             attempts.append(f"k={k}: rank condition (3.3) fails: {fr.evidence()} = l(k+1) = {need}")
             continue
-        members = N / s[None, :]
-
-        def phi(v):
-            R = v[:l]
-            J = np.vstack([-v[l * (i + 1):l * (i + 2)] for i in range(k)])
-            rows = [R @ H]
-            for i in range(k - 1):
-                rows.append(rows[-1] @ F - J[i] @ H)
-            return R, J, np.vstack(rows)
-        prefs = [0] if k == 1 else ([0, k - 1] + list(range(1, k - 1)) if single_row else [0])
-        pick = None
-        for r in prefs:
-            dst = np.array([(phi(v)[2] @ Dn)[:, 0] for v in members])  # (s, k)
-            if single_row and k > 1:
-                others = [i for i in range(k) if i != r]
-                cs, _ = linalg.float_left_null_space(dst[:, others], rtol=rtol)
-                if cs.shape[0] == 0:
-                    continue
-                sub = cs @ members
-            else:
-                sub = members
-            t = np.array([(phi(v)[2] @ Dn)[r, 0] for v in sub])
-            scale = max(np.linalg.norm(phi(v)[2]) for v in sub) * max(np.linalg.norm(Dn), 1e-300)
-            if np.linalg.norm(t) <= 1e-9 * scale:
-                continue
-            v = (t / np.linalg.norm(t)) @ sub
-            _, _, Phi = phi(v)
-            fr_phi = linalg.float_rank(Phi, rtol=rtol)
-            if fr_phi.rank < k:
-                continue
-            pick = (v, r, fr_phi)
-            break
+        Dk = _toeplitz_float([X * c for X, c in zip(PD, sc)], k, l, Dn.shape[1])
+        pn = [float(np.linalg.norm(X)) for X in P[:k + 1]]
+        pick, why = _pick_float(M, U, Dk, back, F, H, Dn, pn, k, l, single_row, rtol)
         if pick is None:
-            attempts.append(f"k={k}: rank condition (3.3) holds ({fr.evidence()} < {need}),"
-                            f" null space of dimension {members.shape[0]}, but no member is"
-                            f" sensitive to {tname}" + (" in one row only" if single_row else ""))
+            attempts.append(
+                f"k={k}: rank condition (3.3) holds ({fr.evidence()} < {need}), null space of"
+                f" dimension {U.shape[0]}, but {why}")
             continue
-        chosen = (k, pick, fr, need, members.shape[0])
+        chosen = (k, pick, fr, need, U.shape[0], pn)
         break
     if chosen is None:
         raise InfeasibleDesignError(
             f"{model.where}: no disturbance-decoupled model sensitive to '{tname}' exists for"
             f" any k < n = {n}: " + "; ".join(attempts), tuple(attempts))
-    k, (v, r, fr_phi), fr, need, dim = chosen
-    l_ = l
-    R = v[:l_]
-    v = v / R[np.argmax(np.abs(R))] if np.any(np.abs(R) > 0) else v
-    R = v[:l_]
-    J = np.vstack([-v[l_ * (i + 1):l_ * (i + 2)] for i in range(k)])
-    rows = [R @ H]
-    for i in range(k - 1):
-        rows.append(rows[-1] @ F - J[i] @ H)
-    Phi = np.vstack(rows)
+
+    k, (v, r, sub_ev, fr_phi, nsub, tol2), fr, need, dim, pn = chosen
+    R = v[:l]
+    v = v / R[np.argmax(np.abs(R))] if np.any(R != 0) else v / np.max(np.abs(v))
+    R = v[:l]
+    J = -v[l:].reshape(k, l)
+    Phi = _phi_float(v, F, H, k, l)[0]
+    Dst = Phi @ Dn
+    ref = _phi_ref(v, pn, k, l)[0]
+    cos = np.abs(Dst[:, 0]) / np.maximum(ref * dnorm, np.finfo(float).tiny)
+    others = [i for i in range(k) if i != r]
+    tol = 1e-8 if rtol is None else max(1e-8, 100.0 * rtol)
+    zeroed = False
+    if single_row and others:
+        leak = float(cos[others].max())
+        # Zero the other rows when that is far inside the certificate's tolerance (the
+        # certificate's Φ D − D* then checks it); when Φ's rows differ by many orders of
+        # magnitude (large ‖F‖, large k) their rounding alone can exceed it: keep them.
+        if np.linalg.norm(Dst[others, 0]) <= 1e-2 * tol * abs(Dst[r, 0]):
+            Dst[others, :] = 0.0
+            zeroed = True
     Fs = np.eye(k, k, 1)
     Hs = np.eye(1, k)
     mats_np = {"Phi": Phi, "F_star": Fs, "J_star": J, "R_star": R[None, :], "H_star": Hs,
-               "G_star": Phi @ G if G.size else np.zeros((k, 0)), "D_star": Phi @ Dn,
-               "L_star": Phi @ Ln if p else np.zeros((k, 0))}
+               "G_star": Phi @ G if G.size else np.zeros((k, G.shape[1])), "D_star": Dst,
+               "L_star": np.zeros((k, p))}
     if Cm.size:
         mats_np["C_star"] = Phi @ Cm
-    tol = 1e-8
     cert = certify_reduced_model(
         F=F, G=G if G.size else np.zeros((n, 0)), H=H, C=Cm if Cm.size else np.zeros((n, 0)),
         D=Dn, L=Ln if p else np.zeros((n, 0)), Phi=Phi, F_star=Fs, J_star=J,
-        R_star=R[None, :], H_star=Hs, G_star=mats_np["G_star"], D_star=mats_np["D_star"],
+        R_star=R[None, :], H_star=Hs, G_star=mats_np["G_star"], D_star=Dst,
         C_star=mats_np.get("C_star"), exact=False, tolerance=tol)
-    mats = {name: sp.Matrix(np.atleast_2d(M)) if M.size else sp.zeros(*M.shape)
-            for name, M in mats_np.items()}
+    mats = {name: _to_sympy_float(M) for name, M in mats_np.items()}
+    mats["F_star"], mats["H_star"] = _shift(k), sp.Matrix([[1] + [0] * (k - 1)])
+    row_txt = ("the only row" if k == 1 else "the first row (matched case)" if r == 0 else
+               f"the last row only (mismatched case: the estimate is delayed by {k - 1} step(s))"
+               if r == k - 1 else f"row {r + 1} only")
     conds += [
-        Condition(f"rank condition (3.3) at k = {k}", True, f"{fr.evidence()} < l(k+1) = {need}",
-                  "seed 000 eq. (3.3)"),
+        Condition(f"rank condition (3.3) at k = {k}", True,
+                  f"{fr.evidence()} < l(k+1) = {need}; SVD of (W L) with rows and columns"
+                  f" equilibrated", "seed 000 eq. (3.3)"),
         Condition("k is minimal", True,
                   "; ".join(attempts) if attempts else "k = 1 is the smallest dimension",
                   "seed 000 §3"),
         Condition(f"fault sensitivity Phi D != 0 ({tname})", True,
-                  f"|D*| = {np.linalg.norm(mats_np['D_star']):.3e}", "seed 000 §4"),
+                  f"|D*_{r + 1}| = {abs(Dst[r, 0]):.3e}; relative to its size without"
+                  f" cancellation, |Φ_{r + 1} D|/(ρ_{r + 1} |D|) = {cos[r]:.3e} > tol {tol2:.1e}"
+                  f" (ρ_i = Σ_b |v_b| |H F^(i−1−b)|, v = (R*, −J*_1, …))", "seed 000 §4"),
     ]
     if single_row:
-        conds.append(Condition("D* enters one row only", True,
-                               f"{tname} enters row {r + 1} (other rows below tolerance)",
-                               "seed 000 §5, §7"))
+        detail = f"{tname} enters {row_txt}"
+        if others:
+            detail += (f"; members doing so: {sub_ev}; the other rows'"
+                       f" |Φ_i D|/(ρ_i |D|) are at most {leak:.1e}"
+                       + (", set to 0 in D* (Φ D − D* is certified)" if zeroed else
+                          ", kept in D* as computed (zeroing them would exceed the"
+                          " certificate's tolerance: Φ's rows differ widely in size)"))
+        conds.append(Condition("D* enters one row only", True, detail, "seed 000 §5, §7"))
     conds.append(Condition("rank Phi = k (the model is not degenerate)", True,
-                           fr_phi.evidence(), "seed 000 §3"))
-    conds.append(Condition("certificate", cert.passed, cert.summary(), "METHOD §2"))
+                           f"rows of Φ divided by ρ_i: {fr_phi.evidence()}", "seed 000 §3"))
+    resid = ", ".join(f"{i.name}: {i.residual}" for i in cert.identities)
+    conds.append(Condition("certificate", cert.passed, f"{cert.summary()} ({resid})",
+                           "METHOD §2"))
     choice = (f"k = {k}: numerical left null space of dimension {dim} ({fr.evidence()});"
-              f" chosen: the combination maximising |D*_{r + 1}| with {tname} in row {r + 1}"
-              f" only, scaled so that the largest entry of R* is 1")
+              + (f" {nsub} independent member(s) put {tname} into {row_txt};"
+                 if single_row and k > 1 else "")
+              + " chosen: the unit combination (in the equilibrated coordinates) maximising"
+              + (f" |D*_{r + 1}|" if single_row or k == 1 else " |D*| (rows scaled by ρ_i |D|)")
+              + f" (|Φ_{r + 1} D|/(ρ_{r + 1} |D|) = {cos[r]:.3e}), or the first non-degenerate"
+              " combination near it, scaled so that the largest entry of R* is 1")
     return Design(
         model_name=model.name, form="canonical", k=k, matrices=mats, conditions=tuple(conds),
         assumptions=(), certificate=cert, unknown_input=tname,
         decoupled=tuple(s.name for s in dec), symbolic=False, method="float",
         choice=choice, attempts=tuple(attempts), null_space=())
+
+
+def _pick_float(M, U, Dk, back, F, H, D, pn, k, l, single_row, rtol):  # noqa: E741
+    """The member for the task (float path), or the reason none exists.
+
+    ``M`` is the scaled (W L), ``U`` its left null space (rows), ``Dk`` the scaled
+    D⁽ᵏ⁾ (column i: D*_{i+1} = v · D⁽ᵏ⁾[:, i]), ``back`` maps a member of the scaled
+    matrix to one of the original (elementwise product). Rows are tried in the exact
+    path's order (first, last, then the others). For row r the members with D* in row
+    r only are the left null space of (M, D⁽ᵏ⁾_others); among them the unit combination
+    maximising |D*_r| is taken if it clears the tolerance relative to ρ_r |D| (ρ the
+    size of Φ_r without cancellation, :func:`_phi_ref`; ``pn[j] = |H Fʲ|``) and if Φ,
+    its rows divided by ρ, has rank k. Without ``single_row`` (as the exact path): any
+    member with D* ≠ 0, the unit combination maximising |D*| (rows scaled by ρ_i |D|).
+    If the optimum is degenerate, perturbations of it are tried (rank Φ = k is generic
+    in the null space when it holds anywhere).
+    Returns ``((v, r, evidence, FloatRank of Φ, subspace dimension, tolerance), None)``
+    or ``(None, why)``; v is a member of the original (W L).
+    """
+    prefs = [0] if k == 1 else ([0, k - 1] + list(range(1, k - 1)) if single_row else [0])
+    dnorm = float(np.linalg.norm(D))
+    reasons = []
+    for r in prefs:
+        others = [i for i in range(k) if i != r]
+        if single_row and others:
+            Ur, _, _, fsub = _scaled_left_null(np.hstack([M, Dk[:, others]]), rtol)
+            ev = f"{Ur.shape[0]} (SVD of (W L D⁽ᵏ⁾ without column {r + 1}): {fsub.evidence()})"
+            if Ur.shape[0] == 0:
+                reasons.append(f"row {r + 1}: no member keeps the input out of the other rows"
+                               f" ({fsub.evidence()})")
+                continue
+        else:
+            Ur = U
+            ev = f"all {U.shape[0]}"
+        Uo = Ur * back[None, :]  # members of the original (W L)
+        Phis = _phi_float(Uo, F, H, k, l)  # (s, k, n)
+        T = Phis @ D[:, 0] if D.shape[1] else np.zeros(Phis.shape[:2])  # D* of each member
+        # scale row i of D* by the largest ρ_i |D| over the basis members
+        scale = _phi_ref(Uo, pn, k, l).max(axis=0) * dnorm
+        scale[scale == 0] = 1.0
+        Ts = T / scale[None, :]
+        tol = rtol if rtol is not None else linalg._default_rtol(
+            (M.shape[0], M.shape[1] + len(others)))
+        if single_row or k == 1:
+            ts = Ts[:, r]
+            nt = float(np.linalg.norm(ts))
+            c0 = ts / nt if nt > 0 else ts
+        else:  # D* ≠ 0 in any row: the unit combination maximising |D*| (scaled)
+            u, sv, _ = np.linalg.svd(Ts, full_matrices=False)
+            nt, c0 = float(sv[0]), u[:, 0]
+        if nt <= tol:
+            where_ = f"Φ_{r + 1} D" if single_row or k == 1 else "Φ D"
+            reasons.append(f"row {r + 1}: the {Ur.shape[0]} member(s) with the input in that"
+                           f" row only are not sensitive (|{where_}|/(ρ |D|) at most"
+                           f" {nt:.1e} ≤ tol {tol:.1e})" if single_row and others else
+                           f"the {Ur.shape[0]} member(s) are not sensitive (|{where_}|/(ρ |D|)"
+                           f" at most {nt:.1e} ≤ tol {tol:.1e})")
+            continue
+        # the optimum, then perturbations of it, then generic combinations near it (the
+        # members with rank Φ = k are generic in the null space if there are any)
+        rng = np.random.default_rng(k)
+        cands = [c0] + [c0 + e for e in np.eye(len(c0))]
+        cands += [c0 + 0.5 * g / np.linalg.norm(g) for g in rng.standard_normal((4, len(c0)))]
+        fphi = None
+        for c in cands:
+            ds = c @ Ts
+            size = abs(ds[r]) if single_row or k == 1 else np.linalg.norm(ds)
+            if size <= tol * np.linalg.norm(c):
+                continue
+            Phi = np.tensordot(c, Phis, axes=1)
+            nr = _phi_ref(c @ Uo, pn, k, l)[0]
+            nr[nr == 0] = 1.0
+            fphi = linalg.float_rank(Phi / nr[:, None], atol=tol, rtol=tol)
+            if fphi.rank == k:
+                rr = r if single_row or k == 1 else int(np.argmax(np.abs(ds)))
+                return (c @ Uo, rr, ev, fphi, Ur.shape[0], tol), None
+        reasons.append(f"row {r + 1}: the sensitive members are degenerate (rank Φ < {k}"
+                       + (f": {fphi.evidence()})" if fphi is not None else ")"))
+    what = "sensitive with the input in one row only" if single_row and k > 1 else \
+        "sensitive to the input with rank Φ = k"
+    return None, f"no member is {what} (" + "; ".join(reasons) + ")"

@@ -21,7 +21,7 @@ import sympy as sp
 
 from .errors import CertificateError
 
-__all__ = ["Identity", "Certificate", "certify_reduced_model"]
+__all__ = ["Identity", "Certificate", "certify_reduced_model", "certify_design"]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -122,3 +122,56 @@ class _Arr:
 
     def __sub__(self, o):
         return _Arr(self.a - o.a)
+
+
+def certify_design(plant: dict, mats: dict, *, M=None, substitutions=(), decoupled: bool = True,
+                   exact: bool = True, tolerance: float = 1e-9,
+                   raise_on_failure: bool = True) -> Certificate:
+    """Re-check every identity that applies to a design, from its matrices alone.
+
+    ``plant``: F, G, H, C, D, L (sympy). ``mats``: the design's matrices; which identities
+    are checked depends on which are present:
+
+    - always ``Φ F − F* Φ − J* H`` (Jordan form: row i reads Φ_i F = λ_i Φ_i + J*_i H);
+    - ``H* Φ − R* H`` when R*, H* are present; ``Φ G − G*``; ``Φ D − D*`` when D* is;
+    - ``Φ L`` (decoupled) or ``Φ L − L*`` (interval observers, not decoupled);
+    - ``Φ C − C*`` for nonlinear models;
+    - ``M − H_z Φ − Q H`` for an estimated z = M x;
+    - ``A_j − A*_1j Φ − A*_2j H`` for each argument substitution (A_j, A*_1j, A*_2j).
+    """
+    P = {k: sp.Matrix(v) for k, v in plant.items()}
+    X = {k: sp.Matrix(v) for k, v in mats.items()}
+    Phi = X["Phi"]
+    checks = [("Phi F - F* Phi - J* H", Phi * P["F"] - X["F_star"] * Phi - X["J_star"] * P["H"])]
+    if "R_star" in X and "H_star" in X:
+        checks.append(("H* Phi - R* H", X["H_star"] * Phi - X["R_star"] * P["H"]))
+    if "G_star" in X and P["G"].cols:
+        checks.append(("Phi G - G*", Phi * P["G"] - X["G_star"]))
+    if "D_star" in X and P["D"].cols:
+        checks.append(("Phi D - D*", Phi * P["D"] - X["D_star"]))
+    if P["L"].cols:
+        if decoupled:
+            checks.append(("Phi L", Phi * P["L"]))
+        elif "L_star" in X:
+            checks.append(("Phi L - L*", Phi * P["L"] - X["L_star"]))
+    if "C_star" in X and P["C"].cols:
+        checks.append(("Phi C - C*", Phi * P["C"] - X["C_star"]))
+    if M is not None:
+        checks.append(("M - Hz Phi - Q H", sp.Matrix(M) - X["Hz"] * Phi - X["Q"] * P["H"]))
+    for j, A, A1, A2 in substitutions:
+        checks.append((f"A_{j} - A*_1,{j} Phi - A*_2,{j} H",
+                       sp.Matrix(A) - sp.Matrix(A1) * Phi - sp.Matrix(A2) * P["H"]))
+    ids = []
+    if exact:
+        for name, res in checks:
+            ids.append(_exact_identity(name, res))
+        cert = Certificate(tuple(ids), True, None)
+    else:
+        for name, res in checks:
+            r = np.array(res.evalf(), dtype=float) if res.shape[0] and res.shape[1] else np.zeros(1)
+            rel = float(np.linalg.norm(r))
+            ids.append(Identity(name, rel <= tolerance, f"{rel:.2e}"))
+        cert = Certificate(tuple(ids), False, tolerance)
+    if raise_on_failure and not cert.passed:
+        raise CertificateError(f"design failed its certificate: {cert.summary()}")
+    return cert

@@ -29,7 +29,8 @@ def build_parser() -> argparse.ArgumentParser:
     p = _Parser(prog=PROG, description=(
         "Design reduced-order, disturbance-decoupled observers from a symbolic plant model, "
         "with every synthesis condition checked exactly and every design certified."))
-    sub = p.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
+    sub = p.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser,
+                           required=True)
 
     s = sub.add_parser("show", help="print the structure extracted from a model file",
                        description="Print the matrices F, G, H, C, D, L, W and the nonlinear "

@@ -8,7 +8,7 @@ import sympy as sp
 
 from .certificate import Certificate
 
-__all__ = ["Condition", "Design", "MATRIX_ORDER"]
+__all__ = ["Condition", "Design", "NonlinearSubstitution", "MATRIX_ORDER"]
 
 #: Order in which a design's matrices are printed and serialised.
 MATRIX_ORDER = ("Phi", "F_star", "J_star", "R_star", "H_star", "G_star", "D_star", "L_star",
@@ -28,6 +28,22 @@ class Condition:
     def to_json(self) -> dict:
         return {"name": self.name, "holds": bool(self.holds), "detail": self.detail,
                 "reference": self.reference, "required": self.required}
+
+
+@dataclasses.dataclass(frozen=True)
+class NonlinearSubstitution:
+    """Ψ*_j = φ_j(A*_1j x* + A*_2j y, u) for one nonzero column j of C* (METHOD §2c)."""
+
+    index: int  # j, 1-based
+    function: sp.Expr  # φ_j(argument, u) as an expression in the reduced variables
+    argument: sp.Expr  # A*_1j x* + A*_2j y
+    A1: sp.Matrix
+    A2: sp.Matrix
+
+    def to_json(self) -> dict:
+        return {"index": self.index, "function": str(self.function),
+                "argument": str(self.argument),
+                "A1": [str(e) for e in self.A1], "A2": [str(e) for e in self.A2]}
 
 
 @dataclasses.dataclass(frozen=True)
@@ -54,6 +70,17 @@ class Design:
     choice: str
     attempts: tuple
     null_space: tuple = ()  # reduced-echelon basis of the members at k (exact designs)
+    observer: str = "unknown-input"
+    time: str = "continuous"  # of the plant, hence of the observer
+    estimate: str | None = None  # z = M x for virtual sensors / interval observers
+    lambdas: tuple = ()  # Jordan form: the eigenvalue of each row
+    closed_loop_eigenvalues: tuple = ()
+    nonlinear: tuple = ()  # of NonlinearSubstitution
+    equations: tuple = ()  # observer right-hand sides (sympy expressions)
+    observer_states: tuple = ()  # symbols of x* (xs1, xs2, ...)
+    outputs: tuple = ()  # (name, sympy expression) of the observer's outputs
+    approximate: bool = False
+    residual_norm: float | None = None
 
     def matrix(self, name: str) -> sp.Matrix:
         return self.matrices[name]
@@ -82,6 +109,17 @@ class Design:
             "choice": self.choice,
             "attempts": list(self.attempts),
             "null_space": [[str(e) for e in v] for v in self.null_space],
+            "observer": self.observer,
+            "time": self.time,
+            "estimate": self.estimate,
+            "lambdas": [str(v) for v in self.lambdas],
+            "closed_loop_eigenvalues": [str(v) for v in self.closed_loop_eigenvalues],
+            "nonlinear": [n.to_json() for n in self.nonlinear],
+            "states": [str(s) for s in self.observer_states],
+            "equations": [str(e) for e in self.equations],
+            "outputs": {name: str(e) for name, e in self.outputs},
+            "approximate": bool(self.approximate),
+            **({"residual_norm": self.residual_norm} if self.approximate else {}),
             "certificate": {"passed": self.certificate.passed,
                             "exact": self.certificate.exact,
                             "tolerance": self.certificate.tolerance,

@@ -48,6 +48,8 @@ def to_rational(value: Any, what: str) -> sp.Expr:
     if isinstance(value, Fraction):
         return sp.Rational(value.numerator, value.denominator)
     if isinstance(value, float):
+        if value != value or value in (float("inf"), float("-inf")):
+            raise ModelError(f"{what}: value {value!r} is not a finite number")
         return sp.Rational(repr(value))
     if isinstance(value, str):
         try:
@@ -191,10 +193,10 @@ class PlantModel:
         for i, (x, f) in enumerate(zip(self.states, self.dynamics)):
             for s in sorted(f.free_symbols - set(roles), key=str):
                 raise ModelError(
-                    f"{where}: undeclared symbol '{s}' in dynamics equation {i + 1} (d{x})")
+                    f"{where}: undeclared symbol '{s}' in dynamics equation {i + 1} (for {x})")
             for s in sorted(f.free_symbols & set(self.noise), key=str):
                 raise ModelError(
-                    f"{where}: noise '{s}' appears in dynamics equation {i + 1} (d{x});"
+                    f"{where}: noise '{s}' appears in dynamics equation {i + 1} (for {x});"
                     " measurement noise may enter the outputs only")
         for i, h in enumerate(self.outputs):
             name = f"y{i + 1}"
@@ -336,7 +338,7 @@ def load_model(path: str | Path) -> PlantModel:
         msg = str(exc)
         if not msg.startswith(str(path)):
             msg = f"{path}: {msg}"
-        raise ModelError(msg) from None
+        raise type(exc)(msg) from None  # keep the class (DimensionError)
     except BaseException as exc:  # noqa: BLE001 - any failure of user code
         if isinstance(exc, KeyboardInterrupt):
             raise
@@ -344,8 +346,9 @@ def load_model(path: str | Path) -> PlantModel:
         detail = detail[-1] if detail else ""
         lineno = ""
         tb = exc.__traceback__
+        here = p.resolve()
         while tb is not None:
-            if tb.tb_frame.f_code.co_filename == str(p):
+            if Path(tb.tb_frame.f_code.co_filename).resolve() == here:
                 lineno = f", line {tb.tb_lineno}"
             tb = tb.tb_next
         if isinstance(exc, SyntaxError) and exc.lineno:

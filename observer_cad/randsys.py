@@ -30,24 +30,29 @@ import sympy as sp
 
 from .model import PlantModel
 
-__all__ = ["random_matrices", "random_model", "generic_k"]
+__all__ = ["random_matrices", "random_model", "random_structure", "generic_k"]
 
 
 def _rational(v: float, den: int = 1000) -> sp.Rational:
     return sp.Rational(int(round(v * den)), den)
 
 
-def random_matrices(n: int, l: int, p: int, *, seed: int, m: int = 1, integer: bool = True):  # noqa: E741
+def random_matrices(n: int, l: int, p: int, *, seed: int, m: int = 1,  # noqa: E741
+                    integer: bool = True, density: float = 1.0):
     """The random F (n×n), G (n×m), H (l×n), D (n×1), L (n×p) of :func:`random_model`.
 
-    Returned as a dict of sympy matrices with exact entries.
+    Returned as a dict of sympy matrices with exact entries. ``density`` < 1 zeroes
+    each entry of F, H, D and L independently with probability 1 − density (sparse,
+    non-generic structure: structural zeros, rank drops; what the float path must
+    agree with the exact one on).
     """
     if n < 1 or l < 1 or p < 0 or m < 0:
-        raise ValueError(f"random_matrices: need n, l >= 1 and p, m >= 0 (got n={n}, l={l}, p={p}, m={m})")
+        raise ValueError(f"random_matrices: need n, l >= 1 and p, m >= 0"
+                         f" (got n={n}, l={l}, p={p}, m={m})")
     rng = np.random.default_rng(seed)
     shapes = {"F": (n, n), "H": (l, n), "D": (n, 1), "L": (n, p), "G": (n, m)}
-    out = {}
-    for name, (r, c) in shapes.items():  # fixed order: the same seed, the same matrices
+
+    def draw(name, r, c):
         if integer:
             a = rng.integers(-2, 3, size=(r, c))
             M = sp.Matrix(r, c, [sp.Integer(int(v)) for v in a.ravel()])
@@ -56,13 +61,22 @@ def random_matrices(n: int, l: int, p: int, *, seed: int, m: int = 1, integer: b
             if name == "F":
                 a = a / np.sqrt(n)
             M = sp.Matrix(r, c, [_rational(float(v)) for v in a.ravel()])
-        if integer:
-            # a zero output row or a zero fault column makes the problem degenerate:
-            # draw that matrix again (deterministically, from the same generator)
-            while (name == "H" and any(all(e == 0 for e in M.row(i)) for i in range(r))) or \
-                    (name == "D" and all(e == 0 for e in M)):
-                a = rng.integers(-2, 3, size=(r, c))
-                M = sp.Matrix(r, c, [sp.Integer(int(v)) for v in a.ravel()])
+        if density < 1.0 and name != "G":
+            keep = rng.random((r, c)) < density
+            M = sp.Matrix(r, c, [e if kp else sp.Integer(0) for e, kp in zip(M, keep.ravel())])
+        return M
+
+    def degenerate(name, M):
+        # a zero output row or a zero fault column makes the problem degenerate
+        if name == "H":
+            return any(all(e == 0 for e in M.row(i)) for i in range(M.rows))
+        return name == "D" and all(e == 0 for e in M)
+
+    out = {}
+    for name, (r, c) in shapes.items():  # fixed order: the same seed, the same matrices
+        M = draw(name, r, c)
+        while degenerate(name, M):  # draw again, deterministically from the same generator
+            M = draw(name, r, c)
         out[name] = M
     return out
 
@@ -76,7 +90,8 @@ def _linear_forms(M: sp.Matrix, syms) -> list:
 
 
 def random_model(n: int, l: int, p: int, *, seed: int, m: int = 1,  # noqa: E741
-                 integer: bool = True, time: str = "discrete") -> PlantModel:
+                 integer: bool = True, time: str = "discrete",
+                 density: float = 1.0) -> PlantModel:
     """A seeded random linear plant (see the module docstring).
 
     Parameters
@@ -90,8 +105,10 @@ def random_model(n: int, l: int, p: int, *, seed: int, m: int = 1,  # noqa: E741
     integer : bool, default True
         Integer entries in −2..2, else N(0, 1)-based rationals (F scaled by 1/√n).
     time : {"discrete", "continuous"}
+    density : float, default 1.0
+        Probability that an entry of F, H, D, L is drawn at all (else 0).
     """
-    mats = random_matrices(n, l, p, seed=seed, m=m, integer=integer)
+    mats = random_matrices(n, l, p, seed=seed, m=m, integer=integer, density=density)
     xs = sp.symbols(f"x1:{n + 1}")
     us = sp.symbols(f"u1:{m + 1}") if m else ()
     rhos = sp.symbols(f"rho1:{p + 1}") if p else ()
@@ -102,7 +119,7 @@ def random_model(n: int, l: int, p: int, *, seed: int, m: int = 1,  # noqa: E741
     Lr = _linear_forms(L, rhos) if p else [sp.Integer(0)] * n
     dynamics = [sp.Add(Fx[i], Gu[i], D[i, 0] * d, Lr[i]) for i in range(n)]
     outputs = _linear_forms(H, xs)
-    kind = "int" if integer else "gauss"
+    kind = ("int" if integer else "gauss") + (f"_d{density:g}" if density < 1.0 else "")
     return PlantModel(
         name=f"random_n{n}_l{l}_p{p}_m{m}_{kind}_seed{seed}",
         time=time,
@@ -126,3 +143,24 @@ def generic_k(n: int, l: int, p: int, *, single_row: bool = True):  # noqa: E741
         if dim >= (k if single_row and k > 1 else 1):
             return k
     return None
+
+
+def random_structure(n: int, l: int, p: int, *, seed: int, m: int = 1,  # noqa: E741
+                     integer: bool = True, time: str = "discrete", density: float = 1.0):
+    """``(model, structure)``: :func:`random_model` and its ``Structure``, built directly
+    from the drawn matrices without ``extract_structure``.
+
+    Extraction re-derives the matrices from the sympy expressions (seconds at n = 60);
+    for tests and benchmarks of the synthesis alone, pass this structure to
+    ``design_canonical(model, ..., symbolic=True, structure=structure)`` (the model has
+    no parameters, so "symbolic" changes nothing but lets the structure be reused).
+    The matrices are the very ones ``extract_structure(model)`` returns.
+    """
+    from .structure import Structure
+
+    mats = random_matrices(n, l, p, seed=seed, m=m, integer=integer, density=density)
+    model = random_model(n, l, p, seed=seed, m=m, integer=integer, time=time, density=density)
+    im = sp.ImmutableMatrix
+    st = Structure(model, im(mats["F"]), im(mats["G"]), im(mats["H"]), im(sp.zeros(n, 0)),
+                   im(mats["D"]), im(mats["L"]), im(sp.zeros(l, 0)), ())
+    return model, st

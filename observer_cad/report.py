@@ -81,14 +81,41 @@ def format_structure(st: Structure) -> str:
     return "\n".join(out)
 
 
+def _title(d: Design) -> str:
+    what = {
+        "unknown-input": f"estimate {d.unknown_input}",
+        "diagnostic": f"diagnostic observer (residual) for fault(s) {d.unknown_input}",
+        "virtual-sensor": f"virtual sensor for z = {d.estimate}",
+        "interval": f"interval observer for z = {d.estimate}",
+    }.get(d.observer, d.observer)
+    dec = f", decoupled from {', '.join(d.decoupled)}" if d.decoupled else ""
+    kind = "APPROXIMATE (robust) " if d.approximate else ""
+    return (f"Design for {d.model_name}: {what}{dec} — {kind}{d.form} form, k = {d.k},"
+            f" {'symbolic' if d.symbolic else 'numeric'} ({d.method} arithmetic)")
+
+
 def format_design(d: Design) -> str:
-    out = [f"Design for {d.model_name}: estimate {d.unknown_input}"
-           + (f", decoupled from {', '.join(d.decoupled)}" if d.decoupled else "")
-           + f" — {d.form} form, k = {d.k}, {'symbolic' if d.symbolic else 'numeric'}"
-           f" ({d.method} arithmetic)", ""]
-    out.append("  x*' = F* x* + J* y + G* u + D* d,   y* = H* x* = R* y,   x* = Phi x\n")
+    """A design as a control engineer reads it: matrices, equations, conditions."""
+    out = [_title(d), ""]
+    if d.lambdas:
+        out.append(f"  λ = ({', '.join(str(v) for v in d.lambdas)})")
+    if d.closed_loop_eigenvalues:
+        out.append(f"  closed-loop eigenvalues: {', '.join(str(v) for v in d.closed_loop_eigenvalues)}")
     for name, M in d.ordered_matrices:
         out.append(format_matrix(name, M))
+    if d.nonlinear:
+        out.append("\n  nonlinear terms after argument substitution (METHOD §2c):")
+        for ns in d.nonlinear:
+            out.append(f"    Psi*_{ns.index} = {ns.function}    (argument {ns.argument})")
+    if d.equations:
+        dot = "(t+1)" if d.time == "discrete" else "'"
+        out.append("\n  observer equations:")
+        for x, e in zip(d.observer_states, d.equations):
+            out.append(f"    {x}{dot} = {e}")
+        for name, e in d.outputs:
+            out.append(f"    {name} = {e}")
+    if d.approximate:
+        out.append(f"\n  APPROXIMATE: the decoupling is not exact; achieved residual norm {d.residual_norm:.6g}")
     out.append("\nConditions")
     for c in d.conditions:
         out.append(f"  {_mark(c.holds, c.required)} {c.name}: {c.detail}"

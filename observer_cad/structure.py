@@ -135,6 +135,10 @@ def _leaves(e, xs, variables, out):
     """Maximal subexpressions of e that are affine in the states."""
     if _is_const(e, set(xs)):
         return
+    if not isinstance(e, sp.Expr):  # Piecewise conditions, relations, tuples: look inside
+        for a in e.args:
+            _leaves(a, xs, variables, out)
+        return
     aff = _affine_in_x(e, xs, variables)
     if aff is not None:
         out.append((e, aff))
@@ -244,7 +248,7 @@ def extract_structure(model: PlantModel) -> Structure:
     for (i, j), c in coeffs.items():
         C[i, j] = c
     # drop columns that cancelled out entirely
-    keep = [j for j in range(q) if any(sp.simplify(C[i, j]) != 0 for i in range(n))]
+    keep = [j for j in range(q) if any(sp.cancel(C[i, j]) != 0 for i in range(n))]
     C = C[:, keep] if keep else sp.zeros(n, 0)
     info = [info[j] for j in keep]
 
@@ -252,7 +256,7 @@ def extract_structure(model: PlantModel) -> Structure:
     if model.linear_part is not None:
         F_user = sp.Matrix(model.linear_part)
         delta = F - F_user
-        if any(sp.simplify(e) != 0 for e in delta):
+        if any(sp.cancel(e) != 0 for e in delta):
             betas = sp.symbols(f"beta0:{len(info)}")
             resid = delta - sum(
                 (b * C[:, j] * sp.Matrix([info[j][2]]) for j, b in enumerate(betas)), sp.zeros(n, n))
@@ -264,7 +268,7 @@ def extract_structure(model: PlantModel) -> Structure:
                     " of the nonlinear terms' columns and arguments")
             sol = sol[0]
             for j, b in enumerate(betas):
-                beta = sp.simplify(sol.get(b, 0).xreplace({bb: 0 for bb in betas}))
+                beta = sp.cancel(sol.get(b, 0).xreplace({bb: 0 for bb in betas}))
                 info[j][0] = info[j][0] + beta * info[j][1]
             F = F_user
 
@@ -295,13 +299,13 @@ def extract_structure(model: PlantModel) -> Structure:
         if off != 0:
             raise ModelError(f"{where}: output {name} = {h} has a constant offset {off}")
 
-    terms = tuple(NonlinearTerm(sp.simplify(fn), s, sp.ImmutableMatrix([row]))
+    terms = tuple(NonlinearTerm(fn, s, sp.ImmutableMatrix([row]))
                   for fn, s, row in info)
     st = Structure(model, *(sp.ImmutableMatrix(M) for M in (F, G, H, C, D, L, W)), terms)
     # self-check: the matrices rebuild the right-hand side exactly
     diff = sp.Matrix(st.rhs()) - sp.Matrix(model.dynamics)
     for i, e in enumerate(diff):
-        if sp.simplify(e) != 0:  # pragma: no cover - an internal error, not user input
+        if sp.expand(e) != 0 and sp.simplify(e) != 0:  # pragma: no cover - internal error
             raise ModelError(
                 f"{where}: internal error: extracted structure does not rebuild dynamics"
                 f" equation {i + 1} (residual {e})")

@@ -1,0 +1,489 @@
+"""Jordan-form synthesis (METHOD §2b, §2c): diagnostic observers, virtual sensors,
+interval observers.
+
+F* = diag(λ_1, …, λ_k), real and stable, so the defining equation splits by rows::
+
+    (S_i, −J*_i) [L0 (F − λ_i I); H] = 0,     Φ_i = S_i L0
+
+(seed 002 eq. (2.5); seed 000 eq. (8.2)). A λ is *admissible* when that stacked
+matrix P(λ) loses row rank: for every λ (generic solvability, e.g. when it has more
+rows than columns) or on the finite set of roots of the greatest common divisor of its
+maximal minors, computed exactly here. Rows are then chosen — fewest first — so that
+
+- diagnostic observer: every fault column is seen by some row (Φ_j D⁽ⁱ⁾ ≠ 0, seed 002
+  Remark 1) and (R*, −H*) [H; Φ] = 0 is solvable: rank [Φ; H] < rank Φ + rank H (2.7);
+- virtual sensor / interval observer for z = M x: rank [Φ; H] = rank [Φ; H; M] (3.2),
+  then M = H_z Φ + Q H;
+- nonlinear models: for every nonzero column j of C* = Φ C,
+  rank [Φ; H] = rank [Φ; H; A_j], then A_j = A*_1j Φ + A*_2j H and
+  Ψ*_j = φ_j(A*_1j x* + A*_2j y, u) (§2c).
+
+Interval observers are not decoupled (L0 = I) and report L* = Φ L.
+Stability is by construction (stable λ); no feedback is needed.
+
+References: seed 002 §2-4, §6, §8; seed 001 §5; seed 000 §8.
+"""
+from __future__ import annotations
+
+import dataclasses
+import itertools
+from typing import Sequence
+
+import sympy as sp
+
+from . import linalg
+from .certificate import certify_design
+from .design import Condition, Design, NonlinearSubstitution
+from .errors import InfeasibleDesignError, ModelError, UsageError
+from .model import PlantModel
+from .structure import Structure, extract_structure
+
+__all__ = ["Admissible", "admissible_lambdas", "design_jordan", "parse_estimate",
+           "is_stable", "observer_symbols"]
+
+LAMBDA = sp.Symbol("lambda")
+
+
+def observer_symbols(k: int):
+    """Names of the reduced model's states: xs1, xs2, …"""
+    return sp.symbols(f"xs1:{k + 1}")
+
+
+def output_symbols(l: int):
+    return sp.symbols(f"y1:{l + 1}")
+
+
+def parse_estimate(model: PlantModel, expr) -> sp.Matrix:
+    """z = M x from an expression in the state names (``"x1"``, ``"x1 - x2"``)."""
+    where = model.where
+    if isinstance(expr, sp.MatrixBase):
+        M = sp.Matrix(expr)
+        if M.cols != len(model.states):
+            raise ModelError(f"{where}: M must have {len(model.states)} columns")
+        return M
+    exprs = expr if isinstance(expr, (list, tuple)) else [expr]
+    rows = []
+    loc = {s.name: s for s in model.states}
+    loc.update({p.name: p for p in model.parameters})
+    for e in exprs:
+        try:
+            e = sp.sympify(e, locals=loc) if isinstance(e, str) else sp.sympify(e)
+        except (sp.SympifyError, SyntaxError, TypeError) as exc:
+            raise ModelError(f"{where}: cannot parse --estimate {e!r}: {exc}") from None
+        extra = e.free_symbols - set(model.states) - set(model.parameters)
+        if extra:
+            raise ModelError(f"{where}: --estimate {e} uses '{sorted(extra, key=str)[0]}',"
+                             " which is not a state of the model")
+        row = [sp.diff(e, x) for x in model.states]
+        if any(c.free_symbols & set(model.states) for c in row) or \
+                sp.expand(e - sum(c * x for c, x in zip(row, model.states))) != 0:
+            raise ModelError(f"{where}: --estimate {e} is not linear in the states")
+        rows.append(row)
+    return sp.Matrix(rows)
+
+
+def is_stable(lam, time: str):
+    """True / False, or None when it depends on symbolic parameters."""
+    lam = sp.sympify(lam)
+    if lam.free_symbols:
+        return None
+    if not lam.is_real:
+        return False
+    return bool(lam < 0) if time == "continuous" else bool(abs(lam) < 1)
+
+
+@dataclasses.dataclass(frozen=True)
+class Admissible:
+    """Which λ make [L0 (F − λI); H] lose row rank."""
+
+    generic: bool
+    values: tuple  # real roots (exact) when not generic
+    other_roots: tuple  # complex roots, reported, not usable (F* must be real)
+    evidence: str
+
+    def contains(self, lam) -> bool:
+        if self.generic:
+            return True
+        return any(sp.simplify(sp.sympify(lam) - v) == 0 for v in self.values)
+
+    def describe(self) -> str:
+        if self.generic:
+            return "every λ (generic solvability)"
+        vals = ", ".join(str(v) for v in self.values) or "none real"
+        return f"λ ∈ {{{vals}}}"
+
+
+def _pencil(F, H, L0, lam):
+    n = F.rows
+    return sp.Matrix.vstack(L0 * (F - lam * sp.eye(n)), H)
+
+
+def admissible_lambdas(F, H, L0) -> Admissible:
+    """Exactly: generic solvability, or the real roots where P(λ) drops row rank."""
+    F, H, L0 = sp.Matrix(F), sp.Matrix(H), sp.Matrix(L0)
+    n = F.rows
+    P = _pencil(F, H, L0, LAMBDA)
+    r = P.rows
+    if r > n:
+        return Admissible(True, (), (), f"[L0(F − λI); H] has {r} rows > {n} columns:"
+                                        " a left null vector exists for every λ")
+    gr = linalg.exact_rank(P)
+    if gr.rank < r:
+        return Admissible(True, (), (), f"rank [L0(F − λI); H] = {gr.rank} < {r} rows"
+                                        " for λ as a free symbol")
+    minors = []
+    for cols in itertools.combinations(range(n), r):
+        m = sp.expand(sp.cancel(P[:, list(cols)].det(method="berkowitz")))
+        if m != 0:
+            minors.append(m)
+    g = minors[0]
+    for m in minors[1:]:
+        g = sp.gcd(g, m)
+    g = sp.factor(g)
+    if not g.has(LAMBDA):
+        return Admissible(False, (), (), f"gcd of the maximal minors of [L0(F − λI); H] is"
+                                         f" {g}, free of λ: no admissible λ")
+    real, other = [], []
+    _, factors = sp.factor_list(g, LAMBDA)
+    for f, _mult in factors:
+        deg = sp.degree(f, LAMBDA)
+        if deg == 0:
+            continue
+        if deg <= 2:  # rational or quadratic roots: exact arithmetic stays cheap
+            rts = list(sp.roots(sp.Poly(f, LAMBDA)).keys())
+        elif not f.free_symbols - {LAMBDA}:
+            rts = list(sp.Poly(f, LAMBDA).all_roots())  # CRootOf: reported, not used
+        else:
+            rts = []
+        for rt in rts:
+            real_ = rt.is_real
+            if real_ or (real_ is None and rt.free_symbols):
+                real.append(rt)
+            else:
+                other.append(rt)
+    real.sort(key=lambda v: (bool(v.free_symbols), sp.re(v) if v.is_number else 0, str(v)))
+    return Admissible(False, tuple(real), tuple(other),
+                      f"gcd of the maximal minors of [L0(F − λI); H] = {g}")
+
+
+def _default_lambdas(time: str, count: int):
+    if time == "continuous":
+        return [sp.Integer(-i) for i in range(1, count + 1)]
+    return [sp.Rational(1, 2 ** i) for i in range(1, count + 1)]
+
+
+def _rank(M) -> int:
+    M = sp.Matrix(M)
+    if M.rows == 0 or M.cols == 0:
+        return 0
+    return linalg.exact_rank(M).rank
+
+
+def design_jordan(model: PlantModel, *, observer: str, estimate=None,
+                  faults: Sequence[str] | None = None, decouple: Sequence[str] = (),
+                  lambdas: Sequence | None = None, symbolic: bool = False,
+                  structure: Structure | None = None) -> Design:
+    """Jordan-form design of a diagnostic observer, virtual sensor or interval observer.
+
+    Parameters
+    ----------
+    model : PlantModel
+    observer : {"diagnostic", "virtual-sensor", "interval"}
+    estimate : str or sympy expression or Matrix, for virtual sensors / interval observers
+        z = M x, an expression in the state names (e.g. ``"x1"``).
+    faults : names, optional (diagnostic)
+        Faults the residual must detect (default: all the model's faults).
+    decouple : names, optional
+        Further inputs to decouple from (besides the model's disturbances). Interval
+        observers are not decoupled: L0 = I and L* = Φ L is reported.
+    lambdas : values, optional
+        Requested eigenvalues; each is checked (admissible? stable?). Default: the
+        admissible stable λ, or −1, −2, … (continuous) / 1/2, 1/4, … (discrete) when
+        every λ is admissible.
+    symbolic : bool
+        Keep parameters as symbols (default: substitute their defaults).
+    """
+    if observer not in ("diagnostic", "virtual-sensor", "interval"):
+        raise UsageError(f"Jordan form supports diagnostic, virtual-sensor and interval, not {observer!r}")
+    work = model if symbolic else model.substitute_parameters()
+    st = structure if (structure is not None and symbolic) else extract_structure(work)
+    where = model.where
+    F, G, H, C = (sp.Matrix(M) for M in (st.F, st.G, st.H, st.C))
+    n, l = st.n, st.l
+
+    # Step 1: the task
+    M = None
+    if observer in ("virtual-sensor", "interval"):
+        if estimate is None:
+            raise UsageError(f"--observer {observer} needs --estimate EXPR (e.g. x1)")
+        M = parse_estimate(work, estimate)
+    fault_syms = []
+    if observer == "diagnostic":
+        names = list(faults) if faults else [f.name for f in work.faults]
+        if not names:
+            raise ModelError(f"{where}: the model declares no faults to detect")
+        for nm in names:
+            s = work.symbol(str(nm))
+            if s is None or (s not in work.faults and s not in work.disturbances):
+                raise ModelError(f"{where}: unknown fault '{nm}'; declared faults: "
+                                 + (", ".join(f.name for f in work.faults) or "none"))
+            fault_syms.append(s)
+    dec = [] if observer == "interval" else [r for r in work.disturbances if r not in fault_syms]
+    for nm in decouple or ():
+        s = work.symbol(str(nm))
+        if s is None or (s not in work.faults and s not in work.disturbances):
+            raise ModelError(f"{where}: unknown disturbance '{nm}'")
+        if s not in dec:
+            dec.append(s)
+    D = sp.Matrix(st.unknown_input_columns(fault_syms)) if fault_syms else sp.zeros(n, 0)
+    if observer == "interval":
+        L = sp.Matrix(st.L)  # all disturbances bounded, not decoupled
+    else:
+        L = sp.Matrix(st.unknown_input_columns(dec)) if dec else sp.zeros(n, 0)
+    decoupled = observer != "interval"
+
+    # Step 2: L0 (maximal rank, L0 L = 0) and the admissible λ
+    if decoupled and L.cols:
+        basis, _ = linalg.left_null_space(L)
+        L0 = sp.Matrix.vstack(*basis) if basis else sp.zeros(0, n)
+    else:
+        L0 = sp.eye(n)
+    if L0.rows == 0:
+        raise InfeasibleDesignError(f"{where}: the disturbances span the whole state space;"
+                                    " no decoupled observer exists")
+    adm = admissible_lambdas(F, H, L0)
+    conds = [Condition("admissible λ", adm.generic or bool(adm.values),
+                       f"{adm.describe()}; {adm.evidence}"
+                       + (f"; complex roots {', '.join(map(str, adm.other_roots))} are not usable"
+                          if adm.other_roots else ""), "METHOD §2b; seed 002 eq. (2.5)")]
+    if lambdas:
+        lam_list = []
+        for v in lambdas:
+            lam = sp.nsimplify(sp.sympify(v), rational=True) if not isinstance(v, sp.Basic) else v
+            if not adm.contains(lam):
+                raise InfeasibleDesignError(
+                    f"{where}: λ = {lam} is not admissible: [L0(F − λI); H] has full row rank"
+                    f" there (admissible: {adm.describe()})")
+            stab = is_stable(lam, work.time)
+            if stab is False:
+                need = "λ < 0" if work.time == "continuous" else "|λ| < 1"
+                raise InfeasibleDesignError(
+                    f"{where}: λ = {lam} is not stable in {work.time} time (needs {need})")
+            lam_list.append(lam)
+    elif adm.generic:
+        lam_list = _default_lambdas(work.time, n)
+    else:
+        lam_list = [v for v in adm.values if is_stable(v, work.time) is not False
+                    and not v.has(sp.CRootOf)]  # roots of cubic and higher factors: not used
+        lam_list.sort(key=lambda v: (not v.is_rational, str(v)))
+        if not lam_list:
+            unusable = [v for v in adm.values if v.has(sp.CRootOf)]
+            why = (" (the stable ones are roots of an irreducible factor of degree ≥ 3, which"
+                   " exact synthesis does not use)" if unusable else "")
+            raise InfeasibleDesignError(
+                f"{where}: no stable admissible λ{why}: {adm.describe()} ({adm.evidence})",
+                (adm.evidence,))
+
+    # Step 3: the pool of candidate rows (λ, Φ_i, J*_i)
+    pool = []
+    for lam in lam_list:
+        P = _pencil(F, H, L0, lam)
+        basis, _ = linalg.left_null_space(P)
+        for v in linalg.echelon_rows(basis):
+            S, J = v[:, :L0.rows], -v[:, L0.rows:]
+            Phi_i = (S * L0).applyfunc(sp.cancel)
+            if Phi_i != sp.zeros(1, n):
+                pool.append((lam, Phi_i, J.applyfunc(sp.cancel)))
+    if not pool:
+        raise InfeasibleDesignError(f"{where}: no nonzero row Φ_i for λ in {lam_list}")
+
+    # Step 4: fewest rows satisfying the task
+    tried = []
+    chosen = None
+    CA = [(j, sp.Matrix(t.row)) for j, t in enumerate(st.terms)]
+    for size in range(1, n):
+        for combo in itertools.combinations(range(len(pool)), size):
+            rows = [pool[i] for i in combo]
+            Phi = sp.Matrix.vstack(*[r[1] for r in rows])
+            if _rank(Phi) < size:
+                continue
+            ok, why = _task_ok(observer, Phi, H, D, M, C, CA)
+            if ok:
+                chosen = rows
+                break
+            if len(tried) < 12:
+                tried.append(f"k={size}, λ = ({', '.join(str(r[0]) for r in rows)}): {why}")
+        if chosen:
+            break
+    if chosen is None:
+        raise InfeasibleDesignError(
+            f"{where}: no Jordan-form {observer} with fewer than n = {n} rows for λ in"
+            f" {{{', '.join(map(str, lam_list))}}}: " + "; ".join(tried), tuple(tried))
+
+    # Step 5: the matrices
+    k = len(chosen)
+    lams = tuple(r[0] for r in chosen)
+    Phi = sp.Matrix.vstack(*[r[1] for r in chosen])
+    J = sp.Matrix.vstack(*[r[2] for r in chosen])
+    mats = {"Phi": Phi, "F_star": sp.diag(*lams), "J_star": J, "G_star": Phi * G}
+    if observer == "diagnostic":
+        nb, _ = linalg.left_null_space(sp.Matrix.vstack(H, Phi))
+        nb = [v for v in linalg.echelon_rows(nb) if v[:, l:] != sp.zeros(1, k)]
+        if not nb:  # pragma: no cover - excluded by the rank test
+            raise InfeasibleDesignError(f"{where}: (R*, -H*)[H; Phi] = 0 has no solution")
+        v = nb[0]
+        mats["R_star"] = v[:, :l]
+        mats["H_star"] = -v[:, l:]
+        mats["D_star"] = Phi * D
+    if decoupled:
+        if L.cols:
+            mats["L_star"] = Phi * L
+    else:
+        mats["L_star"] = Phi * L
+    if M is not None:
+        X = linalg.solve_left(sp.Matrix.vstack(Phi, H), M)
+        mats["Hz"], mats["Q"] = X[:, :k], X[:, k:]
+    subs = []
+    nonlinear = []
+    xs, ys = observer_symbols(k), output_symbols(l)
+    if C.cols:
+        Cs = Phi * C
+        mats["C_star"] = Cs
+        for j, A in CA:
+            if Cs[:, j] == sp.zeros(k, 1):
+                continue
+            X = linalg.solve_left(sp.Matrix.vstack(Phi, H), A)
+            A1, A2 = X[:, :k], X[:, k:]
+            subs.append((j + 1, A, A1, A2))
+            arg = sp.expand((A1 * sp.Matrix(xs))[0, 0] + (A2 * sp.Matrix(ys))[0, 0])
+            t = st.terms[j]
+            nonlinear.append(NonlinearSubstitution(j + 1, t.function.xreplace({t.argument: arg}),
+                                                   arg, A1, A2))
+    mats = {name: Mx.applyfunc(sp.cancel) for name, Mx in mats.items()}
+
+    # Step 6: certificate, independent of the above
+    plant = dict(F=F, G=G, H=H, C=C, D=D, L=L)
+    cert = certify_design(plant, mats, M=M, substitutions=subs, decoupled=decoupled)
+
+    # Step 7: equations and reported conditions
+    us = sp.Matrix(work.inputs) if work.inputs else sp.zeros(0, 1)
+    rhs = mats["F_star"] * sp.Matrix(xs) + mats["J_star"] * sp.Matrix(ys)
+    if us.rows:
+        rhs += mats["G_star"] * us
+    if nonlinear:
+        psi = sp.zeros(C.cols, 1)
+        for ns in nonlinear:
+            psi[ns.index - 1, 0] = ns.function
+        rhs += mats["C_star"] * psi
+    equations = tuple(sp.expand(e, deep=False) for e in rhs)
+    outputs = []
+    if M is not None:
+        z = mats["Hz"] * sp.Matrix(xs) + mats["Q"] * sp.Matrix(ys)
+        outputs = [("z" if z.rows == 1 else f"z{i + 1}", sp.expand(e)) for i, e in enumerate(z)]
+    if observer == "diagnostic":
+        r = mats["R_star"] * sp.Matrix(ys) - mats["H_star"] * sp.Matrix(xs)
+        outputs = [("r" if r.rows == 1 else f"r{i + 1}", sp.expand(e)) for i, e in enumerate(r)]
+
+    conds += _report_conditions(observer, work.time, lams, mats, Phi, H, D, M, fault_syms, CA,
+                                 nonlinear, k, decoupled)
+    conds.append(Condition("certificate", cert.passed, cert.summary(), "METHOD §2"))
+    choice = (f"k = {k}: rows with λ = ({', '.join(map(str, lams))}) chosen from"
+              f" {len(pool)} candidate row(s) for λ in {{{', '.join(map(str, lam_list))}}};"
+              f" the fewest rows that satisfy the {observer} conditions"
+              + (f" (smaller sets rejected: {'; '.join(tried[:4])})" if tried else ""))
+    assumptions = set()
+    for Mx in mats.values():
+        for e in Mx:
+            assumptions |= linalg.denominator_conditions(e)
+    return Design(
+        model_name=work.name, form="jordan", k=k, matrices=mats, conditions=tuple(conds),
+        assumptions=tuple(sorted(assumptions, key=str)), certificate=cert,
+        unknown_input=", ".join(f.name for f in fault_syms) or None,
+        decoupled=tuple(s.name for s in dec), symbolic=bool(work.parameters), method="exact",
+        choice=choice, attempts=tuple(tried), observer=observer, time=work.time,
+        estimate=None if M is None else str((M * sp.Matrix(work.states))[0, 0]) if M.rows == 1
+        else str(list(M * sp.Matrix(work.states))),
+        lambdas=lams, nonlinear=tuple(nonlinear), equations=equations,
+        observer_states=tuple(xs), outputs=tuple(outputs))
+
+
+def _task_ok(observer, Phi, H, D, M, C, CA):
+    PH = sp.Matrix.vstack(Phi, H)
+    rPH = _rank(PH)
+    if observer == "diagnostic":
+        for c in range(D.cols):
+            if (Phi * D[:, c]).applyfunc(sp.cancel) == sp.zeros(Phi.rows, 1):
+                return False, f"fault column {c + 1} is not seen (Φ D = 0)"
+        if not rPH < _rank(Phi) + _rank(H):
+            return False, f"rank [Φ; H] = {rPH} is not < rank Φ + rank H (no residual)"
+    if M is not None:
+        r = _rank(sp.Matrix.vstack(PH, M))
+        if r != rPH:
+            return False, f"rank [Φ; H] = {rPH} < rank [Φ; H; M] = {r} (z not reachable)"
+    if C.cols:
+        Cs = (Phi * C).applyfunc(sp.cancel)
+        for j, A in CA:
+            if Cs[:, j] == sp.zeros(Phi.rows, 1):
+                continue
+            r = _rank(sp.Matrix.vstack(PH, A))
+            if r != rPH:
+                return False, (f"nonlinear term {j + 1}: rank [Φ; H] = {rPH} <"
+                               f" rank [Φ; H; A_{j + 1}] = {r}")
+    return True, ""
+
+
+def _report_conditions(observer, time, lams, mats, Phi, H, D, M, fault_syms, CA, nonlinear,
+                       k, decoupled):
+    conds = []
+    for i, lam in enumerate(lams):
+        stab = is_stable(lam, time)
+        need = "λ < 0" if time == "continuous" else "|λ| < 1"
+        conds.append(Condition(f"λ_{i + 1} = {lam} stable", bool(stab) if stab is not None else False,
+                               f"{need} ({time} time)" + (" — depends on parameters" if stab is None else ""),
+                               "METHOD §2b", required=stab is not None))
+    PH = sp.Matrix.vstack(Phi, H)
+    rPH, rP, rH = _rank(PH), _rank(Phi), _rank(H)
+    if observer == "diagnostic":
+        conds.append(Condition("residual condition rank [Φ; H] < rank Φ + rank H", rPH < rP + rH,
+                               f"rank [Φ; H] = {rPH}, rank Φ + rank H = {rP} + {rH} = {rP + rH}",
+                               "seed 002 eq. (2.7)"))
+        for c, f in enumerate(fault_syms):
+            col = (Phi * D[:, c]).applyfunc(sp.cancel)
+            rows = [i + 1 for i in range(k) if col[i] != 0]
+            conds.append(Condition(f"fault sensitivity ({f.name})", bool(rows),
+                                   f"Φ D = {list(col)}; seen by row(s) {rows}",
+                                   "seed 002 §2, Remark 1"))
+        Hs, Fs = mats["H_star"], mats["F_star"]
+        O = sp.Matrix.vstack(*[Hs * Fs ** i for i in range(k)])
+        ro = _rank(O)
+        conds.append(Condition("observability of (F*, H*)", ro == k,
+                               f"rank of the observability matrix = {ro} (k = {k})", "METHOD §4",
+                               required=False))
+    if M is not None:
+        rPHM = _rank(sp.Matrix.vstack(PH, M))
+        conds.append(Condition("z = M x reachable: rank [Φ; H] = rank [Φ; H; M]", rPH == rPHM,
+                               f"rank [Φ; H] = {rPH}, rank [Φ; H; M] = {rPHM}", "seed 002 eq. (3.2)"))
+        Hz = mats["Hz"]
+        nonneg = all((e.is_nonnegative is True) for e in Hz)
+        conds.append(Condition("H_z ≥ 0", nonneg, f"H_z = {list(Hz)}"
+                               + ("" if nonneg else " (the interval bounds use the split H_z⁺, H_z⁻)"),
+                               "METHOD §3", required=False))
+    for ns in nonlinear:
+        A = CA[ns.index - 1][1]
+        r2 = _rank(sp.Matrix.vstack(PH, A))
+        conds.append(Condition(f"argument substitution for Ψ_{ns.index}: rank [Φ; H] = rank [Φ; H; A_{ns.index}]",
+                               rPH == r2, f"{rPH} = {r2}; Ψ*_{ns.index} = {ns.function}",
+                               "METHOD §2c; seed 002 eq. (6.3)"))
+    Fs = mats["F_star"]
+    if time == "continuous":
+        conds.append(Condition("F* Metzler", True, "F* is diagonal", "METHOD §3", required=False))
+    else:
+        nonneg = all((e.is_nonnegative is True) for e in Fs)
+        conds.append(Condition("F* nonnegative", nonneg,
+                               f"diag(F*) = {list(Fs.diagonal())}"
+                               + ("" if nonneg else " (interval bounds then use the ⁺/⁻ split)"),
+                               "METHOD §3", required=False))
+    if not decoupled:
+        conds.append(Condition("decoupling", True, "not required (interval observer): L* = Φ L"
+                               f" = {mats.get('L_star', sp.zeros(0, 0)).tolist()}", "METHOD §2b"))
+    return conds

@@ -1,0 +1,268 @@
+"""Virtual sensors z = M x in the identification canonical form, with a stabilising
+feedback computed for the *actual* F* (METHOD §2a, §3; seeds 001 and 004).
+
+Plain form (seed 001 §2, method 1): the reduced model is built from the measured
+outputs; the minimal k is the first whose null space has a member with
+rank [Φ; H] = rank [Φ; H; M]; then M = H_z Φ + Q H.
+
+Seed-004 variant: the model is driven by y0 = (y; y_v) with y_v = z = M x itself
+(H0 = [H; M]); its output y* = H* x* = R* y stays a measured combination, so R* acts on
+y and J* on y0. The rank test uses that stacked matrix; a member must still satisfy
+the virtual-sensor condition, and substituting y_v = H_z x* + Q y moves F* away from
+the shift form: F*_act = F_shift + J*_v H_z, J*_act = J*_y + J*_v Q.
+
+Feedback: x*' = F* x* + J* y + G* u + K r, so the error obeys F* − K H*. K is solved
+exactly from det(sI − F* + K H*) = Π (s − μ_i) for the requested μ_i (complex pairs
+allowed), and the closed-loop characteristic polynomial is re-checked exactly.
+With real distinct μ_i, 001 method 1 then moves F* − K H* to diagonal form by its
+eigenvector matrix T (ξ = T⁻¹ x*), which is Metzler.
+"""
+from __future__ import annotations
+
+from typing import Sequence
+
+import sympy as sp
+
+from . import linalg
+from .canonical import _shift
+from .certificate import certify_design
+from .design import Condition, Design
+from .errors import InfeasibleDesignError, ModelError, UsageError
+from .jordan import observer_symbols, output_symbols, parse_estimate
+from .model import PlantModel
+from .structure import extract_structure
+
+__all__ = ["design_virtual_sensor_canonical", "place_poles", "default_eigenvalues"]
+
+S = sp.Symbol("s")
+
+
+def _blocks(F, H1, H0, L, k):
+    """(W L) for (R*, −J*_1, …, −J*_k) when R* acts on H1 and J* on H0.
+
+    Row by row Φ_1 = R* H1, Φ_{i+1} = Φ_i F − J*_i H0, Φ_k F = J*_k H0, Φ L = 0; the plain
+    form has H1 = H0 = H (METHOD §2a), the seed-004 variant H1 = H, H0 = [H; M].
+    """
+    p = L.cols
+    blocks_W = [H1 * F ** k] + [H0 * F ** (k - i) for i in range(1, k + 1)]
+    W = sp.Matrix.vstack(*blocks_W)
+    rows = []
+    for i, Hb in enumerate([H1] + [H0] * k):
+        cols = []
+        for j in range(k):
+            cols.append(Hb * F ** (j - i) * L if (j >= i and i < k) else sp.zeros(Hb.rows, p))
+        rows.append(sp.Matrix.hstack(*cols) if cols and p else sp.zeros(Hb.rows, k * p))
+    Lk = sp.Matrix.vstack(*rows)
+    return W, Lk
+
+
+def _member(v, F, H1, H0, k):
+    v = sp.Matrix(v)
+    l1, l0 = H1.rows, H0.rows
+    R = v[:, :l1]
+    J = sp.Matrix.vstack(*[-v[:, l1 + i * l0:l1 + (i + 1) * l0] for i in range(k)])
+    rows = [R * H1]
+    for i in range(k - 1):
+        rows.append(rows[-1] * F - J[i, :] * H0)
+    return R, J, sp.Matrix.vstack(*rows).applyfunc(sp.cancel)
+
+
+def default_eigenvalues(time: str, k: int):
+    if time == "continuous":
+        return [sp.Integer(-i) for i in range(1, k + 1)]
+    return [sp.Rational(1, 2 ** i) for i in range(1, k + 1)]
+
+
+def _parse_eigs(values):
+    out = []
+    for v in values:
+        e = sp.sympify(v) if not isinstance(v, sp.Basic) else v
+        e = sp.nsimplify(e, rational=True) if e.is_number else e
+        if not e.is_number:
+            raise UsageError(f"eigenvalue {v!r} is not a number")
+        out.append(e)
+    # complex values must come in conjugate pairs for a real gain
+    for e in out:
+        if sp.im(e) != 0 and not any(sp.simplify(f - sp.conjugate(e)) == 0 for f in out):
+            raise UsageError(f"eigenvalue {e} needs its conjugate {sp.conjugate(e)} too (real gain)")
+    return out
+
+
+def place_poles(Fs, Hs, eigenvalues):
+    """K with det(sI − F* + K H*) = Π(s − μ_i), exactly; raises if (F*, H*) is not
+    observable enough to place them."""
+    Fs, Hs = sp.Matrix(Fs), sp.Matrix(Hs)
+    k = Fs.rows
+    if len(eigenvalues) != k:
+        raise UsageError(f"{k} eigenvalues needed (k = {k}), got {len(eigenvalues)}")
+    Ks = sp.symbols(f"K1:{k + 1}")
+    K = sp.Matrix(Ks)
+    target = sp.Poly(sp.expand(sp.prod([S - mu for mu in eigenvalues])), S)
+    cp = sp.Poly((S * sp.eye(k) - Fs + K * Hs).det(method="berkowitz"), S)
+    eqs = [sp.expand(a - b) for a, b in zip(cp.all_coeffs(), target.all_coeffs())]
+    sol = sp.solve(eqs, Ks, dict=True)
+    if not sol:
+        raise InfeasibleDesignError(
+            "the requested eigenvalues cannot be placed: (F*, H*) is not observable")
+    K = K.xreplace({s: sp.nsimplify(sp.expand(sol[0].get(s, 0)).xreplace({t: 0 for t in Ks}))
+                    for s in Ks})
+    K = K.applyfunc(lambda e: sp.expand(e.xreplace({t: 0 for t in Ks})))
+    # exact re-check of the closed-loop characteristic polynomial
+    check = sp.Poly((S * sp.eye(k) - Fs + K * Hs).det(method="berkowitz"), S)
+    if sp.expand(check.as_expr() - target.as_expr()) != 0:  # pragma: no cover
+        raise InfeasibleDesignError("pole placement failed its exact check")
+    return K
+
+
+def design_virtual_sensor_canonical(model: PlantModel, *, estimate, variant: str = "plain",
+                                    eigenvalues: Sequence | None = None,
+                                    decouple: Sequence[str] = (), symbolic: bool = False,
+                                    diagonalize: bool = True) -> Design:
+    """Canonical-form virtual sensor for z = M x (plain, or the seed-004 variant).
+
+    Parameters
+    ----------
+    estimate : expression in the state names (e.g. ``"x1"``), one row.
+    variant : {"plain", "004"}
+    eigenvalues : requested closed-loop eigenvalues of F* − K H* (default −1, −2, … in
+        continuous time, 1/2, 1/4, … in discrete time).
+    diagonalize : with real distinct eigenvalues, also report 001 method 1's diagonal
+        (Metzler) form: matrices ``T``, ``F_diag``, ``J_diag``, ``Phi_diag``, ``Hz_diag``.
+    """
+    if variant not in ("plain", "004"):
+        raise UsageError(f"variant must be 'plain' or '004', got {variant!r}")
+    work = model if symbolic else model.substitute_parameters()
+    st = extract_structure(work)
+    where = model.where
+    M = parse_estimate(work, estimate)
+    if M.rows != 1:
+        raise UsageError("a canonical-form virtual sensor estimates one signal z = M x")
+    F, G, H = sp.Matrix(st.F), sp.Matrix(st.G), sp.Matrix(st.H)
+    n, l = st.n, st.l
+    dec = list(work.disturbances)
+    for nm in decouple or ():
+        s = work.symbol(str(nm))
+        if s is None or (s not in work.faults and s not in work.disturbances):
+            raise ModelError(f"{where}: unknown disturbance '{nm}'")
+        if s not in dec:
+            dec.append(s)
+    L = sp.Matrix(st.unknown_input_columns(dec)) if dec else sp.zeros(n, 0)
+    H0 = sp.Matrix.vstack(H, M) if variant == "004" else H
+    l0 = H0.rows
+
+    attempts = []
+    chosen = None
+    for k in range(1, n):
+        W, Lk = _blocks(F, H, H0, L, k)
+        basis, rk = linalg.left_null_space(sp.Matrix.hstack(W, Lk))
+        need = W.rows
+        if not basis:
+            attempts.append(f"k={k}: rank condition (3.3) fails: rank (W L) = {rk.rank} = {need} rows")
+            continue
+        members = linalg.echelon_rows(basis)
+        cands = list(members) + [a + b for i, a in enumerate(members) for b in members[i + 1:]]
+        why = "no member"
+        for v in cands:
+            R0, J0, Phi = _member(v, F, H, H0, k)
+            if linalg.exact_rank(Phi).rank < k:
+                why = "every member is degenerate (rank Φ < k)"
+                continue
+            PH = sp.Matrix.vstack(Phi, H)
+            if linalg.exact_rank(PH).rank != linalg.exact_rank(sp.Matrix.vstack(PH, M)).rank:
+                why = "no member satisfies the virtual-sensor condition rank [Φ; H] = rank [Φ; H; M]"
+                continue
+            chosen = (k, v, R0, J0, Phi)
+            break
+        if chosen:
+            break
+        attempts.append(f"k={k}: rank condition (3.3) holds (rank (W L) = {rk.rank} < {need} rows),"
+                        f" but {why}")
+    if chosen is None:
+        raise InfeasibleDesignError(
+            f"{where}: z = {estimate} is not reachable by a canonical-form virtual sensor for any"
+            f" k < n = {n}: " + "; ".join(attempts), tuple(attempts))
+    k, v, R0, J0, Phi = chosen
+    X = linalg.solve_left(sp.Matrix.vstack(Phi, H), M)
+    Hz, Q = X[:, :k], X[:, k:]
+    Fs = _shift(k)
+    Hs = sp.Matrix([[1] + [0] * (k - 1)])
+    if variant == "004":
+        Jy, Jv = J0[:, :l], J0[:, l:]
+        Fs = Fs + Jv * Hz
+        J = Jy + Jv * Q
+        R = R0
+    else:
+        J, R = J0, R0
+    mats = {"Phi": Phi, "F_star": Fs, "J_star": J, "R_star": R, "H_star": Hs, "G_star": Phi * G,
+            "Hz": Hz, "Q": Q}
+    if L.cols:
+        mats["L_star"] = Phi * L
+    eigs = _parse_eigs(eigenvalues) if eigenvalues else default_eigenvalues(work.time, k)
+    K = place_poles(Fs, Hs, eigs)
+    mats["K"] = K
+    mats = {name: Mx.applyfunc(sp.cancel) for name, Mx in mats.items()}
+    plant = dict(F=F, G=G, H=H, C=sp.Matrix(st.C), D=sp.zeros(n, 0), L=L)
+    cert = certify_design(plant, mats, M=M)
+    Fcl = (mats["F_star"] - K * mats["H_star"]).applyfunc(sp.cancel)
+    cl = sp.roots(sp.Poly(Fcl.charpoly(S).as_expr(), S))
+    cl_list = []
+    for root, mult in cl.items():
+        cl_list += [root] * mult
+    cl_list = tuple(sorted(cl_list, key=lambda z: (float(sp.re(z)), float(sp.im(z)))))
+
+    conds = [
+        Condition(f"rank condition (3.3) at k = {k}" + (" (outputs y and y_v = z)" if variant == "004" else ""),
+                  True, f"null space of (W L) nonempty at k = {k}", "seed 001 §2; seed 004"),
+        Condition("k is minimal", True, "; ".join(attempts) if attempts else "k = 1", "seed 001 §2"),
+        Condition("virtual-sensor condition rank [Φ; H] = rank [Φ; H; M]", True,
+                  f"M = H_z Φ + Q H with H_z = {list(Hz)}, Q = {list(Q)}", "seed 002 eq. (3.2)"),
+        Condition("closed-loop eigenvalues of F* − K H*", True,
+                  f"requested {[str(e) for e in eigs]}, obtained exactly {[str(e) for e in cl_list]}",
+                  "METHOD §3"),
+    ]
+    stable = all((sp.re(e) < 0) if work.time == "continuous" else (sp.Abs(e) < 1) for e in cl_list)
+    conds.append(Condition("observer stable", bool(stable),
+                           "all closed-loop eigenvalues " + ("have Re < 0" if work.time == "continuous"
+                                                             else "inside the unit circle"),
+                           "METHOD §3"))
+    xs, ys = observer_symbols(k), output_symbols(l)
+    us = sp.Matrix(work.inputs) if work.inputs else sp.zeros(0, 1)
+    r_expr = (mats["R_star"] * sp.Matrix(ys) - mats["H_star"] * sp.Matrix(xs))[0, 0]
+    rhs = mats["F_star"] * sp.Matrix(xs) + mats["J_star"] * sp.Matrix(ys) + K * r_expr
+    if us.rows:
+        rhs += mats["G_star"] * us
+    equations = tuple(sp.expand(e) for e in rhs)
+    z = sp.expand((Hz * sp.Matrix(xs) + Q * sp.Matrix(ys))[0, 0])
+
+    if diagonalize and all(sp.im(e) == 0 for e in cl_list) and len(set(cl_list)) == k:
+        T_cols = []
+        for lam in cl_list:
+            ns = (Fcl - lam * sp.eye(k)).nullspace()
+            T_cols.append(ns[0])
+        T = sp.Matrix.hstack(*T_cols)
+        Ti = T.inv()
+        Lam = (Ti * Fcl * T).applyfunc(sp.cancel)
+        Jd = (Ti * (mats["J_star"] + K * mats["R_star"])).applyfunc(sp.cancel)
+        Phid = (Ti * Phi).applyfunc(sp.cancel)
+        mats.update({"T": T, "F_diag": Lam, "J_diag": Jd, "Phi_diag": Phid,
+                     "G_diag": (Ti * mats["G_star"]).applyfunc(sp.cancel),
+                     "Hz_diag": (Hz * T).applyfunc(sp.cancel)})
+        dcert = certify_design(plant, {"Phi": Phid, "F_star": Lam, "J_star": Jd,
+                                       "G_star": mats["G_diag"], "Hz": mats["Hz_diag"], "Q": Q},
+                               M=M)
+        metz = all(Lam[i, j] == 0 for i in range(k) for j in range(k) if i != j)
+        conds.append(Condition("diagonal form (001 method 1) Metzler", metz and dcert.passed,
+                               f"T⁻¹(F* − K H*)T = diag{tuple(Lam.diagonal())}; its identities: "
+                               + dcert.summary(), "seed 001 §3", required=False))
+    conds.append(Condition("certificate", cert.passed, cert.summary(), "METHOD §2"))
+    chosen_txt = (f"k = {k}: the first member (reduced-echelon order) that is nondegenerate and"
+                  f" satisfies the virtual-sensor condition; R* = {list(mats['R_star'])}")
+    return Design(
+        model_name=work.name, form="canonical", k=k, matrices=mats, conditions=tuple(conds),
+        assumptions=(), certificate=cert, unknown_input=None,
+        decoupled=tuple(s.name for s in dec), symbolic=bool(work.parameters), method="exact",
+        choice=chosen_txt + (" (seed-004 variant: driven by y and y_v = z)" if variant == "004" else ""),
+        attempts=tuple(attempts), observer="virtual-sensor", time=work.time,
+        estimate=str((M * sp.Matrix(work.states))[0, 0]),
+        closed_loop_eigenvalues=cl_list, equations=equations, observer_states=tuple(xs),
+        outputs=(("z", z),))

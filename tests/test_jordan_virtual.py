@@ -1,0 +1,175 @@
+"""Jordan-form synthesis, virtual sensors and argument substitution (METHOD §2b, §2c;
+seeds 001, 002, 004), checked by identities and properties, not printed formulas."""
+import random
+
+import pytest
+import sympy as sp
+
+from observer_cad import InfeasibleDesignError, PlantModel, load_model
+from observer_cad.jordan import admissible_lambdas, design_jordan
+from observer_cad.virtual import design_virtual_sensor_canonical, place_poles
+
+from oracle import frac_rank
+
+
+@pytest.fixture(scope="module")
+def tank(models_dir):
+    return load_model(models_dir / "three_tank.py")
+
+
+@pytest.fixture(scope="module")
+def tank_lin(models_dir):
+    return load_model(models_dir / "three_tank_linear.py")
+
+
+def test_nonlinear_tank_virtual_sensor_x1(tank):
+    # seed 002 §8: Jordan form, lambda = -1, Phi ∝ (1, 0, 0), x*' = u1 - sqrt(x* - y1)
+    d = design_jordan(tank, observer="virtual-sensor", estimate="x1", lambdas=[-1])
+    assert d.k == 1 and d.lambdas == (-1,)
+    Phi = sp.Matrix(d.matrices["Phi"])
+    assert Phi[1] == 0 and Phi[2] == 0 and Phi[0] != 0
+    xs1, y1, u1 = sp.symbols("xs1 y1 u1")
+    assert sp.simplify(d.equations[0] - (u1 - sp.sqrt(xs1 - y1))) == 0
+    js = d.to_json()
+    parsed = sp.sympify(js["equations"][0])
+    assert sp.simplify(parsed - (u1 - sp.sqrt(xs1 - y1))) == 0
+    assert js["states"] == ["xs1"]
+    assert [sp.sympify(n["argument"]) for n in js["nonlinear"]] == [xs1 - y1]
+
+
+def test_admissible_lambda_is_computed_not_guessed(tank):
+    d = design_jordan(tank, observer="virtual-sensor", estimate="x1")
+    assert d.lambdas == (-1,)  # the only admissible lambda, found from the pencil
+    adm = next(c for c in d.conditions if c.name == "admissible λ")
+    assert "{-1}" in adm.detail
+
+
+def test_admissible_lambdas_are_where_rank_drops():
+    """Property: at an admissible lambda the stacked matrix loses row rank, elsewhere not."""
+    rng = random.Random(2)
+    for _ in range(10):
+        n = 4
+        F = sp.Matrix(n, n, lambda i, j: rng.randint(-2, 2))
+        H = sp.Matrix(1, n, lambda i, j: rng.randint(-2, 2))
+        L0 = sp.Matrix(2, n, lambda i, j: rng.randint(-2, 2))
+        adm = admissible_lambdas(F, H, L0)
+        assert not adm.generic
+        for lam in adm.values:
+            if lam.is_rational:
+                P = sp.Matrix.vstack(L0 * (F - lam * sp.eye(n)), H)
+                assert frac_rank(P.tolist()) < 3
+        for lam in (sp.Rational(7, 3), sp.Rational(-11, 5)):
+            if lam not in adm.values:
+                P = sp.Matrix.vstack(L0 * (F - lam * sp.eye(n)), H)
+                assert frac_rank(P.tolist()) == 3
+
+
+def test_user_lambda_checked(tank):
+    with pytest.raises(InfeasibleDesignError, match="not admissible"):
+        design_jordan(tank, observer="virtual-sensor", estimate="x1", lambdas=[-2])
+
+
+def test_unstable_lambda_rejected(tank_lin):
+    with pytest.raises(InfeasibleDesignError, match="not stable"):
+        design_jordan(tank_lin, observer="virtual-sensor", estimate="x1", lambdas=[2])
+
+
+def test_interval_observer_reports_L_star(tank):
+    d = design_jordan(tank, observer="interval", estimate="x1")
+    assert d.decoupled == ()
+    Lstar = sp.Matrix(d.matrices["L_star"])
+    assert Lstar == sp.Matrix(d.matrices["Phi"]) * sp.Matrix([[0, 0], [1, 0], [0, 1]])
+
+
+def test_linear_tank_virtual_sensor_canonical_plain_and_004(tank_lin):
+    for variant in ("plain", "004"):
+        d = design_virtual_sensor_canonical(tank_lin, estimate="x1", variant=variant,
+                                            eigenvalues=[-1, -2])
+        assert d.k == 2
+        assert sorted(d.closed_loop_eigenvalues) == [-2, -1]
+        # exact: the closed-loop characteristic polynomial
+        s = sp.Symbol("s")
+        Fcl = sp.Matrix(d.matrices["F_star"]) - sp.Matrix(d.matrices["K"]) * sp.Matrix(d.matrices["H_star"])
+        assert sp.expand(Fcl.charpoly(s).as_expr() - (s + 1) * (s + 2)) == 0
+        assert d.certificate.passed
+    d004 = design_virtual_sensor_canonical(tank_lin, estimate="x1", variant="004", eigenvalues=[-1, -2])
+    assert d004.attempts[0].startswith("k=1: rank condition (3.3) holds")
+    assert "virtual-sensor condition" in d004.attempts[0]
+    plain = design_virtual_sensor_canonical(tank_lin, estimate="x1", variant="plain", eigenvalues=[-1, -2])
+    assert "fails" in plain.attempts[0]
+    # the 004 variant's F* is no longer the shift matrix
+    assert sp.Matrix(d004.matrices["F_star"]) != sp.Matrix([[0, 1], [0, 0]])
+
+
+def test_complex_pair_placement_exact(tank_lin):
+    d = design_virtual_sensor_canonical(tank_lin, estimate="x1", eigenvalues=["-1+2*I", "-1-2*I"])
+    assert set(d.closed_loop_eigenvalues) == {-1 + 2 * sp.I, -1 - 2 * sp.I}
+    assert all(e.is_real for e in sp.Matrix(d.matrices["K"]))
+    assert "T" not in d.matrices  # no real diagonal form for a complex pair
+
+
+def test_001_method1_diagonal_form_is_metzler_and_certified(tank_lin):
+    d = design_virtual_sensor_canonical(tank_lin, estimate="x1", eigenvalues=[-1, -3])
+    Lam = sp.Matrix(d.matrices["F_diag"])
+    assert Lam.is_diagonal() and sorted(Lam.diagonal()) == [-3, -1]
+    # independent identity: Phi_d F = Lam Phi_d + J_d H, M = Hz_d Phi_d + Q H
+    F = sp.Matrix([[-1, 1, 0], [1, -2, 1], [0, 1, -2]])
+    H = sp.Matrix([[0, 1, 0], [0, 0, 1]])
+    Pd, Jd = sp.Matrix(d.matrices["Phi_diag"]), sp.Matrix(d.matrices["J_diag"])
+    assert Pd * F - Lam * Pd - Jd * H == sp.zeros(2, 3)
+    assert sp.Matrix(d.matrices["Hz_diag"]) * Pd + sp.Matrix(d.matrices["Q"]) * H == sp.Matrix([[1, 0, 0]])
+
+
+def test_place_poles_rejects_unobservable():
+    with pytest.raises(InfeasibleDesignError):
+        place_poles(sp.Matrix([[0, 0], [0, 0]]), sp.Matrix([[1, 0]]), [-1, -2])
+
+
+def _random_model(rng, n, l, p, nonlinear=False):
+    xs = sp.symbols(f"x1:{n + 1}")
+    rhos = sp.symbols(f"rho1:{p + 1}") if p else ()
+    u = sp.Symbol("u")
+    F = sp.Matrix(n, n, lambda i, j: rng.randint(-2, 2))
+    while True:
+        H = sp.Matrix(l, n, lambda i, j: rng.randint(-2, 2))
+        if H.rank() == l:
+            break
+    Lm = sp.Matrix(n, p, lambda i, j: rng.randint(-1, 1)) if p else sp.zeros(n, 0)
+    dyn = list(F * sp.Matrix(xs) + sp.Matrix([rng.randint(-1, 1) for _ in range(n)]) * u)
+    if p:
+        dyn = [e + (Lm[i, :] * sp.Matrix(rhos))[0, 0] for i, e in enumerate(dyn)]
+    if nonlinear:
+        a = [rng.randint(-1, 1) for _ in range(n)]
+        a[0] = 1
+        arg = sum(c * x for c, x in zip(a, xs))
+        c = [rng.randint(-1, 1) for _ in range(n)]
+        dyn = [e + ci * sp.sin(arg) for e, ci in zip(dyn, c)]
+    outs = list(H * sp.Matrix(xs))
+    return PlantModel(name="rand", time="continuous", states=xs, inputs=[u], disturbances=rhos,
+                      outputs=outs, dynamics=dyn)
+
+
+@pytest.mark.parametrize("seed", range(12))
+def test_random_jordan_designs_pass_certificates(seed):
+    """Seeded random systems: Jordan designs satisfy Φ_i F = λ_i Φ_i + J*_i H, Φ L = 0,
+    M = H_z Φ + Q H, and A_j = A*_1j Φ + A*_2j H exactly (re-evaluated here)."""
+    rng = random.Random(seed)
+    n = rng.randint(3, 5)
+    model = _random_model(rng, n, rng.randint(1, 2), rng.randint(0, 1), nonlinear=seed % 2 == 0)
+    try:
+        d = design_jordan(model, observer="virtual-sensor", estimate="x1")
+    except InfeasibleDesignError:
+        return
+    from observer_cad import extract_structure
+    st = extract_structure(model)
+    Phi, J = sp.Matrix(d.matrices["Phi"]), sp.Matrix(d.matrices["J_star"])
+    F, H = sp.Matrix(st.F), sp.Matrix(st.H)
+    for i, lam in enumerate(d.lambdas):
+        assert (Phi[i, :] * F - lam * Phi[i, :] - J[i, :] * H).applyfunc(sp.cancel) == sp.zeros(1, n)
+    if st.L.cols:
+        assert (Phi * st.L).applyfunc(sp.cancel) == sp.zeros(d.k, st.L.cols)
+    M = sp.Matrix([[1] + [0] * (n - 1)])
+    assert (sp.Matrix(d.matrices["Hz"]) * Phi + sp.Matrix(d.matrices["Q"]) * H - M).applyfunc(sp.cancel) == sp.zeros(1, n)
+    for ns in d.nonlinear:
+        A = st.terms[ns.index - 1].row
+        assert (ns.A1 * Phi + ns.A2 * H - A).applyfunc(sp.cancel) == sp.zeros(1, n)
