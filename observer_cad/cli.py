@@ -41,23 +41,44 @@ def build_parser() -> argparse.ArgumentParser:
     d = sub.add_parser("design", help="synthesise and certify an observer design",
                        description="Synthesise the reduced, disturbance-decoupled model "
                                    "(METHOD §2) for an observer and print it with its "
-                                   "conditions, assumptions and certificate.")
+                                   "conditions, assumptions and certificate. Default form: "
+                                   "canonical for unknown-input, jordan for the others.")
     d.add_argument("model", metavar="MODEL", help="path to a model file")
-    d.add_argument("--observer", required=True, choices=["unknown-input"],
-                   help="observer kind (unknown-input: estimate the input named by --fault)")
-    d.add_argument("--fault", metavar="NAME",
-                   help="the unknown input to estimate: a fault, or a disturbance (then it is "
-                        "not decoupled); faults not named are taken as zero")
+    d.add_argument("--observer", required=True,
+                   choices=["unknown-input", "diagnostic", "virtual-sensor", "interval"],
+                   help="unknown-input: estimate the input named by --fault; diagnostic: a "
+                        "residual that detects the faults; virtual-sensor / interval: estimate "
+                        "(bounds on) z = M x given by --estimate")
+    d.add_argument("--fault", metavar="NAME", action="append", default=[],
+                   help="unknown-input: the input to estimate (a fault, or a disturbance, which "
+                        "is then not decoupled); diagnostic: a fault to detect (repeatable; "
+                        "default all). Faults not named are taken as zero")
     d.add_argument("--disturbance", metavar="NAME", action="append", default=[],
                    help="a further fault or disturbance to decouple from (repeatable); the "
                         "model's own disturbances are always decoupled")
-    d.add_argument("--form", choices=["canonical"], default="canonical",
-                   help="form of the reduced model (default: canonical, METHOD §2a)")
+    d.add_argument("--estimate", metavar="EXPR",
+                   help="virtual-sensor / interval: z = M x as an expression in the state "
+                        "names, e.g. x1 or 'x1 - x2'")
+    d.add_argument("--form", choices=["canonical", "jordan"], default=None,
+                   help="identification canonical form (METHOD §2a) or Jordan form (§2b)")
+    d.add_argument("--lambda", dest="lambdas", metavar="VALUE", nargs="+",
+                   help="Jordan form: the eigenvalues λ to use (each checked: admissible? "
+                        "stable?); default: computed")
+    d.add_argument("--eigenvalues", metavar="VALUE", nargs="+",
+                   help="canonical form: closed-loop eigenvalues of F* − K H* (complex pairs "
+                        "as '-1+2*I' '-1-2*I'); default -1, -2, ... (continuous) or 1/2, 1/4, ... "
+                        "(discrete)")
+    d.add_argument("--variant", choices=["plain", "004"], default="plain",
+                   help="canonical virtual sensor: plain, or seed 004's model driven by the "
+                        "virtual output (default plain)")
+    d.add_argument("--robust", action="store_true",
+                   help="when exact decoupling is impossible, give the best approximate design "
+                        "(METHOD §2d), reported as APPROXIMATE with its residual norm")
     d.add_argument("--symbolic", action="store_true",
                    help="keep parameters as symbols (default: substitute their values as exact rationals)")
     d.add_argument("--method", choices=["auto", "exact", "float"], default="auto",
-                   help="exact algebra, or SVD with a tolerance (default auto: float above "
-                        "20 states for numeric models)")
+                   help="unknown-input: exact algebra, or SVD with a tolerance (default auto: "
+                        "float above 20 states for numeric models)")
     d.add_argument("--rtol", type=float, default=None,
                    help="relative rank tolerance of the float path (default 1e3·eps·size)")
     d.add_argument("--json", action="store_true", help="print one JSON object instead of text")
@@ -81,18 +102,19 @@ def _cmd_show(args) -> int:
 
 
 def _cmd_design(args) -> int:
-    from .canonical import design_canonical
     from .model import load_model
     from .report import format_design
-    if args.fault is None:
-        raise UsageError("--observer unknown-input needs --fault NAME (the input to estimate)")
+    from .synthesis import design
     model = load_model(args.model)
-    design = design_canonical(model, unknown_input=args.fault, decouple=args.disturbance,
-                              symbolic=args.symbolic, method=args.method, rtol=args.rtol)
+    result = design(model, observer=args.observer, faults=args.fault,
+                    disturbances=args.disturbance, estimate=args.estimate, form=args.form,
+                    lambdas=args.lambdas, eigenvalues=args.eigenvalues, variant=args.variant,
+                    robust=args.robust, symbolic=args.symbolic, method=args.method,
+                    rtol=args.rtol)
     if args.json:
-        print(json.dumps(design.to_json(), indent=2))
+        print(json.dumps(result.to_json(), indent=2))
     else:
-        print(format_design(design))
+        print(format_design(result))
     return 0
 
 
