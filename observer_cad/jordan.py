@@ -33,9 +33,10 @@ import sympy as sp
 
 from . import linalg
 from .certificate import certify_design
-from .design import Condition, Design, NonlinearSubstitution
+from .design import Condition, Design
 from .errors import InfeasibleDesignError, ModelError, UsageError
 from .model import PlantModel
+from .nonlinear import substitute_arguments
 from .structure import Structure, extract_structure
 
 __all__ = ["Admissible", "admissible_lambdas", "design_jordan", "parse_estimate",
@@ -307,7 +308,7 @@ def design_jordan(model: PlantModel, *, observer: str, estimate=None,
             Phi = sp.Matrix.vstack(*[r[1] for r in rows])
             if _rank(Phi) < size:
                 continue
-            ok, why = _task_ok(observer, Phi, H, D, M, C, CA)
+            ok, why = _task_ok(observer, Phi, H, D, M, st)
             if ok:
                 chosen = rows
                 break
@@ -343,22 +344,10 @@ def design_jordan(model: PlantModel, *, observer: str, estimate=None,
     if M is not None:
         X = linalg.solve_left(sp.Matrix.vstack(Phi, H), M)
         mats["Hz"], mats["Q"] = X[:, :k], X[:, k:]
-    subs = []
-    nonlinear = []
     xs, ys = observer_symbols(k), output_symbols(l)
+    _, _, subs, nonlinear = substitute_arguments(st, Phi, xs, ys)
     if C.cols:
-        Cs = Phi * C
-        mats["C_star"] = Cs
-        for j, A in CA:
-            if Cs[:, j] == sp.zeros(k, 1):
-                continue
-            X = linalg.solve_left(sp.Matrix.vstack(Phi, H), A)
-            A1, A2 = X[:, :k], X[:, k:]
-            subs.append((j + 1, A, A1, A2))
-            arg = sp.expand((A1 * sp.Matrix(xs))[0, 0] + (A2 * sp.Matrix(ys))[0, 0])
-            t = st.terms[j]
-            nonlinear.append(NonlinearSubstitution(j + 1, t.function.xreplace({t.argument: arg}),
-                                                   arg, A1, A2))
+        mats["C_star"] = Phi * C
     mats = {name: Mx.applyfunc(sp.cancel) for name, Mx in mats.items()}
 
     # Step 6: certificate, independent of the above
@@ -407,7 +396,7 @@ def design_jordan(model: PlantModel, *, observer: str, estimate=None,
         observer_states=tuple(xs), outputs=tuple(outputs))
 
 
-def _task_ok(observer, Phi, H, D, M, C, CA):
+def _task_ok(observer, Phi, H, D, M, st):
     PH = sp.Matrix.vstack(Phi, H)
     rPH = _rank(PH)
     if observer == "diagnostic":
@@ -420,15 +409,11 @@ def _task_ok(observer, Phi, H, D, M, C, CA):
         r = _rank(sp.Matrix.vstack(PH, M))
         if r != rPH:
             return False, f"rank [Φ; H] = {rPH} < rank [Φ; H; M] = {r} (z not reachable)"
-    if C.cols:
-        Cs = (Phi * C).applyfunc(sp.cancel)
-        for j, A in CA:
-            if Cs[:, j] == sp.zeros(Phi.rows, 1):
-                continue
-            r = _rank(sp.Matrix.vstack(PH, A))
-            if r != rPH:
-                return False, (f"nonlinear term {j + 1}: rank [Φ; H] = {rPH} <"
-                               f" rank [Φ; H; A_{j + 1}] = {r}")
+    if st.terms:
+        ok, why, _, _ = substitute_arguments(st, Phi, observer_symbols(Phi.rows),
+                                             output_symbols(H.rows))
+        if not ok:
+            return False, why
     return True, ""
 
 

@@ -30,6 +30,7 @@ from .design import Condition, Design
 from .errors import InfeasibleDesignError, ModelError, UsageError
 from .jordan import observer_symbols, output_symbols, parse_estimate
 from .model import PlantModel
+from .nonlinear import substitute_arguments
 from .structure import extract_structure
 
 __all__ = ["design_virtual_sensor_canonical", "place_poles", "default_eigenvalues"]
@@ -171,7 +172,12 @@ def design_virtual_sensor_canonical(model: PlantModel, *, estimate, variant: str
             if linalg.exact_rank(PH).rank != linalg.exact_rank(sp.Matrix.vstack(PH, M)).rank:
                 why = "no member satisfies the virtual-sensor condition rank [Φ; H] = rank [Φ; H; M]"
                 continue
-            chosen = (k, v, R0, J0, Phi)
+            ok, why_nl, idents, subs = substitute_arguments(st, Phi, observer_symbols(k),
+                                                            output_symbols(l))
+            if not ok:
+                why = why_nl
+                continue
+            chosen = (k, v, R0, J0, Phi, idents, subs)
             break
         if chosen:
             break
@@ -181,7 +187,7 @@ def design_virtual_sensor_canonical(model: PlantModel, *, estimate, variant: str
         raise InfeasibleDesignError(
             f"{where}: z = {estimate} is not reachable by a canonical-form virtual sensor for any"
             f" k < n = {n}: " + "; ".join(attempts), tuple(attempts))
-    k, v, R0, J0, Phi = chosen
+    k, v, R0, J0, Phi, idents, subs = chosen
     X = linalg.solve_left(sp.Matrix.vstack(Phi, H), M)
     Hz, Q = X[:, :k], X[:, k:]
     Fs = _shift(k)
@@ -197,12 +203,14 @@ def design_virtual_sensor_canonical(model: PlantModel, *, estimate, variant: str
             "Hz": Hz, "Q": Q}
     if L.cols:
         mats["L_star"] = Phi * L
+    if st.terms:
+        mats["C_star"] = Phi * sp.Matrix(st.C)
     eigs = _parse_eigs(eigenvalues) if eigenvalues else default_eigenvalues(work.time, k)
     K = place_poles(Fs, Hs, eigs)
     mats["K"] = K
     mats = {name: Mx.applyfunc(sp.cancel) for name, Mx in mats.items()}
     plant = dict(F=F, G=G, H=H, C=sp.Matrix(st.C), D=sp.zeros(n, 0), L=L)
-    cert = certify_design(plant, mats, M=M)
+    cert = certify_design(plant, mats, M=M, substitutions=idents)
     Fcl = (mats["F_star"] - K * mats["H_star"]).applyfunc(sp.cancel)
     cl = sp.roots(sp.Poly(Fcl.charpoly(S).as_expr(), S))
     cl_list = []
@@ -225,13 +233,34 @@ def design_virtual_sensor_canonical(model: PlantModel, *, estimate, variant: str
                            "all closed-loop eigenvalues " + ("have Re < 0" if work.time == "continuous"
                                                              else "inside the unit circle"),
                            "METHOD §3"))
+    O = sp.Matrix.vstack(*[mats["H_star"] * mats["F_star"] ** i for i in range(k)])
+    ro = linalg.exact_rank(O).rank
+    conds.append(Condition("observability of (F*, H*)", ro == k,
+                           f"rank of the observability matrix = {ro} (k = {k})", "METHOD §4"))
+    hz_ok = all(e.is_nonnegative is True for e in Hz)
+    conds.append(Condition("H_z ≥ 0", hz_ok, f"H_z = {list(Hz)}" + (
+        "" if hz_ok else " (interval bounds need the split H_z⁺, H_z⁻)"), "METHOD §3",
+        required=False))
+    if work.time == "continuous":
+        metz = all(Fcl[i, j].is_nonnegative is True for i in range(k) for j in range(k) if i != j)
+        conds.append(Condition("F* − K H* Metzler", metz, f"F* − K H* = {Fcl.tolist()}",
+                               "METHOD §3", required=False))
+    else:
+        nonneg = all(e.is_nonnegative is True for e in Fcl)
+        conds.append(Condition("F* − K H* nonnegative", nonneg, f"F* − K H* = {Fcl.tolist()}",
+                               "METHOD §3", required=False))
     xs, ys = observer_symbols(k), output_symbols(l)
     us = sp.Matrix(work.inputs) if work.inputs else sp.zeros(0, 1)
     r_expr = (mats["R_star"] * sp.Matrix(ys) - mats["H_star"] * sp.Matrix(xs))[0, 0]
     rhs = mats["F_star"] * sp.Matrix(xs) + mats["J_star"] * sp.Matrix(ys) + K * r_expr
     if us.rows:
         rhs += mats["G_star"] * us
-    equations = tuple(sp.expand(e) for e in rhs)
+    if subs:
+        psi = sp.zeros(len(st.terms), 1)
+        for ns in subs:
+            psi[ns.index - 1, 0] = ns.function
+        rhs += mats["C_star"] * psi
+    equations = tuple(sp.expand(e, deep=False) for e in rhs)
     z = sp.expand((Hz * sp.Matrix(xs) + Q * sp.Matrix(ys))[0, 0])
 
     if diagonalize and all(sp.im(e) == 0 for e in cl_list) and len(set(cl_list)) == k:
@@ -265,4 +294,5 @@ def design_virtual_sensor_canonical(model: PlantModel, *, estimate, variant: str
         attempts=tuple(attempts), observer="virtual-sensor", time=work.time,
         estimate=str((M * sp.Matrix(work.states))[0, 0]),
         closed_loop_eigenvalues=cl_list, equations=equations, observer_states=tuple(xs),
+        nonlinear=tuple(subs),
         outputs=(("z", z),))
