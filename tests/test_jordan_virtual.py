@@ -173,3 +173,76 @@ def test_random_jordan_designs_pass_certificates(seed):
     for ns in d.nonlinear:
         A = st.terms[ns.index - 1].row
         assert (ns.A1 * Phi + ns.A2 * H - A).applyfunc(sp.cancel) == sp.zeros(1, n)
+
+
+def test_multiple_faults_each_seen_by_some_row():
+    """seed 002 Remark 1: every fault column is detected by some row of Φ."""
+    x1, x2, x3, u, d1, d2 = sp.symbols("x1 x2 x3 u d1 d2")
+    m = PlantModel(name="two_faults", time="continuous", states=[x1, x2, x3], inputs=[u],
+                   faults=[d1, d2], outputs=[x1, x3],
+                   dynamics=[-x1 + x2 + u, -2 * x2 + x3 + d1, x1 - 3 * x3 + d2])
+    d = design_jordan(m, observer="diagnostic")
+    Phi = sp.Matrix(d.matrices["Phi"])
+    D = sp.Matrix([[0, 0], [1, 0], [0, 1]])
+    PD = Phi * D
+    for c in range(2):
+        assert any(PD[i, c] != 0 for i in range(d.k)), f"fault {c + 1} not seen"
+    sens = [c for c in d.conditions if c.name.startswith("fault sensitivity")]
+    assert len(sens) == 2 and all(c.holds for c in sens)
+    # the residual vanishes on the nominal system: R* H = H* Φ
+    assert sp.Matrix(d.matrices["R_star"]) * sp.Matrix([[1, 0, 0], [0, 0, 1]]) == \
+        sp.Matrix(d.matrices["H_star"]) * Phi
+
+
+def test_cli_design_jordan_json_keys(models_dir, capsys):
+    import json
+    from observer_cad.cli import main
+    rc = main(["design", str(models_dir / "three_tank.py"), "--observer", "virtual-sensor",
+               "--estimate", "x1", "--form", "jordan", "--lambda", "-1", "--json"])
+    out = capsys.readouterr().out
+    assert rc == 0
+    j = json.loads(out)
+    for key in ("lambdas", "nonlinear", "equations", "approximate", "closed_loop_eigenvalues"):
+        assert key in j, key
+    for key in ("Hz", "Q", "C_star"):
+        assert key in j["matrices"], key
+    assert j["lambdas"] == ["-1"] and j["approximate"] is False
+    xs1, y1, u1 = sp.symbols("xs1 y1 u1")
+    assert sp.simplify(sp.sympify(j["equations"][0]) - (u1 - sp.sqrt(xs1 - y1))) == 0
+    assert j["nonlinear"][0]["function"] and sp.sympify(j["nonlinear"][0]["argument"]) == xs1 - y1
+
+
+def test_cli_canonical_virtual_sensor_eigenvalues(models_dir, capsys):
+    import json
+    from observer_cad.cli import main
+    rc = main(["design", str(models_dir / "three_tank_linear.py"), "--observer", "virtual-sensor",
+               "--estimate", "x1", "--form", "canonical", "--variant", "004",
+               "--eigenvalues", "-1", "-2", "--json"])
+    j = json.loads(capsys.readouterr().out)
+    assert rc == 0 and j["k"] == 2
+    assert sorted(sp.sympify(v) for v in j["closed_loop_eigenvalues"]) == [-2, -1]
+    assert "K" in j["matrices"]
+
+
+@pytest.mark.parametrize("model,argv,needle", [
+    ("three_tank.py", ["--observer", "virtual-sensor", "--estimate", "x1", "--lambda", "-2"], "not admissible"),
+    ("three_tank_linear.py", ["--observer", "virtual-sensor", "--estimate", "x1", "--lambda", "1"], "not stable"),
+    ("three_tank.py", ["--observer", "virtual-sensor", "--estimate", "x9"], "x9"),
+    ("three_tank.py", ["--observer", "virtual-sensor"], "--estimate"),
+])
+def test_cli_infeasible_requests_one_line_exit_2(models_dir, capsys, model, argv, needle):
+    from observer_cad.cli import main
+    rc = main(["design", str(models_dir / model)] + argv)
+    err = capsys.readouterr().err
+    assert rc == 2
+    assert len(err.strip().splitlines()) == 1 and needle in err
+
+
+def test_m_not_reachable_for_any_k(capsys):
+    """A z = M x that no k < n reaches: one-line explanation listing what was tried."""
+    x1, x2, x3, u = sp.symbols("x1 x2 x3 u")
+    m = PlantModel(name="chain", time="continuous", states=[x1, x2, x3], inputs=[u],
+                   outputs=[x1], dynamics=[-x1, -2 * x2 + x1, -3 * x3 + u])
+    with pytest.raises(InfeasibleDesignError) as info:
+        design_virtual_sensor_canonical(m, estimate="x3")
+    assert "k=1" in str(info.value) and "\n" not in str(info.value)
