@@ -45,10 +45,12 @@ import numpy as np
 import sympy as sp
 
 from . import linalg
-from .certificate import certify_reduced_model
+from .certificate import certify_design, certify_reduced_model
 from .design import Condition, Design
 from .errors import InfeasibleDesignError, ModelError, UsageError
+from .jordan import observer_symbols, output_symbols
 from .model import PlantModel
+from .nonlinear import substitute_arguments
 from .structure import Structure, extract_structure
 
 __all__ = ["design_canonical", "resolve_task", "krylov_blocks", "member_to_phi",
@@ -293,7 +295,7 @@ def _design_exact(model, st, target, dec, D, L, *, symbolic, single_row) -> Desi
             minimality |= rk.conditions
             continue
         members = linalg.echelon_rows(basis)
-        found, why = _choose_member(members, F, H, D, k, single_row)
+        found, why = _choose_member(members, F, H, D, k, single_row, st)
         if found is None:
             attempts.append(
                 f"k={k}: rank condition (3.3) holds ({rank_txt} < {need}), null space of"
@@ -338,11 +340,10 @@ def _design_exact(model, st, target, dec, D, L, *, symbolic, single_row) -> Desi
             best = (mats, assume, vec)
     mats, assume, v = best
 
-    cert = certify_reduced_model(
-        F=F, G=G, H=H, C=C, D=D, L=L, Phi=mats["Phi"], F_star=mats["F_star"],
-        J_star=mats["J_star"], R_star=mats["R_star"], H_star=mats["H_star"],
-        G_star=mats["G_star"], D_star=mats["D_star"],
-        C_star=mats.get("C_star"), exact=True)
+    xs, ys = observer_symbols(k), output_symbols(l)
+    _, _, idents, subs = substitute_arguments(st, mats["Phi"], xs, ys)
+    cert = certify_design(dict(F=F, G=G, H=H, C=C, D=D, L=L), mats, substitutions=idents)
+    eqs, r_out, _ = _observer_equations(mats, model.inputs, xs, ys, subs, C.cols)
 
     row_txt = ("the first row (matched case)" if r == 0 else
                f"the last row only (mismatched case: the estimate is delayed by {k - 1} step(s))"
@@ -377,7 +378,23 @@ def _design_exact(model, st, target, dec, D, L, *, symbolic, single_row) -> Desi
         conditions=tuple(conds), assumptions=assumptions, certificate=cert,
         unknown_input=tname, decoupled=tuple(s.name for s in dec), symbolic=symbolic,
         method="exact", choice=choice, attempts=tuple(attempts),
-        null_space=tuple(members), time=model.time)
+        null_space=tuple(members), time=model.time, nonlinear=tuple(subs),
+        equations=eqs, observer_states=tuple(xs), outputs=(("r", r_out),))
+
+
+def _observer_equations(mats, inputs, xs, ys, subs, q):
+    """The reduced model's right-hand sides F* x* + J* y + G* u + C* Ψ*(x*, y, u) (the
+    unknown input omitted) and r = R* y − H* x*."""
+    rhs = mats["F_star"] * sp.Matrix(xs) + mats["J_star"] * sp.Matrix(ys)
+    if inputs:
+        rhs += mats["G_star"] * sp.Matrix(inputs)
+    if subs:
+        psi = sp.zeros(q, 1)
+        for ns in subs:
+            psi[ns.index - 1, 0] = ns.function
+        rhs += mats["C_star"] * psi
+    r = (mats["R_star"] * sp.Matrix(ys) - mats["H_star"] * sp.Matrix(xs))[0, 0]
+    return tuple(sp.expand(e, deep=False) for e in rhs), sp.expand(r), xs
 
 
 def _ystar(R) -> str:
@@ -385,7 +402,7 @@ def _ystar(R) -> str:
     return str(sum(c * y for c, y in zip(sp.Matrix(R), ys)))
 
 
-def _choose_member(members, F, H, D, k, single_row):
+def _choose_member(members, F, H, D, k, single_row, st=None):
     """The first member (in reduced-echelon order) satisfying the task, or a reason.
 
     Returns ``((v, row, index, n_subspace, rejected), None)`` or ``(None, why)``.
@@ -425,6 +442,13 @@ def _choose_member(members, F, H, D, k, single_row):
                 if idx is not None:
                     rejected.append(f"member {idx + 1} is degenerate (rank Φ = {rk} < {k})")
                 continue
+            if st is not None and st.terms:  # METHOD §2c: arguments must be recoverable
+                ok, why_nl, _, _ = substitute_arguments(st, Phi, observer_symbols(k),
+                                                        output_symbols(H.rows))
+                if not ok:
+                    if idx is not None:
+                        rejected.append(f"member {idx + 1}: {why_nl}")
+                    continue
             return (v, r, idx if idx is not None else len(sub), len(sub), rejected), None
         reasons.append(f"row {r + 1}: " + ("; ".join(rejected) if rejected else "no member"))
     if not single_row:
