@@ -19,12 +19,15 @@ With N an orthonormal basis (rows) of the null space and v = w N, ‖w‖ = ‖v
 least ‖Φ L‖_F is the smallest singular value σ_min of N L⁽ᵏ⁾, reached at its left
 singular vector w (seed 001 §6, Theorem 3). k is the smallest dimension whose null
 space has a member meeting the task. The member is kept at unit norm, so
-``residual_norm`` = σ_min = ‖L*‖_F exactly as presented.
+``residual_norm`` = ‖L*‖_F exactly as presented (= σ_min when the optimum meets the
+task).
 
 The task (rank Φ = k always; plus one of):
 
-* ``unknown_input``: the input must reach the model, Φ D ≠ 0 (relative to the size
-  ρ_i = Σ_b |v_b| |H F^(i−1−b)| that row Φ_i would have without cancellation);
+* ``unknown_input``: the input must reach the model, Φ D ≠ 0 relative to
+  ρ_i = |H| α^(i−1) Σ_b |v_b| α^(−b), the size row Φ_i would have without cancellation
+  (α the mean growth of |H Fʲ|; every block of v counts, so a member whose R* is
+  rounding noise is degenerate, not "sensitive");
 * ``estimate`` z = M x: rank [Φ; H] = rank [Φ; H; M] (then M = H_z Φ + Q H).
 
 If the unconstrained optimum violates the task the design says so and takes the best
@@ -32,13 +35,13 @@ member of a subspace whose members keep the task:
 
 * Φ D ≈ 0: the insensitive combinations Z = {w : w N D⁽ᵏ⁾ = 0} are excluded by
   restricting w to Z⊥ (the range of N D⁽ᵏ⁾, D⁽ᵏ⁾ built like L⁽ᵏ⁾), where
-  ‖Φ D‖ ≥ σ_min⁺(N D⁽ᵏ⁾) > 0 for every unit w; the best w there is again an SVD.
+  ‖w N D⁽ᵏ⁾‖ ≥ σ_min⁺(N D⁽ᵏ⁾) > 0 for every unit w; the best w there is again an SVD.
 * z not reachable: with P_H = I − H⁺H, the condition reads M P_H = Σ_{i≥2} h_i Φ_i(w) P_H
   (Φ_1 P_H = 0). For a fixed direction g of (h_2, …, h_k) it is linear in w: w must lie
   in V(g), the left null space of C(g)(I − m̂ᵀm̂), C(g) = Σ g_i Φ_i(N) P_H,
   m̂ = M P_H / |M P_H|; the best w in V(g) is an SVD. k = 2 has one subspace (exact);
-  for k = 3 g is an angle searched on a 360-point grid then refined, for k ≥ 4 on
-  seeded random directions (best found, reported as a search).
+  for k = 3 g is an angle searched on a 360-point grid, for k ≥ 4 on 400·(k−2)
+  seeded random directions (the best found, not a proven optimum; reported as a search).
 * rank Φ < k only: the singular directions of N L⁽ᵏ⁾ are tried in increasing order.
 
 An exact design is not refused: every k < n is also checked for an exactly decoupled
@@ -46,7 +49,9 @@ member meeting the same task (left null space of (W⁽ᵏ⁾ L⁽ᵏ⁾)); the c
 "approximate: exact decoupling impossible for every k < n" then either holds, with the
 singular values around the cut at every k as evidence, or fails (not required) and
 names the k where the exact design (:func:`~observer_cad.canonical.design_canonical`)
-should be used instead. The design is reported as approximate either way.
+should be used instead. The design is reported as approximate either way. For
+nonlinear models C* = Φ C is reported with the argument-substitution condition of
+§2c evaluated, not enforced.
 
 Jordan form (:func:`design_robust_jordan`)
 ------------------------------------------
