@@ -120,7 +120,9 @@ def format_design(d: Design) -> str:
     for c in d.conditions:
         out.append(f"  {_mark(c.holds, c.required)} {c.name}: {c.detail}"
                    + (f"  [{c.reference}]" if c.reference else ""))
-    out.append("\nAssumptions" + ("" if d.assumptions else ": none (exact for all parameter values)"))
+    none = (": none (numeric design; the decoupling is APPROXIMATE, see the residual norm)"
+            if d.approximate else ": none (exact for all parameter values)")
+    out.append("\nAssumptions" + ("" if d.assumptions else none))
     for a in d.assumptions:
         out.append(f"  {a}")
     out.append(f"\nChoice\n  {d.choice}")

@@ -54,14 +54,17 @@ def design(model: PlantModel, *, observer: str, faults: Sequence[str] = (),
         if not robust:
             raise
         from .robust import design_robust_canonical, design_robust_jordan
+        import dataclasses
         if form == "jordan":
             if observer not in ("virtual-sensor", "interval"):
                 raise UsageError("a robust Jordan design needs --estimate (virtual-sensor or interval)") from exc
-            return design_robust_jordan(model, estimate=estimate, lambdas=lambdas,
-                                        decouple=disturbances)
-        return design_robust_canonical(model, unknown_input=faults[0] if faults else None,
-                                       estimate=estimate, decouple=disturbances,
-                                       symbolic=symbolic)
+            d = design_robust_jordan(model, estimate=estimate, lambdas=lambdas,
+                                     decouple=disturbances)
+        else:
+            d = design_robust_canonical(model, unknown_input=faults[0] if faults else None,
+                                        estimate=estimate, decouple=disturbances,
+                                        symbolic=symbolic)
+        return dataclasses.replace(d, observer=observer)
 
 
 def _exact(model, observer, faults, disturbances, estimate, form, lambdas, eigenvalues,
