@@ -88,6 +88,18 @@ def test_float_and_exact_agree_without_single_row(seed):
         _k_and_rows(model, st, method="exact", single_row=False)[0]
 
 
+def test_plain_float_call_extracts_and_agrees():
+    """design_canonical(model, symbolic=False, method="float") — the call a user makes —
+    extracts the structure itself and gives the same design as with a given structure."""
+    model, st = random_structure(24, 4, 1, seed=2, integer=False)
+    plain = design_canonical(model, unknown_input="d", symbolic=False, method="float")
+    given = _design(model, st, method="float")
+    assert plain.method == given.method == "float"
+    assert plain.k == given.k == generic_k(24, 4, 1)
+    assert plain.matrices["Phi"] == given.matrices["Phi"]
+    assert plain.certificate.passed
+
+
 # ---------------------------------------------------------------- the n = 60 system
 @pytest.fixture(scope="module")
 def bench_design():
