@@ -1,0 +1,262 @@
+"""One representation for every observer: what simulation and code generation consume.
+
+An :class:`Observer` is a set of sympy equations
+
+    continuous:  d/dt ξ = f(ξ, s, p)          discrete:  ξ(t+1) = f(ξ(t), s(t), p)
+    outputs:     o = g(ξ, s, p)
+
+in its own states ξ, the signals s it reads from the plant each step (the measured
+outputs ``y1, y2, …`` and the known inputs ``u``), and named parameters p with values
+(gains, bounds). Outputs are named as in the CSV the simulator writes: ``x1_hat`` /
+``z_hat`` for estimates, ``x1_lower`` / ``x1_upper`` (``z_lower`` / ``z_upper``) for
+interval bounds, ``r`` for residuals, ``d_hat`` for unknown-input estimates. An output
+may refer to an earlier time (``delays``: the estimate of d(t − delay) is produced at
+step t), which the simulator aligns.
+
+Builders turn certified designs into observers: :func:`virtual_sensor_observer`,
+:func:`diagnostic_observer`, :func:`interval_observer` (linear, continuous or
+discrete). Further kinds (unknown-input estimators, sliding-mode, DREM) build the same
+value.
+"""
+from __future__ import annotations
+
+import dataclasses
+from types import MappingProxyType
+from typing import Mapping
+
+import sympy as sp
+
+from .design import Condition, Design
+from .errors import ModelError, UsageError
+from .model import PlantModel
+from .structure import extract_structure
+
+__all__ = ["Observer", "box_min", "box_max", "pos", "neg", "estimate_name",
+           "virtual_sensor_observer", "diagnostic_observer", "interval_observer",
+           "output_symbols"]
+
+
+def output_symbols(l: int):
+    return sp.symbols(f"y1:{l + 1}")
+
+
+@dataclasses.dataclass(frozen=True)
+class Observer:
+    """An observer as equations; see the module docstring."""
+
+    name: str
+    kind: str
+    time: str
+    states: tuple
+    signals: tuple
+    parameters: Mapping
+    update: tuple
+    outputs: tuple  # of (name, expr)
+    delays: Mapping = dataclasses.field(default_factory=dict)
+    initial: Mapping = dataclasses.field(default_factory=dict)
+    conditions: tuple = ()
+    assumptions: tuple = ()
+    design: Design | None = None
+    description: str = ""
+
+    def __post_init__(self):
+        if self.time not in ("continuous", "discrete"):
+            raise UsageError(f"observer time must be continuous or discrete, got {self.time!r}")
+        if len(self.update) != len(self.states):
+            raise UsageError(f"observer {self.name}: {len(self.states)} states but"
+                             f" {len(self.update)} update equations")
+        allowed = set(self.states) | set(self.signals) | set(self.parameters)
+        for e in list(self.update) + [e for _, e in self.outputs]:
+            extra = sp.sympify(e).free_symbols - allowed
+            if extra:
+                raise UsageError(f"observer {self.name}: equation uses undeclared"
+                                 f" '{sorted(extra, key=str)[0]}'")
+        object.__setattr__(self, "parameters", MappingProxyType(dict(self.parameters)))
+        object.__setattr__(self, "delays", MappingProxyType(dict(self.delays)))
+        object.__setattr__(self, "initial", MappingProxyType(dict(self.initial)))
+
+    @property
+    def output_names(self) -> tuple:
+        return tuple(name for name, _ in self.outputs)
+
+    def equations_text(self) -> list:
+        dot = "(t+1)" if self.time == "discrete" else "'"
+        out = [f"{x}{dot} = {e}" for x, e in zip(self.states, self.update)]
+        out += [f"{name} = {e}" for name, e in self.outputs]
+        return out
+
+    def to_json(self) -> dict:
+        return {
+            "name": self.name, "kind": self.kind, "time": self.time,
+            "states": [str(s) for s in self.states],
+            "signals": [str(s) for s in self.signals],
+            "parameters": {str(p): str(v) for p, v in self.parameters.items()},
+            "equations": [str(e) for e in self.update],
+            "outputs": {name: str(e) for name, e in self.outputs},
+            "delays": {k: int(v) for k, v in self.delays.items()},
+            "initial": {str(k): str(v) for k, v in self.initial.items()},
+        }
+
+
+# ---------------------------------------------------------------- interval arithmetic
+def pos(A):
+    """A⁺ = max(0, A) elementwise (numeric matrices)."""
+    return sp.Matrix(A).applyfunc(lambda e: sp.Max(e, 0) if e.free_symbols else (e if e > 0 else 0))
+
+
+def neg(A):
+    """A⁻ = A⁺ − A ≥ 0."""
+    return (pos(A) - sp.Matrix(A)).applyfunc(sp.simplify)
+
+
+def box_min(A, lo, hi):
+    """min of A v over the box lo ≤ v ≤ hi: A⁺ lo − A⁻ hi."""
+    return pos(A) * sp.Matrix(lo) - neg(A) * sp.Matrix(hi)
+
+
+def box_max(A, lo, hi):
+    """max of A v over the box lo ≤ v ≤ hi: A⁺ hi − A⁻ lo."""
+    return pos(A) * sp.Matrix(hi) - neg(A) * sp.Matrix(lo)
+
+
+def estimate_name(model: PlantModel, design: Design) -> str:
+    """``x1`` when z = M x is a single state, else ``z``."""
+    est = design.estimate
+    if est is not None:
+        e = sp.sympify(est, locals={s.name: s for s in model.states})
+        if e in model.states:
+            return str(e)
+    return "z"
+
+
+def _bounds(model: PlantModel, syms, what: str):
+    lo, hi = [], []
+    for s in syms:
+        if s not in model.bounds:
+            raise ModelError(f"{model.where}: the interval observer needs bounds on {what}"
+                             f" '{s}' (declare bounds={{{s}: (low, high)}} in the model)")
+        a, b = model.bounds[s]
+        lo.append(a)
+        hi.append(b)
+    return sp.Matrix(lo) if lo else sp.zeros(0, 1), sp.Matrix(hi) if hi else sp.zeros(0, 1)
+
+
+def _signals(model: PlantModel, l: int):
+    return tuple(output_symbols(l)) + tuple(model.inputs)
+
+
+def virtual_sensor_observer(model: PlantModel, design: Design) -> Observer:
+    """The virtual sensor's equations: the design's x*' and z = H_z x* + Q y."""
+    if design.observer != "virtual-sensor" or not design.equations:
+        raise UsageError("virtual_sensor_observer needs a virtual-sensor design")
+    l = len(model.outputs)
+    name = estimate_name(model, design)
+    zexpr = dict(design.outputs)["z"]
+    return Observer(
+        name=f"{model.name}_virtual_sensor", kind="virtual-sensor", time=model.time,
+        states=design.observer_states, signals=_signals(model, l), parameters={},
+        update=design.equations, outputs=((f"{name}_hat", zexpr),),
+        initial={x: 0 for x in design.observer_states}, conditions=design.conditions,
+        assumptions=design.assumptions, design=design,
+        description=f"virtual sensor for z = {design.estimate}")
+
+
+def diagnostic_observer(model: PlantModel, design: Design) -> Observer:
+    """Residual generator: the design's equations and r = R* y − H* x*."""
+    if not design.equations or "r" not in dict(design.outputs):
+        raise UsageError("diagnostic_observer needs a design with a residual")
+    l = len(model.outputs)
+    return Observer(
+        name=f"{model.name}_diagnostic", kind="diagnostic", time=model.time,
+        states=design.observer_states, signals=_signals(model, l), parameters={},
+        update=design.equations, outputs=(("r", dict(design.outputs)["r"]),),
+        initial={x: 0 for x in design.observer_states}, conditions=design.conditions,
+        assumptions=design.assumptions, design=design,
+        description="residual generator r = R* y − H* x*")
+
+
+def interval_observer(model: PlantModel, design: Design) -> Observer:
+    """Interval observer for z = M x on a linear Jordan or diagonal design (METHOD §3).
+
+    Two copies of the reduced model with the uncertainty bounded,
+
+        x̲*' = F* x̲* + G* u + J* y + min(−J* w + L* ρ),   x̄*' = … + max(−J* w + L* ρ)
+
+    (min/max over the declared bounds by the ⁺/⁻ split), and
+    z̲ = H_z⁺ x̲* − H_z⁻ x̄* + Q y − max(Q w), z̄ = H_z⁺ x̄* − H_z⁻ x̲* + Q y − min(Q w).
+    Inclusion needs a cooperative error system: F* Metzler (continuous) or
+    nonnegative (discrete); otherwise, in discrete time, F* = F*⁺ − F*⁻ acts on both
+    bounds. Raises when the design has nonlinear terms (see the nonlinear builder).
+    """
+    d = design
+    if "Hz" not in d.matrices:
+        raise UsageError("interval_observer needs a design with z = H_z x* + Q y")
+    if d.nonlinear:
+        raise UsageError("interval_observer: nonlinear designs need the monotone builder")
+    st = extract_structure(model.substitute_parameters() if model.parameters else model)
+    k = d.k
+    l = len(model.outputs)
+    Fs, Js, Gs = (sp.Matrix(d.matrices[n]) for n in ("F_star", "J_star", "G_star"))
+    Hz, Q = sp.Matrix(d.matrices["Hz"]), sp.Matrix(d.matrices["Q"])
+    W = sp.Matrix(st.W)
+    rho = [s for s in model.disturbances]
+    Lstar = sp.Matrix(d.matrices["L_star"]) if "L_star" in d.matrices and not d.decoupled \
+        else sp.zeros(k, 0)
+    # uncertainty entering the reduced model: −J* W w + L* ρ
+    B = sp.Matrix.hstack(-Js * W, Lstar) if (W.cols or Lstar.cols) else sp.zeros(k, 0)
+    wlo, whi = _bounds(model, model.noise, "noise")
+    rlo, rhi = _bounds(model, rho if Lstar.cols else [], "disturbance")
+    lo = sp.Matrix.vstack(wlo, rlo) if B.cols else sp.zeros(0, 1)
+    hi = sp.Matrix.vstack(whi, rhi) if B.cols else sp.zeros(0, 1)
+    bmin = box_min(B, lo, hi) if B.cols else sp.zeros(k, 1)
+    bmax = box_max(B, lo, hi) if B.cols else sp.zeros(k, 1)
+    xl = sp.Matrix(sp.symbols(f"xl1:{k + 1}"))
+    xu = sp.Matrix(sp.symbols(f"xu1:{k + 1}"))
+    ys = sp.Matrix(output_symbols(l))
+    us = sp.Matrix(model.inputs) if model.inputs else sp.zeros(0, 1)
+    common = Js * ys + (Gs * us if us.rows else sp.zeros(k, 1))
+    conds = list(d.conditions)
+    coop = all(Fs[i, j] >= 0 for i in range(k) for j in range(k)
+               if (i != j or model.time == "discrete"))
+    if model.time == "continuous":
+        if not coop:
+            raise UsageError("interval observer: F* is not Metzler; use a Jordan (diagonal) design")
+        upd_l = Fs * xl + common + bmin
+        upd_u = Fs * xu + common + bmax
+        conds.append(Condition("cooperative error system (F* Metzler)", True,
+                               f"F* = {Fs.tolist()}", "METHOD §3"))
+    else:
+        Fp, Fm = pos(Fs), neg(Fs)
+        upd_l = Fp * xl - Fm * xu + common + bmin
+        upd_u = Fp * xu - Fm * xl + common + bmax
+        conds.append(Condition("cooperative error system (F* ≥ 0, else the ⁺/⁻ split)", True,
+                               "F* ≥ 0" if coop else "F* has negative entries: both bounds"
+                               " use F*⁺ − F*⁻", "METHOD §3"))
+    Hp, Hm = pos(Hz), neg(Hz)
+    QW = Q * W
+    qmin = box_min(QW, wlo, whi) if QW.cols else sp.zeros(Hz.rows, 1)
+    qmax = box_max(QW, wlo, whi) if QW.cols else sp.zeros(Hz.rows, 1)
+    zl = Hp * xl - Hm * xu + Q * ys - qmax
+    zu = Hp * xu - Hm * xl + Q * ys - qmin
+    name = estimate_name(model, d)
+    states = tuple(xl) + tuple(xu)
+    return Observer(
+        name=f"{model.name}_interval", kind="interval", time=model.time, states=states,
+        signals=_signals(model, l), parameters={},
+        update=tuple(sp.expand(e) for e in list(upd_l) + list(upd_u)),
+        outputs=((f"{name}_lower", sp.expand(zl[0])), (f"{name}_upper", sp.expand(zu[0]))),
+        initial=_interval_initial(model, d, xl, xu),
+        conditions=tuple(conds), assumptions=d.assumptions, design=d,
+        description=f"interval observer for z = {d.estimate}")
+
+
+def _interval_initial(model, d, xl, xu, margin=1):
+    """Default initial bounds Φ x(0) ∓ margin (expressions in the plant's initial state;
+    a scenario's ``observer_initial`` overrides them)."""
+    Phi = sp.Matrix(d.matrices["Phi"])
+    xs0 = Phi * sp.Matrix(model.states)
+    init = {}
+    for i in range(Phi.rows):
+        init[xl[i]] = xs0[i] - margin
+        init[xu[i]] = xs0[i] + margin
+    return init
