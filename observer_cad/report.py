@@ -6,7 +6,8 @@ import sympy as sp
 from .design import Design
 from .structure import Structure
 
-__all__ = ["format_matrix", "format_structure", "format_design", "structure_to_json"]
+__all__ = ["format_matrix", "format_structure", "format_design", "structure_to_json",
+           "format_observer"]
 
 
 def format_matrix(name: str, M, indent: str = "  ") -> str:
@@ -126,4 +127,16 @@ def format_design(d: Design) -> str:
     for a in d.assumptions:
         out.append(f"  {a}")
     out.append(f"\nChoice\n  {d.choice}")
+    return "\n".join(out)
+
+
+def format_observer(ob) -> str:
+    """The observer's equations, parameters and outputs."""
+    out = [f"\nObserver ({ob.kind}, {ob.time} time): {ob.description}"]
+    if ob.parameters:
+        out.append("  parameters: " + ", ".join(f"{p} = {v}" for p, v in ob.parameters.items()))
+    for line in ob.equations_text():
+        out.append(f"    {line}")
+    if ob.delays:
+        out.append("  delayed outputs: " + ", ".join(f"{k} (estimate of t − {v})" for k, v in ob.delays.items()))
     return "\n".join(out)

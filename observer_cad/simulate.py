@@ -216,7 +216,10 @@ def simulate(model: PlantModel, observer: Observer | None, scenario: Scenario, *
         cols[str(name)] = np.asarray(v)
     for j, s in enumerate(ins):
         cols[s.name] = U[j]
-    order = ["t"] + [s.name for s in xs] + [str(y) for y in ys] + [s.name for s in ins]
+    # CSV order: t, states, outputs, inputs, faults, disturbances (noise kept as a column
+    # of the result but not in the CSV order), then the observer's outputs
+    order = ["t"] + [s.name for s in xs] + [str(y) for y in ys] + \
+        [s.name for s in ins if s not in m.noise]
     if f_out is not None:
         ov = f_out(*[X[len(xs) + j] for j in range(len(obs_states))], *yv, *allu)
         for (name, _), v in zip(observer.outputs, ov):

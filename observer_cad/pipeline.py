@@ -1,0 +1,44 @@
+"""From a design to a runnable observer: the dispatch by observer kind.
+
+:func:`build_observer` turns a certified :class:`~observer_cad.design.Design` into the
+single :class:`~observer_cad.observer.Observer` representation that simulation and code
+generation consume.
+"""
+from __future__ import annotations
+
+from .design import Design
+from .errors import UsageError
+from .model import PlantModel
+from .observer import Observer, diagnostic_observer, interval_observer, virtual_sensor_observer
+
+__all__ = ["build_observer"]
+
+
+def build_observer(model: PlantModel, design: Design, **options) -> Observer:
+    """The observer for a design; ``options`` go to the kind's builder (gains, bounds)."""
+    kind = design.observer
+    if kind == "virtual-sensor":
+        return virtual_sensor_observer(model, design)
+    if kind == "diagnostic":
+        return diagnostic_observer(model, design)
+    if kind == "interval":
+        if design.nonlinear:
+            try:
+                from .interval import interval_observer_nonlinear
+            except ModuleNotFoundError:  # pragma: no cover - during development only
+                raise UsageError("nonlinear interval observers are not available") from None
+            return interval_observer_nonlinear(model, design, **options)
+        return interval_observer(model, design)
+    if kind == "unknown-input":
+        try:
+            from .uio import unknown_input_observer
+        except ModuleNotFoundError:  # pragma: no cover - during development only
+            raise UsageError("unknown-input observers are not available") from None
+        return unknown_input_observer(model, design, **options)
+    if kind == "sliding-mode":
+        try:
+            from .sliding import sliding_observer
+        except ModuleNotFoundError:  # pragma: no cover - during development only
+            raise UsageError("sliding-mode observers are not available") from None
+        return sliding_observer(model, design, **options)
+    raise UsageError(f"no observer builder for kind {kind!r}")
