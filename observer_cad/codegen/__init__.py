@@ -1,0 +1,18 @@
+"""Compiled observers: sympy → casadi step functions, C code generation with a cache,
+whole-trajectory simulation in one compiled call, standalone C export.
+
+    from observer_cad.codegen import observer_step, compile_function, CompiledSimulator
+    f = observer_step(obs, h=0.01)            # casadi Function x, y, u, p -> x_next, out
+    c = compile_function(f).function          # same function, compiled (cached .so)
+    res = CompiledSimulator(model, obs).simulate(scenario)   # == simulate(model, obs, scenario)
+"""
+from .compile import (CodegenError, CompiledFunction, STATS, cache_dir, compile_function,
+                      compile_or_interpret, compile_source, generate_c)
+from .translate import (Translator, describe, joint_step, observer_step, plant_step, rk4,
+                        to_casadi)
+from .trajectory import CompiledSimulator, simulate_compiled
+
+__all__ = ["CodegenError", "CompiledFunction", "STATS", "cache_dir", "compile_function",
+           "compile_or_interpret", "compile_source", "generate_c", "Translator", "describe",
+           "joint_step", "observer_step", "plant_step", "rk4", "to_casadi",
+           "CompiledSimulator", "simulate_compiled"]
