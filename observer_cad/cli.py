@@ -178,6 +178,10 @@ def _cmd_simulate(args) -> int:
     res = simulate(model, observer, scenario)
     path = write_signals_csv(res, args.out)
     print(f"wrote {path} ({len(res['t'])} rows, columns: {', '.join(res.order)})")
+    from .plots import plot_simulation
+    for fig in plot_simulation(res, args.out, time=model.time,
+                               title=f"{model.name}, {observer.kind}"):
+        print(f"wrote {fig}")
     return 0
 
 
