@@ -107,6 +107,12 @@ def _add_design_options(p) -> None:
     p.add_argument("--robust", action="store_true",
                    help="when exact decoupling is impossible, give the best approximate design "
                         "(METHOD §2d), reported as APPROXIMATE with its residual norm")
+    p.add_argument("--bound", metavar="NAME=LOW,HIGH", action="append", default=[],
+                   help="override a declared bound, e.g. rho=-0.2,0.2 (repeatable): used by "
+                        "interval observers and unknown-input estimators")
+    p.add_argument("--gain", metavar="VALUE", nargs="+",
+                   help="unknown-input estimator: the gains g (one, or one per row of the "
+                        "model); default as in seed 000 (-0.7; -0.4, -0.1 mismatched)")
     p.add_argument("--symbolic", action="store_true",
                    help="keep parameters as symbols (default: substitute their values as exact rationals)")
     p.add_argument("--method", choices=["auto", "exact", "float"], default="auto",
@@ -128,10 +134,38 @@ def _cmd_show(args) -> int:
     return 0
 
 
+def _parse_bounds(model, items):
+    import dataclasses
+    if not items:
+        return model
+    bounds = dict(model.bounds)
+    for item in items:
+        name, sep, rng = item.partition("=")
+        lo, sep2, hi = rng.partition(",")
+        if not sep or not sep2:
+            raise UsageError(f"--bound {item!r}: use NAME=LOW,HIGH, e.g. rho=-0.2,0.2")
+        sym = model.symbol(name.strip())
+        if sym is None:
+            raise UsageError(f"--bound {item!r}: '{name.strip()}' is not a symbol of the model")
+        bounds[sym] = (lo.strip(), hi.strip())
+    return dataclasses.replace(model, bounds=bounds)
+
+
+def _observer_options(args, result) -> dict:
+    if getattr(args, "gain", None):
+        if result.observer != "unknown-input":
+            raise UsageError("--gain applies to --observer unknown-input")
+        import sympy as sp
+        g = [sp.Rational(v) if "." in v or "/" in v or v.lstrip("-").isdigit() else sp.sympify(v)
+             for v in args.gain]
+        return {"g": g if len(g) > 1 else g[0]}
+    return {}
+
+
 def _design_from_args(args):
     from .model import load_model
     from .synthesis import design
-    model = load_model(args.model)
+    model = _parse_bounds(load_model(args.model), getattr(args, "bound", None))
     result = design(model, observer=args.observer, faults=args.fault,
                     disturbances=args.disturbance, estimate=args.estimate, form=args.form,
                     lambdas=args.lambdas, eigenvalues=args.eigenvalues, variant=args.variant,
@@ -147,7 +181,7 @@ def _cmd_design(args) -> int:
     if not args.symbolic and not result.approximate:
         from .pipeline import build_observer
         try:
-            observer = build_observer(model, result)
+            observer = build_observer(model, result, **_observer_options(args, result))
         except ObserverCadError:
             observer = None  # the design stands; the observer kind is not buildable yet
     if args.json:
@@ -174,7 +208,7 @@ def _cmd_simulate(args) -> int:
         raise UsageError("simulate needs numeric parameters: drop --symbolic")
     model, result = _design_from_args(args)
     scenario = load_scenario(args.scenario)
-    observer = build_observer(model, result)
+    observer = build_observer(model, result, **_observer_options(args, result))
     res = simulate(model, observer, scenario)
     path = write_signals_csv(res, args.out)
     print(f"wrote {path} ({len(res['t'])} rows, columns: {', '.join(res.order)})")
@@ -190,7 +224,7 @@ def _cmd_codegen(args) -> int:
     if args.symbolic:
         raise UsageError("codegen needs numeric parameters: drop --symbolic")
     model, result = _design_from_args(args)
-    observer = build_observer(model, result)
+    observer = build_observer(model, result, **_observer_options(args, result))
     try:
         from .codegen.export import export_observer
     except ModuleNotFoundError:  # pragma: no cover - during development only

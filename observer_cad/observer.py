@@ -106,7 +106,7 @@ def pos(A):
 
 def neg(A):
     """A⁻ = A⁺ − A ≥ 0."""
-    return (pos(A) - sp.Matrix(A)).applyfunc(sp.simplify)
+    return (pos(A) - sp.Matrix(A)).applyfunc(sp.cancel)
 
 
 def box_min(A, lo, hi):

@@ -8,7 +8,9 @@ Scenarios are data (JSON)::
      "initial": {"x1": 0, "x2": 0},     # plant initial state (missing: 0)
      "observer_initial": {"xl1": -1},   # optional, overrides the observer's defaults
      "signals": {"u": "0.2*sin(t/10)",  # sympy expression in t (Piecewise allowed)
-                 "rho": {"uniform": [-0.05, 0.05]}}}   # seeded random samples
+                 "rho": {"uniform": [-0.05, 0.05]},   # seeded random samples
+                 "d": {"piecewise": [["0.3*sin(t/2)", "t <= 20"],
+                                     [{"uniform": [-0.5, 0.5]}, true]]}}}
 
 Every input, fault, disturbance and noise not given is zero. Signals are held constant
 over a step. Continuous time: plant and observer are integrated as one system by
@@ -109,25 +111,49 @@ def _signal_arrays(model: PlantModel, sc: Scenario, t: np.ndarray, runs: int):
                              f" noise of {model.name} (known: {', '.join(names) or 'none'})")
     rng = np.random.default_rng(sc.seed)
     out = {}
-    for name in sorted(names):
-        spec = sc.signals.get(name, 0)
-        if isinstance(spec, dict):
-            if set(spec) != {"uniform"} or len(spec["uniform"]) != 2:
+
+    def expr_of(spec, what):
+        try:
+            e = sp.sympify(spec, locals={"t": T}) if isinstance(spec, str) else sp.sympify(spec)
+        except (sp.SympifyError, SyntaxError, TypeError) as exc:
+            raise UsageError(f"{where}: {what}: cannot parse {spec!r}: {exc}") from None
+        if isinstance(e, bool):
+            e = sp.true if e else sp.false
+        extra = e.free_symbols - {T}
+        if extra:
+            raise UsageError(f"{where}: {what} uses '{sorted(extra, key=str)[0]}'; only t is allowed")
+        return e
+
+    def values(spec, name):
+        if isinstance(spec, dict) and set(spec) == {"uniform"}:
+            if not isinstance(spec["uniform"], (list, tuple)) or len(spec["uniform"]) != 2:
                 raise UsageError(f"{where}: signal '{name}': use {{\"uniform\": [low, high]}}")
             lo, hi = (float(v) for v in spec["uniform"])
-            out[name] = rng.uniform(lo, hi, size=(runs, t.size))
-            continue
-        try:
-            expr = sp.sympify(spec, locals={"t": T}) if isinstance(spec, str) else sp.sympify(spec)
-        except (sp.SympifyError, SyntaxError, TypeError) as exc:
-            raise UsageError(f"{where}: signal '{name}': cannot parse {spec!r}: {exc}") from None
-        extra = expr.free_symbols - {T}
-        if extra:
-            raise UsageError(f"{where}: signal '{name}' uses '{sorted(extra, key=str)[0]}';"
-                             " only t is allowed")
-        f = sp.lambdify(T, expr, "numpy")
-        vals = np.broadcast_to(np.asarray(f(t), dtype=float), t.shape)
-        out[name] = np.broadcast_to(vals, (runs, t.size)).copy()
+            return rng.uniform(lo, hi, size=(runs, t.size))
+        if isinstance(spec, dict) and set(spec) == {"piecewise"}:
+            # [[value spec, condition in t], ...]: the first true condition wins
+            res = np.full((runs, t.size), np.nan)
+            taken = np.zeros(t.size, dtype=bool)
+            for seg in spec["piecewise"]:
+                if not isinstance(seg, (list, tuple)) or len(seg) != 2:
+                    raise UsageError(f"{where}: signal '{name}': piecewise segments are"
+                                     " [value, condition] pairs")
+                vals = values(seg[0], name)
+                cond = expr_of(seg[1], f"signal '{name}' condition")
+                c = np.broadcast_to(np.asarray(sp.lambdify(T, cond, "numpy")(t), dtype=bool), t.shape)
+                use = c & ~taken
+                res[:, use] = vals[:, use]
+                taken |= c
+            return np.where(np.isnan(res), 0.0, res)
+        if isinstance(spec, dict):
+            raise UsageError(f"{where}: signal '{name}': use an expression in t,"
+                             " {\"uniform\": [low, high]} or {\"piecewise\": [[value, condition], ...]}")
+        e = expr_of(spec, f"signal '{name}'")
+        v = np.broadcast_to(np.asarray(sp.lambdify(T, e, "numpy")(t), dtype=float), t.shape)
+        return np.broadcast_to(v, (runs, t.size)).copy()
+
+    for name in sorted(names):
+        out[name] = values(sc.signals.get(name, 0), name)
     return out
 
 

@@ -70,8 +70,18 @@ def design(model: PlantModel, *, observer: str, faults: Sequence[str] = (),
 def _exact(model, observer, faults, disturbances, estimate, form, lambdas, eigenvalues,
            variant, symbolic, method, rtol):
     if observer == "unknown-input":
-        if form != "canonical":
-            raise UsageError("unknown-input designs use --form canonical (METHOD §2a)")
+        if len(faults) != 1:
+            raise UsageError("--observer unknown-input needs exactly one --fault NAME (the input to estimate)")
+        if form == "jordan":  # seed 000 §8: a one-dimensional λ-model
+            import dataclasses
+            from .uio import design_jordan_unknown_input
+            from .virtual import default_eigenvalues
+            lam = lambdas[0] if lambdas else default_eigenvalues(model.time, 1)[0]
+            if lambdas and len(lambdas) > 1:
+                raise UsageError("the Jordan unknown-input estimator takes one --lambda")
+            d = design_jordan_unknown_input(model, faults[0], lam, decouple=disturbances,
+                                            symbolic=symbolic)
+            return dataclasses.replace(d, observer="unknown-input")
         if len(faults) != 1:
             raise UsageError("--observer unknown-input needs exactly one --fault NAME (the input to estimate)")
         from .canonical import design_canonical

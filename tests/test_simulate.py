@@ -121,3 +121,16 @@ def test_cli_simulate_missing_scenario_is_one_line(models_dir, tmp_path, capsys)
                "--estimate", "x1", "--scenario", str(tmp_path / "none.json"), "--out", str(tmp_path)])
     err = capsys.readouterr().err
     assert rc == 2 and len(err.strip().splitlines()) == 1 and "none.json" in err
+
+
+def test_piecewise_signal_with_random_segment(models_dir):
+    m = load_model(models_dir / "electric_drive.py")
+    sc = scenario_from_dict({"steps": 60, "seed": 5, "signals": {
+        "d": {"piecewise": [["0.3*sin(t/2)", "t <= 20"], [{"uniform": [-0.5, 0.5]}, True]]}}})
+    r = simulate(m, None, sc, runs=3)
+    t = r["t"][0]
+    assert np.allclose(r["d"][:, t <= 20], 0.3 * np.sin(t[t <= 20] / 2))
+    late = r["d"][:, t > 20]
+    assert late.min() >= -0.5 and late.max() <= 0.5 and not np.allclose(late[0], late[1])
+    again = simulate(m, None, sc, runs=3)
+    assert np.array_equal(again["d"], r["d"])
