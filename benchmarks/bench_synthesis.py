@@ -78,32 +78,33 @@ def _float_call(model, st):
                                     structure=st)
 
 
-def _timed(fn):
-    t = time.perf_counter()
+def _timed(fn, cpu=False):
+    t, c = time.perf_counter(), time.process_time()
     out = fn()
-    return time.perf_counter() - t, out
+    wall, used = time.perf_counter() - t, time.process_time() - c
+    return ((wall, used) if cpu else wall), out
 
 
 def _child(which: str) -> None:
     """One cold measurement in this (fresh) process; prints JSON."""
     if which == "random":
         model, st, t_build, t_extract = _random_parts()
-        t, d = _timed(_float_call(model, st))
-        print(json.dumps({"t": t, "k": d.k, "build": t_build, "extract": t_extract}))
+        (t, c), d = _timed(_float_call(model, st), cpu=True)
+        print(json.dumps({"t": t, "cpu": c, "k": d.k, "build": t_build, "extract": t_extract}))
     elif which == "random-plain":
         from observer_cad import design_canonical
         from observer_cad.randsys import random_model
 
         model = random_model(RANDOM["n"], RANDOM["l"], RANDOM["p"], seed=RANDOM["seed"],
                              integer=False)
-        t, d = _timed(lambda: design_canonical(model, unknown_input="d", symbolic=False,
-                                               method="float"))
-        print(json.dumps({"t": t, "k": d.k}))
+        (t, c), d = _timed(lambda: design_canonical(model, unknown_input="d", symbolic=False,
+                                                    method="float"), cpu=True)
+        print(json.dumps({"t": t, "cpu": c, "k": d.k}))
     else:
         spec = EXAMPLES[int(which)]
         fn = _example_call(spec)
-        t, d = _timed(fn)
-        print(json.dumps({"t": t, "k": d.k, "method": d.method}))
+        (t, c), d = _timed(fn, cpu=True)
+        print(json.dumps({"t": t, "cpu": c, "k": d.k, "method": d.method}))
 
 
 def _cold(which: str, runs: int) -> list:
@@ -158,11 +159,11 @@ def _fmt(t: float) -> str:
     return f"{t * 1e3:.0f} ms" if t < 10 else f"{t:.1f} s"
 
 
-def _row(name, method, k, warm, cold, target):
+def _row(name, method, k, warm, cold, cold_cpu, target):
     worst = max(warm, cold)
     mark = "ok" if worst < target else "**MISSED**"
-    return (f"| {name} | {method} | {k} | {_fmt(warm)} | {_fmt(cold)} | {target:g} s |"
-            f" {warm / target:.2f} / {cold / target:.2f} ({mark}) |")
+    return (f"| {name} | {method} | {k} | {_fmt(warm)} | {_fmt(cold)} ({_fmt(cold_cpu)}) |"
+            f" {target:g} s | {warm / target:.2f} / {cold / target:.2f} ({mark}) |")
 
 
 def run(repeats: int, cold_runs: int) -> str:
@@ -172,17 +173,20 @@ def run(repeats: int, cold_runs: int) -> str:
     rows = []
     for i, spec in enumerate(EXAMPLES):
         warm, d = _warm(_example_call(spec), repeats)
-        cold = statistics.median(r["t"] for r in _cold(str(i), cold_runs))
-        rows.append(_row(spec[0], d.method, d.k, warm, cold, EXAMPLE_TARGET))
+        res = _cold(str(i), cold_runs)
+        cold = statistics.median(r["t"] for r in res)
+        cpu = statistics.median(r["cpu"] for r in res)
+        rows.append(_row(spec[0], d.method, d.k, warm, cold, cpu, EXAMPLE_TARGET))
         print(rows[-1], flush=True)
 
     model, st, t_build, t_extract = _random_parts()
     warm, d = _warm(_float_call(model, st), repeats)
     cold_res = _cold("random", cold_runs)
     cold = statistics.median(r["t"] for r in cold_res)
+    cpu = statistics.median(r["cpu"] for r in cold_res)
     name = (f"random n={RANDOM['n']} l={RANDOM['l']} p={RANDOM['p']} seed {RANDOM['seed']}:"
             " float synthesis")
-    rows.append(_row(name, d.method, d.k, warm, cold, FLOAT_TARGET))
+    rows.append(_row(name, d.method, d.k, warm, cold, cpu, FLOAT_TARGET))
     print(rows[-1], flush=True)
     del t_build, t_extract  # in-process, first call: the cold runs' medians are reported
     rows.append(f"| … building its exact sympy PlantModel (not synthesis) | – | – | – |"
@@ -191,8 +195,9 @@ def run(repeats: int, cold_runs: int) -> str:
                 f" {_fmt(statistics.median(r['extract'] for r in cold_res))} | – | – |")
     plain = _cold("random-plain", max(1, cold_runs - 1))
     t_plain = statistics.median(r["t"] for r in plain)
+    c_plain = statistics.median(r["cpu"] for r in plain)
     rows.append("| … `design_canonical(model, symbolic=False, method=\"float\")` (extracts"
-                f" the structure itself) | float | {plain[0]['k']} | – | {_fmt(t_plain)} |"
+                f" the structure itself) | float | {plain[0]['k']} | – | {_fmt(t_plain)} ({_fmt(c_plain)}) |"
                 " – | – |")
     print("\n".join(rows[-3:]), flush=True)
     load1 = _load()
@@ -203,8 +208,10 @@ def run(repeats: int, cold_runs: int) -> str:
         f" numpy {info['numpy']}, {info['platform']}. Load average (1, 5, 15 min) {load0} at"
         f" the start, {load1} at the end. Warm: median of {repeats} calls in one process"
         f" after a first, uncounted one. Cold: median of {cold_runs} fresh processes, the"
-        " first design call after imports and model loading. Ratio: warm / cold time over"
-        " the target; a target is met when both are below it.",
+        " first design call after imports and model loading, wall-clock (CPU time of the"
+        " process in parentheses: wall ≫ CPU means other processes held the cores)."
+        " Ratio: warm / cold wall-clock time over the target; a target is met when both are"
+        " below it.",
         "",
         "| design | method | k | warm | cold | target | ratio warm / cold |",
         "|---|---|---|---|---|---|---|",

@@ -78,10 +78,12 @@ def build_parser() -> argparse.ArgumentParser:
 def _add_design_options(p) -> None:
     """Options shared by ``design``, ``simulate`` (and later ``codegen``)."""
     p.add_argument("--observer", required=True,
-                   choices=["unknown-input", "diagnostic", "virtual-sensor", "interval"],
+                   choices=["unknown-input", "diagnostic", "virtual-sensor", "interval",
+                            "sliding-mode"],
                    help="unknown-input: estimate the input named by --fault; diagnostic: a "
                         "residual that detects the faults; virtual-sensor / interval: estimate "
-                        "(bounds on) z = M x given by --estimate")
+                        "(bounds on) z = M x given by --estimate; sliding-mode: estimate the "
+                        "fault with a sliding-mode observer (continuous time, matching condition)")
     p.add_argument("--fault", metavar="NAME", action="append", default=[],
                    help="unknown-input: the input to estimate (a fault, or a disturbance, which "
                         "is then not decoupled); diagnostic: a fault to detect (repeatable; "

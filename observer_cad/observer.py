@@ -175,79 +175,28 @@ def diagnostic_observer(model: PlantModel, design: Design) -> Observer:
         description="residual generator r = R* y − H* x*")
 
 
-def interval_observer(model: PlantModel, design: Design) -> Observer:
-    """Interval observer for z = M x on a linear Jordan or diagonal design (METHOD §3).
+def interval_observer(model: PlantModel, design: Design, **options) -> Observer:
+    """Interval observer for z = M x (METHOD §3): see
+    :func:`observer_cad.interval.interval_observer_nonlinear`, which handles linear and
+    nonlinear, continuous and discrete designs, the faults' and disturbances' bounds
+    through Φ [L D], the H_z sign split and the noise through Q y.
 
-    Two copies of the reduced model with the uncertainty bounded,
-
-        x̲*' = F* x̲* + G* u + J* y + min(−J* w + L* ρ),   x̄*' = … + max(−J* w + L* ρ)
-
-    (min/max over the declared bounds by the ⁺/⁻ split), and
-    z̲ = H_z⁺ x̲* − H_z⁻ x̄* + Q y − max(Q w), z̄ = H_z⁺ x̄* − H_z⁻ x̲* + Q y − min(Q w).
-    Inclusion needs a cooperative error system: F* Metzler (continuous) or
-    nonnegative (discrete); otherwise, in discrete time, F* = F*⁺ − F*⁻ acts on both
-    bounds. Raises when the design has nonlinear terms (see the nonlinear builder).
+    Canonical designs of seed 001 method 1 are used in their diagonal (Metzler) form.
     """
-    d = design
-    if "Hz" not in d.matrices:
-        raise UsageError("interval_observer needs a design with z = H_z x* + Q y")
-    if d.nonlinear:
-        raise UsageError("interval_observer: nonlinear designs need the monotone builder")
-    st = extract_structure(model.substitute_parameters() if model.parameters else model)
-    k = d.k
-    l = len(model.outputs)
-    Fs, Js, Gs = (sp.Matrix(d.matrices[n]) for n in ("F_star", "J_star", "G_star"))
-    Hz, Q = sp.Matrix(d.matrices["Hz"]), sp.Matrix(d.matrices["Q"])
-    W = sp.Matrix(st.W)
-    rho = [s for s in model.disturbances]
-    Lstar = sp.Matrix(d.matrices["L_star"]) if "L_star" in d.matrices and not d.decoupled \
-        else sp.zeros(k, 0)
-    # uncertainty entering the reduced model: −J* W w + L* ρ
-    B = sp.Matrix.hstack(-Js * W, Lstar) if (W.cols or Lstar.cols) else sp.zeros(k, 0)
-    wlo, whi = _bounds(model, model.noise, "noise")
-    rlo, rhi = _bounds(model, rho if Lstar.cols else [], "disturbance")
-    lo = sp.Matrix.vstack(wlo, rlo) if B.cols else sp.zeros(0, 1)
-    hi = sp.Matrix.vstack(whi, rhi) if B.cols else sp.zeros(0, 1)
-    bmin = box_min(B, lo, hi) if B.cols else sp.zeros(k, 1)
-    bmax = box_max(B, lo, hi) if B.cols else sp.zeros(k, 1)
-    xl = sp.Matrix(sp.symbols(f"xl1:{k + 1}"))
-    xu = sp.Matrix(sp.symbols(f"xu1:{k + 1}"))
-    ys = sp.Matrix(output_symbols(l))
-    us = sp.Matrix(model.inputs) if model.inputs else sp.zeros(0, 1)
-    common = Js * ys + (Gs * us if us.rows else sp.zeros(k, 1))
-    conds = list(d.conditions)
-    coop = all(Fs[i, j] >= 0 for i in range(k) for j in range(k)
-               if (i != j or model.time == "discrete"))
-    if model.time == "continuous":
-        if not coop:
-            raise UsageError("interval observer: F* is not Metzler; use a Jordan (diagonal) design")
-        upd_l = Fs * xl + common + bmin
-        upd_u = Fs * xu + common + bmax
-        conds.append(Condition("cooperative error system (F* Metzler)", True,
-                               f"F* = {Fs.tolist()}", "METHOD §3"))
-    else:
-        Fp, Fm = pos(Fs), neg(Fs)
-        upd_l = Fp * xl - Fm * xu + common + bmin
-        upd_u = Fp * xu - Fm * xl + common + bmax
-        conds.append(Condition("cooperative error system (F* ≥ 0, else the ⁺/⁻ split)", True,
-                               "F* ≥ 0" if coop else "F* has negative entries: both bounds"
-                               " use F*⁺ − F*⁻", "METHOD §3"))
-    Hp, Hm = pos(Hz), neg(Hz)
-    QW = Q * W
-    qmin = box_min(QW, wlo, whi) if QW.cols else sp.zeros(Hz.rows, 1)
-    qmax = box_max(QW, wlo, whi) if QW.cols else sp.zeros(Hz.rows, 1)
-    zl = Hp * xl - Hm * xu + Q * ys - qmax
-    zu = Hp * xu - Hm * xl + Q * ys - qmin
-    name = estimate_name(model, d)
-    states = tuple(xl) + tuple(xu)
-    return Observer(
-        name=f"{model.name}_interval", kind="interval", time=model.time, states=states,
-        signals=_signals(model, l), parameters={},
-        update=tuple(sp.expand(e) for e in list(upd_l) + list(upd_u)),
-        outputs=((f"{name}_lower", sp.expand(zl[0])), (f"{name}_upper", sp.expand(zu[0]))),
-        initial=_interval_initial(model, d, xl, xu),
-        conditions=tuple(conds), assumptions=d.assumptions, design=d,
-        description=f"interval observer for z = {d.estimate}")
+    from .interval import interval_observer_nonlinear
+    if "F_diag" in design.matrices:  # 001 method 1: the diagonalised, stabilised model
+        if design.nonlinear:
+            raise UsageError("the diagonal form of a canonical design is built for linear"
+                             " models; use --form jordan for nonlinear interval observers")
+        m = design.matrices
+        mats = {"Phi": m["Phi_diag"], "F_star": m["F_diag"], "J_star": m["J_diag"],
+                "G_star": m["G_diag"], "Hz": m["Hz_diag"], "Q": m["Q"]}
+        design = dataclasses.replace(design, matrices=mats, form="jordan",
+                                     lambdas=tuple(sp.Matrix(m["F_diag"]).diagonal()))
+    elif "K" in design.matrices:
+        raise UsageError("interval observers need a diagonal (Metzler) model: use a Jordan"
+                         " design or real distinct --eigenvalues (seed 001 method 1)")
+    return interval_observer_nonlinear(model, design, **options)
 
 
 def _interval_initial(model, d, xl, xu, margin=1):

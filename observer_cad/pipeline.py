@@ -22,13 +22,7 @@ def build_observer(model: PlantModel, design: Design, **options) -> Observer:
     if kind == "diagnostic":
         return diagnostic_observer(model, design)
     if kind == "interval":
-        if design.nonlinear:
-            try:
-                from .interval import interval_observer_nonlinear
-            except ModuleNotFoundError:  # pragma: no cover - during development only
-                raise UsageError("nonlinear interval observers are not available") from None
-            return interval_observer_nonlinear(model, design, **options)
-        return interval_observer(model, design)
+        return interval_observer(model, design, **options)
     if kind == "unknown-input":
         try:
             from .uio import unknown_input_observer
@@ -36,9 +30,11 @@ def build_observer(model: PlantModel, design: Design, **options) -> Observer:
             raise UsageError("unknown-input observers are not available") from None
         return unknown_input_observer(model, design, **options)
     if kind == "sliding-mode":
-        try:
-            from .sliding import sliding_observer
-        except ModuleNotFoundError:  # pragma: no cover - during development only
-            raise UsageError("sliding-mode observers are not available") from None
-        return sliding_observer(model, design, **options)
+        from .sliding import design_sliding
+        lam = design.lambdas[0] if design.lambdas else None
+        _, obs = design_sliding(model, fault=design.unknown_input, lam=lam,
+                                decouple=[s for s in design.decoupled
+                                          if model.symbol(s) not in model.disturbances],
+                                **options)
+        return obs
     raise UsageError(f"no observer builder for kind {kind!r}")

@@ -163,8 +163,15 @@ def _vector_fn(args, exprs):
 
     def call(*vals):
         res = f(*vals)
-        shape = np.broadcast(*vals).shape if vals else ()
-        return [np.broadcast_to(np.asarray(r, dtype=float), shape) for r in res]
+        shape = None
+        out = []
+        for r in res:
+            if np.ndim(r) == 0:  # a constant expression: broadcast to the runs
+                if shape is None:
+                    shape = np.broadcast(*vals).shape if vals else ()
+                r = np.full(shape, float(r))
+            out.append(r)
+        return out
     return call
 
 

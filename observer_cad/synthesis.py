@@ -22,7 +22,7 @@ from .model import PlantModel
 
 __all__ = ["design", "OBSERVERS"]
 
-OBSERVERS = ("unknown-input", "diagnostic", "virtual-sensor", "interval")
+OBSERVERS = ("unknown-input", "diagnostic", "virtual-sensor", "interval", "sliding-mode")
 
 
 def design(model: PlantModel, *, observer: str, faults: Sequence[str] = (),
@@ -35,6 +35,8 @@ def design(model: PlantModel, *, observer: str, faults: Sequence[str] = (),
     faults = [faults] if isinstance(faults, str) else list(faults or [])
     if form is None:
         form = "canonical" if observer == "unknown-input" else "jordan"
+    if observer == "sliding-mode" and estimate:
+        raise UsageError("--estimate does not apply to --observer sliding-mode")
     if form not in ("canonical", "jordan"):
         raise UsageError(f"form must be 'canonical' or 'jordan', got {form!r}")
     if lambdas and form != "jordan":
@@ -87,6 +89,15 @@ def _exact(model, observer, faults, disturbances, estimate, form, lambdas, eigen
         from .canonical import design_canonical
         return design_canonical(model, unknown_input=faults[0], decouple=disturbances,
                                 symbolic=symbolic, method=method, rtol=rtol)
+    if observer == "sliding-mode":
+        if form != "jordan":
+            raise UsageError("the sliding-mode observer uses one Jordan row (--form jordan)")
+        if len(faults) > 1 or (lambdas and len(lambdas) > 1):
+            raise UsageError("the sliding-mode observer estimates one --fault with one --lambda")
+        from .sliding import design_sliding
+        d, _ = design_sliding(model, fault=faults[0] if faults else None,
+                              lam=lambdas[0] if lambdas else None, decouple=disturbances)
+        return d
     if observer == "diagnostic":
         if form == "canonical":
             if len(faults) > 1:

@@ -5,14 +5,16 @@ whole-trajectory simulation in one compiled call, standalone C export.
     f = observer_step(obs, h=0.01)            # casadi Function x, y, u, p -> x_next, out
     c = compile_function(f).function          # same function, compiled (cached .so)
     res = CompiledSimulator(model, obs).simulate(scenario)   # == simulate(model, obs, scenario)
+    export_observer(obs, "out", dt=0.01)      # out/NAME.c, NAME.h, NAME_example.c (standalone C)
 """
 from .compile import (CodegenError, CompiledFunction, STATS, cache_dir, compile_function,
                       compile_or_interpret, compile_source, generate_c)
 from .translate import (Translator, describe, joint_step, observer_step, plant_step, rk4,
                         to_casadi)
+from .export import export_observer, export_sources
 from .trajectory import CompiledSimulator, simulate_compiled
 
 __all__ = ["CodegenError", "CompiledFunction", "STATS", "cache_dir", "compile_function",
            "compile_or_interpret", "compile_source", "generate_c", "Translator", "describe",
            "joint_step", "observer_step", "plant_step", "rk4", "to_casadi",
-           "CompiledSimulator", "simulate_compiled"]
+           "CompiledSimulator", "simulate_compiled", "export_observer", "export_sources"]
