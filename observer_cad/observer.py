@@ -145,6 +145,15 @@ def _signals(model: PlantModel, l: int):
     return tuple(output_symbols(l)) + tuple(model.inputs)
 
 
+def _mapped_initial(model: PlantModel, design: Design) -> dict:
+    """Default initial state x*(0) = Φ x(0), an expression in the plant's initial state
+    (the simulator substitutes it; a scenario's ``observer_initial`` overrides it to
+    study the transient from a wrong start)."""
+    Phi = sp.Matrix(design.matrices["Phi"])
+    xs0 = Phi * sp.Matrix(model.states)
+    return {x: xs0[i] for i, x in enumerate(design.observer_states)}
+
+
 def virtual_sensor_observer(model: PlantModel, design: Design) -> Observer:
     """The virtual sensor's equations: the design's x*' and z = H_z x* + Q y."""
     if design.observer != "virtual-sensor" or not design.equations:
@@ -156,7 +165,7 @@ def virtual_sensor_observer(model: PlantModel, design: Design) -> Observer:
         name=f"{model.name}_virtual_sensor", kind="virtual-sensor", time=model.time,
         states=design.observer_states, signals=_signals(model, l), parameters={},
         update=design.equations, outputs=((f"{name}_hat", zexpr),),
-        initial={x: 0 for x in design.observer_states}, conditions=design.conditions,
+        initial=_mapped_initial(model, design), conditions=design.conditions,
         assumptions=design.assumptions, design=design,
         description=f"virtual sensor for z = {design.estimate}")
 
@@ -170,7 +179,7 @@ def diagnostic_observer(model: PlantModel, design: Design) -> Observer:
         name=f"{model.name}_diagnostic", kind="diagnostic", time=model.time,
         states=design.observer_states, signals=_signals(model, l), parameters={},
         update=design.equations, outputs=(("r", dict(design.outputs)["r"]),),
-        initial={x: 0 for x in design.observer_states}, conditions=design.conditions,
+        initial=_mapped_initial(model, design), conditions=design.conditions,
         assumptions=design.assumptions, design=design,
         description="residual generator r = R* y − H* x*")
 
