@@ -99,19 +99,41 @@ class Structure:
         return sp.ImmutableMatrix(sp.Matrix.hstack(*cols))
 
     def rhs(self) -> sp.ImmutableMatrix:
-        """F x + G u + C Ψ + D d + L ρ rebuilt from the matrices (for checks)."""
+        """F x + G u + C Ψ + D d + L ρ rebuilt from the matrices (for checks).
+
+        Built row by row from the nonzero entries (``Add`` of products), which is much
+        cheaper than matrix products of long symbolic sums."""
         m = self.model
-        col = lambda s: sp.Matrix(s) if s else sp.zeros(0, 1)  # noqa: E731
-        out = self.F * col(m.states)
-        if m.inputs:
-            out += self.G * col(m.inputs)
-        if self.terms:
-            out += self.C * sp.Matrix(self.psi())
-        if m.faults:
-            out += self.D * col(m.faults)
-        if m.disturbances:
-            out += self.L * col(m.disturbances)
-        return sp.ImmutableMatrix(out)
+        psi = list(self.psi()) if self.terms else []
+        blocks = [(self.F, m.states), (self.G, m.inputs), (self.C, psi),
+                  (self.D, m.faults), (self.L, m.disturbances)]
+        rows = []
+        for i in range(self.n):
+            parts = []
+            for M, v in blocks:
+                for j, s in enumerate(v):
+                    c = M[i, j]
+                    if c != 0:
+                        parts.append(c * s)
+            rows.append(sp.Add(*parts))
+        return sp.ImmutableMatrix(rows)
+
+
+def _split(t, varset):
+    """(coefficient, variable part) of a product term: ``as_independent`` without its
+    cost for the common case of a number or parameter times one factor."""
+    if t.is_Symbol:
+        return (sp.Integer(1), t) if t in varset else (t, sp.Integer(1))
+    if t.is_Mul:
+        dep = [a for a in t.args if a.free_symbols & varset]
+        if not dep:
+            return t, sp.Integer(1)
+        rest = [a for a in t.args if not (a.free_symbols & varset)]
+        coef = sp.Mul(*rest) if rest else sp.Integer(1)
+        return coef, (dep[0] if len(dep) == 1 else sp.Mul(*dep))
+    if not (t.free_symbols & varset):
+        return t, sp.Integer(1)
+    return sp.Integer(1), t
 
 
 def _is_const(e, variables) -> bool:
@@ -164,6 +186,9 @@ def extract_structure(model: PlantModel) -> Structure:
     G = sp.zeros(n, len(us))
     D = sp.zeros(n, len(ds))
     L = sp.zeros(n, len(rs))
+    xu_set = set(xs) | set(us)
+    x_pos = {x: k for k, x in enumerate(xs)}
+    u_pos = {u: k for k, u in enumerate(us)}
     funcs: list = []  # m (x,u-dependent part) per column, in order of appearance
     index: dict = {}  # m -> column j
     coeffs: dict = {}  # (i, j) -> coefficient
@@ -171,18 +196,27 @@ def extract_structure(model: PlantModel) -> Structure:
 
     for i, (x_i, f) in enumerate(zip(xs, model.dynamics)):
         eq = f"dynamics equation {i + 1} (for {x_i})"
-        rest = f
+
+        terms = sp.Add.make_args(sp.expand(f, deep=False))
+        fsyms = f.free_symbols
+
+        def part(sym):  # only the terms that contain sym (cheap for long equations)
+            return sp.Add(*[t for t in terms if sym in t.free_symbols])
         # Step 1: controls enter affinely (their coefficient may depend on x: φ(A x, u));
         # unknown inputs enter affinely with constant coefficients (D, L constant)
         for sym in us:
-            c = sp.diff(f, sym)
+            if sym not in fsyms:
+                continue
+            c = sp.diff(part(sym), sym)
             bad = c.free_symbols & (set(us) | set(ds) | set(rs))
             if bad:
                 raise ModelError(
                     f"{where}: {eq} is not affine in input '{sym}' (its coefficient {c}"
                     f" depends on '{sorted(bad, key=str)[0]}')")
         for sym, mat, role in [(s, D, "fault") for s in ds] + [(s, L, "disturbance") for s in rs]:
-            c = sp.diff(f, sym)
+            if sym not in fsyms:
+                continue
+            c = sp.diff(part(sym), sym)
             bad = c.free_symbols & variables
             if bad & (set(us) | set(ds) | set(rs)):
                 raise ModelError(
@@ -194,20 +228,21 @@ def extract_structure(model: PlantModel) -> Structure:
                     f" depends on state '{sorted(bad, key=str)[0]}'; it must be constant")
             idx = (ds if role == "fault" else rs).index(sym)
             mat[i, idx] = c
-            rest = rest - c * sym
-        rest = sp.expand(rest, deep=False)
+        # every term with d or ρ is c·d (checked above): the rest is what remains
+        unknown = set(ds) | set(rs)
+        rest_terms = [t for t in terms if not (t.free_symbols & unknown)]
         # Step 2: linear terms in x and u, the rest nonlinear
-        for t in sp.Add.make_args(rest):
+        for t in rest_terms:
             if t == 0:
                 continue
-            coef, m = t.as_independent(*xs, *us, as_Add=False)
-            if m in xs or m in us:
-                if not _is_const(coef, variables):  # pragma: no cover - guarded by as_independent
+            coef, m = _split(t, xu_set)
+            if m in x_pos or m in u_pos:
+                if not _is_const(coef, variables):  # pragma: no cover - guarded by _split
                     raise ModelError(f"{where}: {eq}: term {t} is not linear")
-                if m in xs:
-                    F[i, xs.index(m)] += coef
+                if m in x_pos:
+                    F[i, x_pos[m]] += coef
                 else:
-                    G[i, us.index(m)] += coef
+                    G[i, u_pos[m]] += coef
                 continue
             if m.free_symbols & (set(ds) | set(rs)):  # pragma: no cover - caught in step 1
                 raise ModelError(f"{where}: {eq} is not affine in the unknown inputs: {t}")
@@ -279,33 +314,41 @@ def extract_structure(model: PlantModel) -> Structure:
             C[:, j] = -C[:, j]
             info[j][0] = -info[j][0]
 
-    # Outputs: y = H x + W w
+    # Outputs: y = H x + W w (term by term: cheap for long outputs)
     H = sp.zeros(len(model.outputs), n)
     W = sp.zeros(len(model.outputs), len(model.noise))
+    xidx = {x: k for k, x in enumerate(xs)}
+    widx = {w: k for k, w in enumerate(model.noise)}
     for i, h in enumerate(model.outputs):
         name = f"y{i + 1}"
-        for k, x in enumerate(xs):
-            c = sp.diff(h, x)
-            if not _is_const(c, variables):
+        for t in sp.Add.make_args(sp.expand(h)):
+            if t == 0:
+                continue
+            coef, m = _split(t, set(xs) | set(model.noise))
+            if m in xidx and _is_const(coef, variables):
+                H[i, xidx[m]] += coef
+            elif m in widx and _is_const(coef, variables):
+                W[i, widx[m]] += coef
+            elif m == 1:
+                raise ModelError(f"{where}: output {name} = {h} has a constant offset {t}")
+            elif m.free_symbols & set(xs):
                 raise ModelError(f"{where}: output {name} = {h} is not linear in the states")
-            H[i, k] = c
-        for k, w in enumerate(model.noise):
-            c = sp.diff(h, w)
-            if not _is_const(c, variables):
+            else:
+                w = sorted(m.free_symbols & set(model.noise), key=str)[0]
                 raise ModelError(f"{where}: output {name} = {h} is not linear in the noise '{w}'")
-            W[i, k] = c
-        off = sp.expand(h - sum(H[i, k] * x for k, x in enumerate(xs))
-                        - sum(W[i, k] * w for k, w in enumerate(model.noise)))
-        if off != 0:
-            raise ModelError(f"{where}: output {name} = {h} has a constant offset {off}")
 
     terms = tuple(NonlinearTerm(fn, s, sp.ImmutableMatrix([row]))
                   for fn, s, row in info)
     st = Structure(model, *(sp.ImmutableMatrix(M) for M in (F, G, H, C, D, L, W)), terms)
-    # self-check: the matrices rebuild the right-hand side exactly
-    diff = sp.Matrix(st.rhs()) - sp.Matrix(model.dynamics)
-    for i, e in enumerate(diff):
-        if sp.expand(e) != 0 and sp.simplify(e) != 0:  # pragma: no cover - internal error
+    # self-check: the matrices rebuild the right-hand side exactly (rows with nonlinear
+    # terms, where grouping and the formal-term split happened; linear rows were read
+    # off term by term)
+    nl_rows = [i for i in range(n) if any(st.C[i, j] != 0 for j in range(st.C.shape[1]))]
+    rebuilt = st.rhs() if nl_rows else []
+    for i in nl_rows:
+        f = model.dynamics[i]
+        e = rebuilt[i] - f
+        if e != 0 and sp.expand(e) != 0 and sp.simplify(e) != 0:  # pragma: no cover
             raise ModelError(
                 f"{where}: internal error: extracted structure does not rebuild dynamics"
                 f" equation {i + 1} (residual {e})")
