@@ -79,11 +79,13 @@ def _add_design_options(p) -> None:
     """Options shared by ``design``, ``simulate`` (and later ``codegen``)."""
     p.add_argument("--observer", required=True,
                    choices=["unknown-input", "diagnostic", "virtual-sensor", "interval",
-                            "sliding-mode"],
+                            "sliding-mode", "drem"],
                    help="unknown-input: estimate the input named by --fault; diagnostic: a "
                         "residual that detects the faults; virtual-sensor / interval: estimate "
                         "(bounds on) z = M x given by --estimate; sliding-mode: estimate the "
-                        "fault with a sliding-mode observer (continuous time, matching condition)")
+                        "fault with a sliding-mode observer (continuous time, matching condition); "
+                        "drem: adaptive observer for time-varying polynomial parameters (seed 003; "
+                        "the model file declares drem = DremSpec(...))")
     p.add_argument("--fault", metavar="NAME", action="append", default=[],
                    help="unknown-input: the input to estimate (a fault, or a disturbance, which "
                         "is then not decoupled); diagnostic: a fault to detect (repeatable; "
@@ -115,6 +117,12 @@ def _add_design_options(p) -> None:
     p.add_argument("--gain", metavar="VALUE", nargs="+",
                    help="unknown-input estimator: the gains g (one, or one per row of the "
                         "model); default as in seed 000 (-0.7; -0.4, -0.1 mismatched)")
+    p.add_argument("--gamma", type=float, default=None,
+                   help="drem: the gradient gain γ (default: the model's suggestion)")
+    p.add_argument("--poles", metavar="SET", nargs="+",
+                   help="drem: one comma-separated pole set per filter, e.g. -1,-2 -3,-4")
+    p.add_argument("--include-epsilon", action="store_true",
+                   help="drem: estimate the decaying term as extra unknowns (more filters)")
     p.add_argument("--symbolic", action="store_true",
                    help="keep parameters as symbols (default: substitute their values as exact rationals)")
     p.add_argument("--method", choices=["auto", "exact", "float"], default="auto",
@@ -164,9 +172,25 @@ def _observer_options(args, result) -> dict:
     return {}
 
 
+def _drem_from_args(args):
+    from .drem import drem_design, load_drem
+    model, spec = load_drem(args.model)
+    poles = None
+    if args.poles:
+        try:
+            poles = [[float(v) for v in item.split(",")] for item in args.poles]
+        except ValueError:
+            raise UsageError(f"--poles {' '.join(args.poles)}: use comma-separated numbers per set,"
+                             " e.g. -1,-2 -3,-4") from None
+    return model, drem_design(model, spec, gamma=args.gamma, poles=poles,
+                              include_epsilon=args.include_epsilon)
+
+
 def _design_from_args(args):
     from .model import load_model
     from .synthesis import design
+    if args.observer == "drem":
+        return _drem_from_args(args)
     model = _parse_bounds(load_model(args.model), getattr(args, "bound", None))
     result = design(model, observer=args.observer, faults=args.fault,
                     disturbances=args.disturbance, estimate=args.estimate, form=args.form,
@@ -179,6 +203,16 @@ def _design_from_args(args):
 def _cmd_design(args) -> int:
     from .report import format_design, format_observer
     model, result = _design_from_args(args)
+    if args.observer == "drem":
+        if args.json:
+            out = result.to_json(equations=False)
+            ob = result.observer.to_json()
+            out.update({"states": ob["states"], "outputs": ob["outputs"],
+                        "equations": ob["equations"]})
+            print(json.dumps(out, indent=2))
+        else:
+            print(result.format())
+        return 0
     observer = None
     if not args.symbolic and not result.approximate:
         from .pipeline import build_observer
@@ -218,6 +252,13 @@ def _cmd_simulate(args) -> int:
     for fig in plot_simulation(res, args.out, time=model.time,
                                title=f"{model.name}, {observer.kind}"):
         print(f"wrote {fig}")
+    if observer.kind == "drem":
+        from .drem import excitation_report
+        rep = excitation_report(res, observer)
+        if not rep.ok:
+            print(f"{PROG}: warning: {rep.message}", file=sys.stderr)
+            return 3
+        print(rep.message)
     return 0
 
 

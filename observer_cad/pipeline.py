@@ -16,6 +16,9 @@ __all__ = ["build_observer"]
 
 def build_observer(model: PlantModel, design: Design, **options) -> Observer:
     """The observer for a design; ``options`` go to the kind's builder (gains, bounds)."""
+    from .drem import DremDesign
+    if isinstance(design, DremDesign):  # DREM designs carry their observer
+        return design.observer
     kind = design.observer
     if kind == "virtual-sensor":
         return virtual_sensor_observer(model, design)

@@ -159,7 +159,8 @@ def _signal_arrays(model: PlantModel, sc: Scenario, t: np.ndarray, runs: int):
 
 def _vector_fn(args, exprs):
     """Numpy function of arrays (one per arg) returning a list of arrays (broadcast)."""
-    f = sp.lambdify(args, list(exprs), "numpy")
+    # cse: long expressions (e.g. DREM's determinants) share their subexpressions
+    f = sp.lambdify(args, list(exprs), "numpy", cse=True)
 
     def call(*vals):
         res = f(*vals)
@@ -168,7 +169,7 @@ def _vector_fn(args, exprs):
         for r in res:
             if np.ndim(r) == 0:  # a constant expression: broadcast to the runs
                 if shape is None:
-                    shape = np.broadcast(*vals).shape if vals else ()
+                    shape = np.broadcast_shapes(*(np.shape(v) for v in vals)) if vals else ()
                 r = np.full(shape, float(r))
             out.append(r)
         return out
