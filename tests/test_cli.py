@@ -232,11 +232,12 @@ def test_help_design_mentions_every_option(capsys):
     assert out.startswith("usage: observer-cad design")
     expected = {"--observer", "--fault", "--disturbance", "--form", "--symbolic", "--method",
                 "--rtol", "--json", "--help", "--estimate", "--lambda", "--eigenvalues",
-                "--variant", "--robust", "--bound", "--gain"}
+                "--variant", "--robust", "--bound", "--gain", "--gamma", "--poles",
+                "--include-epsilon"}
     subparsers = next(a for a in build_parser()._actions if a.choices and "design" in a.choices)
     assert _options(subparsers.choices["design"]) - {"-h"} == expected
     for opt in expected | {"MODEL", "unknown-input", "diagnostic", "virtual-sensor", "interval",
-                           "sliding-mode",
+                           "sliding-mode", "drem",
                            "canonical", "jordan", "auto", "exact", "float", "004"}:
         assert opt in out, opt
 
