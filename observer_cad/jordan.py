@@ -119,6 +119,13 @@ def _pencil(F, H, L0, lam):
     return sp.Matrix.vstack(L0 * (F - lam * sp.eye(n)), H)
 
 
+def _det(M):
+    """Determinant over the polynomial ring (fast, exact), as an expression."""
+    from sympy.polys.matrices import DomainMatrix
+    dm = DomainMatrix.from_Matrix(sp.Matrix(M))
+    return dm.domain.to_sympy(dm.det()) if hasattr(dm.domain, "to_sympy") else dm.to_Matrix().det()
+
+
 def admissible_lambdas(F, H, L0) -> Admissible:
     """Exactly: generic solvability, or the real roots where P(λ) drops row rank."""
     F, H, L0 = sp.Matrix(F), sp.Matrix(H), sp.Matrix(L0)
@@ -134,7 +141,7 @@ def admissible_lambdas(F, H, L0) -> Admissible:
                                         " for λ as a free symbol")
     minors = []
     for cols in itertools.combinations(range(n), r):
-        m = sp.expand(sp.cancel(P[:, list(cols)].det(method="berkowitz")))
+        m = sp.expand(_det(P[:, list(cols)]))
         if m != 0:
             minors.append(m)
     g = minors[0]
@@ -285,37 +292,36 @@ def design_jordan(model: PlantModel, *, observer: str, estimate=None,
                 f"{where}: no stable admissible λ{why}: {adm.describe()} ({adm.evidence})",
                 (adm.evidence,))
 
-    # Step 3: the pool of candidate rows (λ, Φ_i, J*_i)
+    # Step 3: for every λ the whole family of rows: Φ = c N_λ L0, J* = c J_λ
+    fam = {}
     pool = []
     for lam in lam_list:
         P = _pencil(F, H, L0, lam)
         basis, _ = linalg.left_null_space(P)
+        rows_phi, rows_j = [], []
         for v in linalg.echelon_rows(basis):
             S, J = v[:, :L0.rows], -v[:, L0.rows:]
             Phi_i = (S * L0).applyfunc(sp.cancel)
             if Phi_i != sp.zeros(1, n):
+                rows_phi.append(Phi_i)
+                rows_j.append(J.applyfunc(sp.cancel))
                 pool.append((lam, Phi_i, J.applyfunc(sp.cancel)))
+        if rows_phi:
+            fam[lam] = (sp.Matrix.vstack(*rows_phi), sp.Matrix.vstack(*rows_j))
+            if observer == "diagnostic":  # rows inside rowspace(H): a residual with k = 1
+                for extra in _rows_in_rowspace(fam[lam], H):
+                    pool.append((lam,) + extra)
     if not pool:
         raise InfeasibleDesignError(f"{where}: no nonzero row Φ_i for λ in {lam_list}")
 
-    # Step 4: fewest rows satisfying the task
+    # Step 4: fewest rows satisfying the task, one row per λ first
+    CA = [(j, sp.Matrix(t.row)) for j, t in enumerate(st.terms)]
     tried = []
     chosen = None
-    CA = [(j, sp.Matrix(t.row)) for j, t in enumerate(st.terms)]
-    for size in range(1, n):
-        for combo in itertools.combinations(range(len(pool)), size):
-            rows = [pool[i] for i in combo]
-            Phi = sp.Matrix.vstack(*[r[1] for r in rows])
-            if _rank(Phi) < size:
-                continue
-            ok, why = _task_ok(observer, Phi, H, D, M, st)
-            if ok:
-                chosen = rows
-                break
-            if len(tried) < 12:
-                tried.append(f"k={size}, λ = ({', '.join(str(r[0]) for r in rows)}): {why}")
-        if chosen:
-            break
+    if M is not None:  # directed: M ∈ rowspace(H) + Σ_λ rowspace(N_λ L0), one row per λ
+        chosen = _directed_rows(fam, lam_list, H, M, n, observer, D, st, tried)
+    if chosen is None:
+        chosen = _combination_rows(pool, n, observer, H, D, M, st, tried)
     if chosen is None:
         raise InfeasibleDesignError(
             f"{where}: no Jordan-form {observer} with fewer than n = {n} rows for λ in"
@@ -394,6 +400,72 @@ def design_jordan(model: PlantModel, *, observer: str, estimate=None,
         else str(list(M * sp.Matrix(work.states))),
         lambdas=lams, nonlinear=tuple(nonlinear), equations=equations,
         observer_states=tuple(xs), outputs=tuple(outputs))
+
+
+def _rows_in_rowspace(family, H):
+    """Rows c N_λ L0 that lie in rowspace(H) (their residual needs only this row)."""
+    PhiB, JB = family
+    basis, _ = linalg.left_null_space(sp.Matrix.vstack(PhiB, H))
+    out = []
+    vecs = [b[:, :PhiB.rows] for b in basis]
+    vecs = [c for c in vecs if c != sp.zeros(1, PhiB.rows)]
+    if len(vecs) > 1:
+        vecs.append(sum(vecs[1:], vecs[0]))
+    for c in vecs:
+        Phi_i = (c * PhiB).applyfunc(sp.cancel)
+        if Phi_i != sp.zeros(1, PhiB.cols):
+            out.append((Phi_i, (c * JB).applyfunc(sp.cancel)))
+    return out
+
+
+def _directed_rows(fam, lam_list, H, M, n, observer, D, st, tried):
+    """Sets of distinct λ, smallest first: solve M = Σ c_λ N_λ L0 + Q H for one row per λ."""
+    lams = [lam for lam in lam_list if lam in fam]
+    for size in range(1, n):
+        for combo in itertools.combinations(lams, size):
+            B = sp.Matrix.vstack(*[fam[lam][0] for lam in combo])
+            X = linalg.solve_left(sp.Matrix.vstack(B, H), M)
+            if X is None:
+                continue
+            rows, off = [], 0
+            for lam in combo:
+                PhiB, JB = fam[lam]
+                c = X[:, off:off + PhiB.rows]
+                off += PhiB.rows
+                Phi_i = (c * PhiB).applyfunc(sp.cancel)
+                if Phi_i != sp.zeros(1, n):
+                    rows.append((lam, Phi_i, (c * JB).applyfunc(sp.cancel)))
+            if len(rows) != size:
+                continue  # a smaller set does it (found earlier unless the task failed)
+            Phi = sp.Matrix.vstack(*[r[1] for r in rows])
+            if _rank(Phi) < size:
+                continue
+            ok, why = _task_ok(observer, Phi, H, D, M, st)
+            if ok:
+                return rows
+            if len(tried) < 12:
+                tried.append(f"k={size}, λ = ({', '.join(str(r[0]) for r in rows)}): {why}")
+    return None
+
+
+def _combination_rows(pool, n, observer, H, D, M, st, tried):
+    """Fewest rows from the pool; sets with distinct λ before sets that repeat one."""
+    for size in range(1, n):
+        for distinct in (True, False):
+            for combo in itertools.combinations(range(len(pool)), size):
+                rows = [pool[i] for i in combo]
+                lams = [r[0] for r in rows]
+                if (len(set(lams)) == len(lams)) != distinct:
+                    continue
+                Phi = sp.Matrix.vstack(*[r[1] for r in rows])
+                if _rank(Phi) < size:
+                    continue
+                ok, why = _task_ok(observer, Phi, H, D, M, st)
+                if ok:
+                    return rows
+                if len(tried) < 12:
+                    tried.append(f"k={size}, λ = ({', '.join(str(r[0]) for r in rows)}): {why}")
+    return None
 
 
 def _task_ok(observer, Phi, H, D, M, st):

@@ -246,3 +246,66 @@ def test_m_not_reachable_for_any_k(capsys):
     with pytest.raises(InfeasibleDesignError) as info:
         design_virtual_sensor_canonical(m, estimate="x3")
     assert "k=1" in str(info.value) and "\n" not in str(info.value)
+
+
+def _m4():
+    xs = sp.symbols("x1:5")
+    u = sp.Symbol("u")
+    F = [[-2, 1, 2, 0], [-2, -1, 2, 2], [0, 0, -1, -2], [0, -1, -2, 0]]
+    H = [[-1, 0, -2, 1], [1, -1, -2, -2]]
+    return PlantModel(name="m4", time="continuous", states=xs, inputs=[u],
+                      outputs=[sum(H[i][j] * xs[j] for j in range(4)) for i in range(2)],
+                      dynamics=[sum(F[i][j] * xs[j] for j in range(4)) + (u if i == 0 else 0)
+                                for i in range(4)])
+
+
+def test_jordan_takes_a_combination_of_one_lambdas_rows():
+    """Review finding: one row c N_λ L0 (a combination of the λ's null-space basis) can
+    already reach z; the design must find k = 1, not two rows with a repeated λ."""
+    d = design_jordan(_m4(), observer="virtual-sensor", estimate="x1")
+    assert d.k == 1
+    # independently: the identities of the single row
+    F = sp.Matrix([[-2, 1, 2, 0], [-2, -1, 2, 2], [0, 0, -1, -2], [0, -1, -2, 0]])
+    H = sp.Matrix([[-1, 0, -2, 1], [1, -1, -2, -2]])
+    Phi, J = sp.Matrix(d.matrices["Phi"]), sp.Matrix(d.matrices["J_star"])
+    lam = d.lambdas[0]
+    assert Phi * F - lam * Phi - J * H == sp.zeros(1, 4)
+    assert sp.Matrix(d.matrices["Hz"]) * Phi + sp.Matrix(d.matrices["Q"]) * H == sp.Matrix([[1, 0, 0, 0]])
+
+
+def test_multi_fault_diagnostic_single_row_in_rowspace_of_H():
+    x1, x2, x3, x4, u, d1, d2, r = sp.symbols("x1 x2 x3 x4 u d1 d2 r")
+    m = PlantModel(name="mf", time="continuous", states=[x1, x2, x3, x4], inputs=[u],
+                   faults=[d1, d2], disturbances=[r], outputs=[x1, x2, x4],
+                   dynamics=[-x1 + x2 + u + d1, x1 - 2 * x2 + x3, x2 - 3 * x3 + r + x4, -x4 + x1 + d2])
+    d = design_jordan(m, observer="diagnostic")
+    assert d.k == 1
+    obs = next(c for c in d.conditions if c.name == "observability of (F*, H*)")
+    assert obs.holds
+    PD = sp.Matrix(d.matrices["Phi"]) * sp.Matrix([[1, 0], [0, 0], [0, 0], [0, 1]])
+    assert all(PD[0, c] != 0 for c in range(2))
+
+
+@pytest.mark.parametrize("seed", range(20))
+def test_jordan_rows_have_distinct_lambdas(seed):
+    rng = random.Random(100 + seed)
+    m = _random_model(rng, 4, 2, rng.randint(0, 1))
+    try:
+        d = design_jordan(m, observer="virtual-sensor", estimate="x1")
+    except InfeasibleDesignError:
+        return
+    assert len(set(d.lambdas)) == len(d.lambdas)
+    if d.k > 1:  # then no single λ of the list reaches z (checked independently)
+        from observer_cad import extract_structure, linalg
+        st = extract_structure(m)
+        F, H = sp.Matrix(st.F), sp.Matrix(st.H)
+        L0 = sp.eye(4)
+        if st.L.cols:
+            b, _ = linalg.left_null_space(st.L)
+            L0 = sp.Matrix.vstack(*b)
+        M = sp.Matrix([[1, 0, 0, 0]])
+        for lam in (-1, -2, -3, -4):
+            P = sp.Matrix.vstack(L0 * (F - lam * sp.eye(4)), H)
+            N = sp.Matrix.vstack(*linalg.left_null_space(P)[0])
+            B = sp.Matrix.vstack((N[:, :L0.rows] * L0), H)
+            assert frac_rank(sp.Matrix.vstack(B, M).tolist()) > frac_rank(B.tolist())
