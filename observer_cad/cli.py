@@ -19,7 +19,17 @@ MODELS_DIR = Path(__file__).resolve().parent.parent / "models"
 
 
 class _Parser(argparse.ArgumentParser):
-    """argparse with one-line errors and exit status 2."""
+    """argparse with one-line errors and exit status 2.
+
+    Every option here is long (``--name``), so a token with a single leading dash
+    (``-1+2*I``, ``-sqrt(2)``, ``-1/2``) is a value, not an option (argparse alone takes
+    only plain negative numbers as values).
+    """
+
+    def __init__(self, *a, **kw):
+        super().__init__(*a, **kw)
+        import re
+        self._negative_number_matcher = re.compile(r"^-(?!-)(?!h$).+")
 
     def error(self, message):  # noqa: D401 - argparse API
         raise UsageError(f"{message} (see '{self.prog} --help')")
@@ -189,6 +199,8 @@ def _drem_from_args(args):
 def _design_from_args(args):
     from .model import load_model
     from .synthesis import design
+    if getattr(args, "rtol", None) is not None and not (args.rtol > 0 and args.rtol < 1):
+        raise UsageError(f"--rtol {args.rtol}: a relative tolerance must lie in (0, 1)")
     if args.observer == "drem":
         return _drem_from_args(args)
     model = _parse_bounds(load_model(args.model), getattr(args, "bound", None))
@@ -294,7 +306,8 @@ def main(argv=None) -> int:
         return {"show": _cmd_show, "design": _cmd_design, "simulate": _cmd_simulate,
                 "codegen": _cmd_codegen, "demo": _cmd_demo}[args.command](args)
     except ObserverCadError as exc:
-        print(f"{PROG}: error: {exc}", file=sys.stderr)
+        msg = " / ".join(part.strip() for part in str(exc).splitlines() if part.strip())
+        print(f"{PROG}: error: {msg}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
         print(f"{PROG}: interrupted", file=sys.stderr)

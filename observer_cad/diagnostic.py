@@ -24,16 +24,34 @@ __all__ = ["design_diagnostic_canonical", "observer_equations"]
 S = sp.Symbol("s")
 
 
-def observer_equations(mats: dict, inputs, k: int, l: int, with_feedback: bool = True):
-    """Right-hand sides F* x* + J* y + G* u (+ K r) and the residual r."""
+def observer_equations(mats: dict, inputs, k: int, l: int, with_feedback: bool = True,
+                       nonlinear=()):
+    """Right-hand sides F* x* + J* y + G* u + C* Ψ*(x*, y, u) (+ K r) and the residual r."""
     xs, ys = observer_symbols(k), output_symbols(l)
     r = (sp.Matrix(mats["R_star"]) * sp.Matrix(ys) - sp.Matrix(mats["H_star"]) * sp.Matrix(xs))[0, 0]
     rhs = sp.Matrix(mats["F_star"]) * sp.Matrix(xs) + sp.Matrix(mats["J_star"]) * sp.Matrix(ys)
     if inputs:
         rhs += sp.Matrix(mats["G_star"]) * sp.Matrix(inputs)
+    if nonlinear:
+        Cs = sp.Matrix(mats["C_star"])
+        psi = sp.zeros(Cs.cols, 1)
+        for ns in nonlinear:
+            psi[ns.index - 1, 0] = ns.function
+        rhs += Cs * psi
     if with_feedback and "K" in mats:
         rhs += sp.Matrix(mats["K"]) * r
     return tuple(sp.expand(e) for e in rhs), sp.expand(r), xs
+
+
+def _require_stable(eigs, time, requested):
+    """Requested closed-loop eigenvalues must be stable for the time domain."""
+    from .errors import InfeasibleDesignError
+    bad = [e for e in eigs if not ((sp.re(e) < 0) if time == "continuous" else (sp.Abs(e) < 1))]
+    if bad:
+        need = "Re < 0" if time == "continuous" else "|·| < 1"
+        raise InfeasibleDesignError(
+            f"requested eigenvalues {[str(e) for e in requested]} are not stable in {time} time"
+            f" (needs {need}): {', '.join(map(str, bad))}")
 
 
 def design_diagnostic_canonical(model: PlantModel, *, fault: str, decouple: Sequence[str] = (),
@@ -54,7 +72,8 @@ def design_diagnostic_canonical(model: PlantModel, *, fault: str, decouple: Sequ
         cl += [rt] * mult
     cl = tuple(sorted(cl, key=lambda z: (float(sp.re(z)), float(sp.im(z)))))
     l = sp.Matrix(mats["R_star"]).cols
-    eqs, r, xs = observer_equations(mats, list(model.inputs), k, l)
+    eqs, r, xs = observer_equations(mats, list(model.inputs), k, l, nonlinear=base.nonlinear)
+    _require_stable(cl, model.time, eigs)
     conds = list(base.conditions)
     conds.insert(-1, Condition("closed-loop eigenvalues of F* − K H*", True,
                                f"requested {[str(e) for e in eigs]}, obtained exactly"

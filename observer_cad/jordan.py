@@ -70,7 +70,13 @@ def parse_estimate(model: PlantModel, expr) -> sp.Matrix:
         try:
             e = sp.sympify(e, locals=loc) if isinstance(e, str) else sp.sympify(e)
         except (sp.SympifyError, SyntaxError, TypeError) as exc:
-            raise ModelError(f"{where}: cannot parse --estimate {e!r}: {exc}") from None
+            raise ModelError(f"{where}: cannot parse --estimate {e!r}: not a valid expression"
+                             f" ({type(exc).__name__})") from None
+        if not isinstance(e, sp.Expr):
+            raise ModelError(f"{where}: --estimate {expr!r} must be one expression in the"
+                             " states, e.g. x1 or 'x1 - x2'")
+        if e == 0:
+            raise ModelError(f"{where}: --estimate is identically zero")
         extra = e.free_symbols - set(model.states) - set(model.parameters)
         if extra:
             raise ModelError(f"{where}: --estimate {e} uses '{sorted(extra, key=str)[0]}',"
@@ -241,6 +247,8 @@ def design_jordan(model: PlantModel, *, observer: str, estimate=None,
         s = work.symbol(str(nm))
         if s is None or (s not in work.faults and s not in work.disturbances):
             raise ModelError(f"{where}: unknown disturbance '{nm}'")
+        if s in fault_syms:
+            raise UsageError(f"'{nm}' cannot be both detected (--fault) and decoupled (--disturbance)")
         if s not in dec:
             dec.append(s)
     D = sp.Matrix(st.unknown_input_columns(fault_syms)) if fault_syms else sp.zeros(n, 0)
@@ -267,7 +275,16 @@ def design_jordan(model: PlantModel, *, observer: str, estimate=None,
     if lambdas:
         lam_list = []
         for v in lambdas:
-            lam = sp.nsimplify(sp.sympify(v), rational=True) if not isinstance(v, sp.Basic) else v
+            try:
+                lam = sp.sympify(v) if not isinstance(v, sp.Basic) else v
+            except (sp.SympifyError, SyntaxError, TypeError):
+                raise UsageError(f"λ = {v!r} is not a number") from None
+            if not isinstance(lam, sp.Expr) or lam.free_symbols - set(work.parameters):
+                raise UsageError(f"λ = {v} is not a number (or a declared parameter with --symbolic)")
+            if lam.is_number:
+                if lam.is_real is False:
+                    raise UsageError(f"λ = {v} is not real: the Jordan form needs real λ")
+                lam = sp.nsimplify(lam, rational=True) if lam.is_Float else lam
             if not adm.contains(lam):
                 raise InfeasibleDesignError(
                     f"{where}: λ = {lam} is not admissible: [L0(F − λI); H] has full row rank"
@@ -390,6 +407,13 @@ def design_jordan(model: PlantModel, *, observer: str, estimate=None,
     for Mx in mats.values():
         for e in Mx:
             assumptions |= linalg.denominator_conditions(e)
+    if observer == "diagnostic" and work.parameters:  # each fault seen: not all entries 0
+        PD = (Phi * D).applyfunc(sp.cancel)
+        for c in range(PD.cols):
+            nums = [sp.fraction(sp.together(e))[0] for e in PD[:, c] if e != 0]
+            if nums:
+                g = sp.gcd_list(nums) if len(nums) > 1 else nums[0]
+                assumptions |= linalg.nonzero_conditions(g)
     return Design(
         model_name=work.name, form="jordan", k=k, matrices=mats, conditions=tuple(conds),
         assumptions=tuple(sorted(assumptions, key=str)), certificate=cert,

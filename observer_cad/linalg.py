@@ -15,6 +15,7 @@ values around the cut and the gap, the evidence for the rank decision.
 from __future__ import annotations
 
 import dataclasses
+import functools
 
 import numpy as np
 import sympy as sp
@@ -30,6 +31,12 @@ __all__ = [
 
 # ---------------------------------------------------------------- conditions
 def nonzero_conditions(expr) -> frozenset:
+    """See :func:`_nonzero_conditions` (cached: pivot choice asks for the same entries often)."""
+    return _nonzero_conditions(sp.sympify(expr))
+
+
+@functools.lru_cache(maxsize=8192)
+def _nonzero_conditions(expr) -> frozenset:
     """The irreducible polynomial factors f of a nonzero expression's numerator,
     returned as relations ``Ne(f, 0)``: the expression is nonzero iff none vanishes.
 

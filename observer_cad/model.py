@@ -305,6 +305,11 @@ class PlantModel:
         if not vals:
             return self
         sub = lambda e: sp.sympify(e).xreplace(vals)  # noqa: E731
+        for i, f in enumerate(self.dynamics):
+            g = sub(f)
+            if g.has(sp.zoo, sp.nan, sp.oo, -sp.oo):
+                raise ModelError(f"{self.where}: the parameter values make dynamics equation"
+                                 f" {i + 1} undefined (division by zero): {f}")
         return dataclasses.replace(
             self,
             dynamics=tuple(sub(f) for f in self.dynamics),
@@ -342,8 +347,7 @@ def load_model(path: str | Path) -> PlantModel:
     except BaseException as exc:  # noqa: BLE001 - any failure of user code
         if isinstance(exc, KeyboardInterrupt):
             raise
-        detail = str(exc).strip().splitlines()
-        detail = detail[-1] if detail else ""
+        detail = " / ".join(line.strip() for line in str(exc).strip().splitlines() if line.strip())
         lineno = ""
         tb = exc.__traceback__
         here = p.resolve()

@@ -228,6 +228,8 @@ def design_virtual_sensor_canonical(model: PlantModel, *, estimate, variant: str
                   f"requested {[str(e) for e in eigs]}, obtained exactly {[str(e) for e in cl_list]}",
                   "METHOD §3"),
     ]
+    from .diagnostic import _require_stable
+    _require_stable(cl_list, work.time, eigs)
     stable = all((sp.re(e) < 0) if work.time == "continuous" else (sp.Abs(e) < 1) for e in cl_list)
     conds.append(Condition("observer stable", bool(stable),
                            "all closed-loop eigenvalues " + ("have Re < 0" if work.time == "continuous"

@@ -309,3 +309,36 @@ def test_jordan_rows_have_distinct_lambdas(seed):
             N = sp.Matrix.vstack(*linalg.left_null_space(P)[0])
             B = sp.Matrix.vstack((N[:, :L0.rows] * L0), H)
             assert frac_rank(sp.Matrix.vstack(B, M).tolist()) > frac_rank(B.tolist())
+
+
+@pytest.mark.parametrize("argv,needle", [
+    (["--estimate", "x1,x3"], "one expression"),
+    (["--estimate", "x1+"], "not a valid expression"),
+    (["--estimate", "x1", "--lambda", "abc"], "not a number"),
+    (["--estimate", "x1", "--lambda", "0.5+0.1*I"], "not real"),
+    (["--estimate", "x1", "--form", "canonical", "--eigenvalues", "3", "-1"], "not stable"),
+    (["--estimate", "x1", "--rtol", "-1"], "--rtol"),
+])
+def test_cli_review_inputs_one_line(models_dir, capsys, argv, needle):
+    from observer_cad.cli import main
+    rc = main(["design", str(models_dir / "three_tank_linear.py"), "--observer", "virtual-sensor"] + argv)
+    err = capsys.readouterr().err
+    assert rc == 2 and len(err.strip().splitlines()) == 1 and needle in err, err
+
+
+def test_cli_complex_eigenvalues_as_values(models_dir, capsys):
+    import json
+    from observer_cad.cli import main
+    rc = main(["design", str(models_dir / "three_tank_linear.py"), "--observer", "virtual-sensor",
+               "--estimate", "x1", "--form", "canonical", "--eigenvalues", "-1+2*I", "-1-2*I", "--json"])
+    j = json.loads(capsys.readouterr().out)
+    assert rc == 0
+    assert {sp.sympify(v) for v in j["closed_loop_eigenvalues"]} == {-1 + 2 * sp.I, -1 - 2 * sp.I}
+
+
+def test_canonical_diagnostic_nonlinear_includes_psi(models_dir):
+    """Review finding: the residual generator of a nonlinear model carries C* Ψ*."""
+    from observer_cad.diagnostic import design_diagnostic_canonical
+    m = load_model(models_dir / "three_tank.py")
+    d = design_diagnostic_canonical(m, fault="rho2")
+    assert d.nonlinear and any(e.has(sp.sqrt(sp.Symbol("xs1"))) or "sqrt" in str(e) for e in d.equations)
