@@ -44,7 +44,10 @@ time other processes hold the cores; wall-clock medians are given beside.  Also
 timed, wall-clock: generate + compile + load of the compiled trajectory
 (``CompiledSimulator``: sympy → casadi, C generation, cc -O3, dlopen) in a fresh
 temporary OBSERVER_CAD_CACHE (median of --cold runs), and a cache hit (same, with
-the library already in the cache).
+the library already in the cache: a fingerprint hit, which neither translates nor
+generates C — asserted), in this process (5 times) and in 3 fresh processes (the
+construction timed inside the process; interpreter start-up and imports excluded).
+A hit passes when its *maximum* is under 50 ms.
 """
 from __future__ import annotations
 
@@ -268,20 +271,39 @@ def _timed(fn):
 
 
 def _observer(m, primary, fallback):
-    """(observer, hand C, label, note): the primary design or, if it fails, the fallback."""
+    """(observer, hand C, label, note, design kwargs): the primary design or, if it
+    fails, the fallback."""
     kw, hand, label = primary
     try:
-        return build_observer(m, design(m, **kw)), hand, label, None
+        return build_observer(m, design(m, **kw)), hand, label, None, kw
     except Exception as exc:  # noqa: BLE001 - any failure of a concurrent module
         kw2, hand2, label2 = fallback
         return (build_observer(m, design(m, **kw2)), hand2, label2,
-                f"{type(exc).__name__}: {exc}")
+                f"{type(exc).__name__}: {exc}", kw2)
 
 
-def _build_times(m, o, cold_runs, hit_runs):
-    """Wall-clock generate + compile + load in fresh caches, and cache hits."""
+_FRESH = """
+import sys, time
+sys.path.insert(0, {root!r})
+from observer_cad.model import load_model
+from observer_cad.synthesis import design
+from observer_cad.pipeline import build_observer
+from observer_cad.codegen import CompiledSimulator
+m = load_model({model!r})
+o = build_observer(m, design(m, **{kw!r}))
+t0, c0 = time.perf_counter(), time.process_time()
+c = CompiledSimulator(m, o)
+print(time.perf_counter() - t0, time.process_time() - c0, c.cached, c.translated)
+"""
+
+
+def _build_times(m, o, cold_runs, hit_runs, model_path, kw):
+    """Wall-clock generate + compile + load in fresh caches; cache hits in this process
+    (fingerprint hits: no translation, no C generation, no compiler) and in fresh
+    processes (the construction only, timed inside the process)."""
+    import subprocess
     old = os.environ.get("OBSERVER_CAD_CACHE")
-    cold, hits = [], []
+    cold, hits, fresh = [], [], []
     try:
         for _ in range(cold_runs):
             with tempfile.TemporaryDirectory(prefix="ocad-bench-") as d:
@@ -290,17 +312,26 @@ def _build_times(m, o, cold_runs, hit_runs):
                 cs = CompiledSimulator(m, o)
                 cold.append(time.perf_counter() - t0)
                 assert not cs.cached
-                for _ in range(hit_runs if not hits else 0):
+                if hits:
+                    continue
+                for _ in range(hit_runs):
                     t0, c0 = time.perf_counter(), time.process_time()
                     c2 = CompiledSimulator(m, o)
                     hits.append((time.perf_counter() - t0, time.process_time() - c0))
-                    assert c2.cached
+                    assert c2.cached and not c2.translated and c2.path == cs.path
+                script = _FRESH.format(root=str(ROOT), model=str(model_path), kw=kw)
+                for _ in range(3):
+                    r = subprocess.run([sys.executable, "-c", script], capture_output=True,
+                                       text=True, env=dict(os.environ), timeout=600)
+                    w, c, cached, translated = r.stdout.split()
+                    assert cached == "True" and translated == "False", r.stdout + r.stderr
+                    fresh.append((float(w), float(c)))
     finally:
         if old is None:
             os.environ.pop("OBSERVER_CAD_CACHE", None)
         else:
             os.environ["OBSERVER_CAD_CACHE"] = old
-    return cold, hits
+    return cold, hits, fresh
 
 
 def _linear_joint(m, o):
@@ -369,14 +400,17 @@ def _numpy_loop(m, o, s0, V, H):
 # ---------------------------------------------------------------- one case
 def bench_case(title, path, primary, fallback, scen, a):
     m = load_model(ROOT / "models" / path)
-    o, hand_src, label, note = _observer(m, primary, fallback)
+    o, hand_src, label, note, kw = _observer(m, primary, fallback)
     row = {"case": f"{title}, {label}", "note": note, "short": title,
            "observer": o.name, "kind": o.kind}
-    cold, hits = _build_times(m, o, a.cold, 5)
+    cold, hits, fresh = _build_times(m, o, a.cold, 5, ROOT / "models" / path, kw)
     row["build"], row["build_all"] = statistics.median(cold), cold
     row["hit"] = statistics.median(h for h, _ in hits)
     row["hit_all"] = [h for h, _ in hits]
     row["hit_cpu"] = statistics.median(c for _, c in hits)
+    row["fresh"] = statistics.median(h for h, _ in fresh)
+    row["fresh_all"] = [h for h, _ in fresh]
+    row["fresh_cpu"] = statistics.median(c for _, c in fresh)
 
     work = tempfile.TemporaryDirectory(prefix="ocad-bench-")
     cache = work.name
@@ -604,10 +638,14 @@ def render(rows, a, load0, load1) -> str:
             f"| {r['short']} | generate + compile + load < {TARGET_BUILD:g} s (median of"
             f" {len(r['build_all'])} cold caches, wall-clock) | {r['build']:.2f} s (max"
             f" {max(r['build_all']):.2f} s) | {_ok(r['build'] < TARGET_BUILD)} |",
-            f"| {r['short']} | cache hit < {TARGET_HIT * 1e3:g} ms (median of"
-            f" {len(r['hit_all'])}, wall-clock) | {r['hit'] * 1e3:.1f} ms (max"
-            f" {max(r['hit_all']) * 1e3:.1f} ms; CPU {r['hit_cpu'] * 1e3:.1f} ms) |"
-            f" {_ok(r['hit'] < TARGET_HIT)} |"]
+            f"| {r['short']} | cache hit < {TARGET_HIT * 1e3:g} ms, same process (median of"
+            f" {len(r['hit_all'])}, wall-clock) | {r['hit'] * 1e3:.2f} ms (max"
+            f" {max(r['hit_all']) * 1e3:.2f} ms; CPU {r['hit_cpu'] * 1e3:.2f} ms) |"
+            f" {_ok(max(r['hit_all']) < TARGET_HIT)} |",
+            f"| {r['short']} | cache hit < {TARGET_HIT * 1e3:g} ms, fresh process (median of"
+            f" {len(r['fresh_all'])}, wall-clock) | {r['fresh'] * 1e3:.2f} ms (max"
+            f" {max(r['fresh_all']) * 1e3:.2f} ms; CPU {r['fresh_cpu'] * 1e3:.2f} ms) |"
+            f" {_ok(max(r['fresh_all']) < TARGET_HIT)} |"]
     lines += ["", "Agreement with the compiled trajectory (max error relative to each array's"
               " largest magnitude):"]
     for r in rows:

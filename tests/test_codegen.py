@@ -8,6 +8,7 @@ there).
 from __future__ import annotations
 
 import dataclasses
+import json
 import os
 import signal
 import subprocess
@@ -231,8 +232,11 @@ def test_trajectory_matches_interpreted_casadi_and_many_scenarios(built):
     m, o, sc = built["diagnostic"]
     cs = CompiledSimulator(m, o)
     res = cs.simulate(sc)
-    # interpreted casadi loop over the same joint step (first 50 steps)
-    s = [res[str(x)][0] for x in m.states] + [0.0] * len(o.states)
+    # interpreted casadi loop over the same joint step (first 50 steps), from the joint
+    # initial state the simulator uses (the observer's default x*(0) may depend on x(0))
+    x0 = {x: float(res[str(x)][0]) for x in m.states}
+    s = list(x0.values()) + [float(sp.sympify(o.initial.get(x, 0)).xreplace(x0))
+                             for x in o.states]
     ins = cs.inputs
     for i in range(50):
         v = [res[str(u)][i] for u in ins]
@@ -426,3 +430,181 @@ def test_compiler_error_gives_clear_error(built, monkeypatch, tmp_path):
         compile_function(observer_step(o))
     assert not list((tmp_path / "cache").glob("*.so"))
     assert not list((tmp_path / "cache").glob(".tmp-*"))
+
+
+# ------------------------------------------------------------------ fingerprint cache
+class _Counter:
+    """Counts Translator constructions and C generations (monkeypatched wrappers)."""
+
+    def __init__(self, monkeypatch):
+        import observer_cad.codegen.compile as cmod
+        import observer_cad.codegen.trajectory as tmod
+        import observer_cad.codegen.translate as trmod
+        self.translators = 0
+        self.generated = 0
+        orig_init = trmod.Translator.__init__
+        orig_gen = cmod.generate_c
+
+        def init(obj, *a, **k):
+            self.translators += 1
+            orig_init(obj, *a, **k)
+
+        def gen(*a, **k):
+            self.generated += 1
+            return orig_gen(*a, **k)
+        monkeypatch.setattr(trmod.Translator, "__init__", init)
+        monkeypatch.setattr(cmod, "generate_c", gen)
+        monkeypatch.setattr(tmod, "generate_c", gen)
+
+    def reset(self):
+        self.translators = self.generated = 0
+
+
+@needs_cc
+def test_second_simulator_skips_translation_and_loads_the_same_library(built, tmp_path,
+                                                                        monkeypatch):
+    monkeypatch.setenv("OBSERVER_CAD_CACHE", str(tmp_path))
+    m, o, sc = built["virtual-sensor"]
+    cnt = _Counter(monkeypatch)
+    cs1 = CompiledSimulator(m, o)
+    assert cs1.translated and not cs1.cached and cnt.translators > 0 and cnt.generated > 0
+    assert len(list(tmp_path.glob("*.ref"))) == 1
+    cnt.reset()
+    n_comp, n_fp = STATS["compiles"], STATS["fingerprint_hits"]
+    hits = []
+    for _ in range(5):
+        t0 = time.perf_counter()
+        cs2 = CompiledSimulator(m, o)
+        hits.append(time.perf_counter() - t0)
+        assert cs2.cached and not cs2.translated and cs2.path == cs1.path
+    assert cnt.translators == 0 and cnt.generated == 0, "a hit translated or generated C"
+    assert STATS["compiles"] == n_comp and STATS["fingerprint_hits"] == n_fp + 5
+    assert sorted(hits)[2] < 0.050, f"cache hit median {sorted(hits)[2] * 1e3:.1f} ms"
+    r1, r2 = cs1.simulate(sc), cs2.simulate(sc)
+    for c in r1.columns:
+        np.testing.assert_array_equal(r1[c], r2[c])
+    assert cs2.source == cs1.source          # read back from the .c kept beside the .so
+    assert cnt.translators == 0
+    # the interpreted step is still there, built on first use
+    sn = cs2.step([3, 2, 1, 2.5], [0.5, 0.3, 0, 0, 0, 0], 0.01)[0]
+    assert cnt.translators > 0 and cs2.translated
+    np.testing.assert_array_equal(np.array(sn), np.array(cs1.step([3, 2, 1, 2.5],
+                                                                  [0.5, 0.3, 0, 0, 0, 0], 0.01)[0]))
+
+
+@needs_cc
+def test_compile_observer_step_hit_skips_translation(built, tmp_path, monkeypatch):
+    from observer_cad.codegen import compile_observer_step, compile_plant_step
+    monkeypatch.setenv("OBSERVER_CAD_CACHE", str(tmp_path))
+    m, o, _ = built["interval"]
+    f = observer_step(o, h=0.05)
+    cnt = _Counter(monkeypatch)
+    c1 = compile_observer_step(o, h=0.05)
+    assert c1.translated and not c1.cached and cnt.translators > 0
+    cnt.reset()
+    c2 = compile_observer_step(o, h=0.05)
+    assert c2.cached and not c2.translated and c2.path == c1.path
+    assert cnt.translators == 0 and cnt.generated == 0
+    assert c2.function.__doc__ == f.__doc__
+    x, y, u = [0.2, -0.1], [0.5, 0.25], [0.1, 0.0]
+    for g in (c1.function, c2.function):
+        np.testing.assert_array_equal(np.array(g(x, y, u, [])[0]), np.array(f(x, y, u, [])[0]))
+    # other options are other functions
+    c3 = compile_observer_step(o, h=0.1)
+    assert c3.translated and c3.path != c1.path
+    c4 = compile_plant_step(m, h=0.05)
+    cnt.reset()
+    c5 = compile_plant_step(m, h=0.05)
+    assert not c5.translated and c5.path == c4.path and cnt.translators == 0
+
+
+@needs_cc
+def test_changed_model_misses_the_fingerprint_and_recompiles(built, tmp_path, monkeypatch):
+    monkeypatch.setenv("OBSERVER_CAD_CACHE", str(tmp_path))
+    m, o, sc = built["diagnostic"]
+    cs1 = CompiledSimulator(m, o)
+    k = next(iter(m.parameters))
+    m2 = dataclasses.replace(m, parameters={**m.parameters, k: m.parameters[k] * 2})
+    n = STATS["compiles"]
+    cs2 = CompiledSimulator(m2, o)
+    assert cs2.translated and not cs2.cached and cs2.path != cs1.path
+    assert STATS["compiles"] == n + 1
+    assert not np.array_equal(cs1.simulate(sc)["x1"], cs2.simulate(sc)["x1"])
+    # the observer changed (a coefficient): also a miss
+    o2 = dataclasses.replace(o, update=tuple(sp.sympify(e) * 2 for e in o.update))
+    cs3 = CompiledSimulator(m, o2)
+    assert cs3.translated and cs3.path not in (cs1.path, cs2.path)
+
+
+@needs_cc
+def test_missing_or_bad_fingerprint_record_falls_back_to_the_content_key(built, tmp_path,
+                                                                         monkeypatch):
+    monkeypatch.setenv("OBSERVER_CAD_CACHE", str(tmp_path))
+    m, o, _ = built["interval"]
+    cs1 = CompiledSimulator(m, o)
+    ref = next(tmp_path.glob("*.ref"))
+    n = STATS["compiles"]
+    # no record: translated, C generated, content-key hit (no compiler run), record rewritten
+    ref.unlink()
+    cs2 = CompiledSimulator(m, o)
+    assert cs2.translated and cs2.cached and cs2.path == cs1.path and ref.is_file()
+    # a corrupt record: ignored the same way
+    ref.write_text("{not json")
+    cs3 = CompiledSimulator(m, o)
+    assert cs3.translated and cs3.cached and cs3.path == cs1.path
+    assert json.loads(ref.read_text())["library"] == cs1.path.name
+    assert STATS["compiles"] == n
+    # a record whose library is gone: rebuilt
+    cs1.path.unlink()
+    cs4 = CompiledSimulator(m, o, cache=tmp_path)
+    assert cs4.translated and not cs4.cached and cs4.path.is_file()
+    assert STATS["compiles"] == n + 1
+    assert not list(tmp_path.glob(".tmp-*"))
+
+
+@needs_cc
+def test_fingerprint_hit_in_a_fresh_process(built, tmp_path):
+    """The fingerprint is the same in another process (no hash randomisation in it): a
+    fresh process finds the library without translating."""
+    cache = tmp_path / "cache"
+    script = textwrap.dedent(f"""
+        import sys, time
+        sys.path.insert(0, {str(ROOT)!r})
+        from observer_cad.model import load_model
+        from observer_cad.synthesis import design
+        from observer_cad.pipeline import build_observer
+        from observer_cad.codegen import CompiledSimulator
+        m = load_model({str(ROOT / 'models' / 'three_tank.py')!r})
+        o = build_observer(m, design(m, observer='interval', estimate='x1'))
+        t0 = time.perf_counter()
+        c = CompiledSimulator(m, o)
+        print(c.cached, c.translated, c.path, time.perf_counter() - t0)
+    """)
+    env = dict(os.environ, OBSERVER_CAD_CACHE=str(cache), PYTHONHASHSEED="random")
+    outs = []
+    for _ in range(2):
+        r = subprocess.run([sys.executable, "-c", script], env=env, capture_output=True,
+                           text=True, timeout=300)
+        assert r.returncode == 0, r.stderr
+        outs.append(r.stdout.split())
+    assert outs[0][:2] == ["False", "True"]
+    assert outs[1][:2] == ["True", "False"] and outs[1][2] == outs[0][2]
+    assert float(outs[1][3]) < 0.5
+
+
+def test_structure_serialisation_distinguishes_what_matters():
+    from observer_cad.codegen import structure
+    x, y = sp.symbols("x y")
+    xr = sp.Symbol("x", real=True)
+    assert structure(x + 2 * y) == structure(sp.sympify("2*y + x"))
+    differ = [x + 2 * y, x + 3 * y, x + sp.Float(2) * y, x + sp.Rational(1, 2) * y,
+              xr + 2 * y, sp.sqrt(x) + y, x ** sp.Rational(1, 2) * 2 + y,
+              sp.Piecewise((x, y < 0), (y, True)), sp.Piecewise((x, y <= 0), (y, True)),
+              sp.Max(x, y), sp.Min(x, y), sp.Abs(x) * y]
+    reps = [structure(e) for e in differ]
+    assert len(set(reps)) == len(reps)
+    # floats exactly (not their printed digits), shared subtrees written once
+    assert structure(sp.Float(0.1)) != structure(sp.Float(0.1 + 2 ** -55))
+    s = sp.sqrt(x - y)
+    assert structure([s + 1, s * 2]).count("Pow(") == 1
+    assert structure(("a", 1, None)) != structure(("a", 1.0, None))

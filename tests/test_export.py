@@ -20,6 +20,7 @@ from __future__ import annotations
 import csv
 import ctypes
 import io
+import json
 import os
 import shutil
 import subprocess
@@ -43,6 +44,7 @@ from observer_cad.simulate import scenario_from_dict, simulate  # noqa: E402
 from observer_cad.synthesis import design  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
+SCEN = ROOT / "models" / "scenarios"
 RTOL = 1e-12
 CC = shutil.which("cc")
 needs_cc = pytest.mark.skipif(CC is None, reason="no C compiler 'cc' on PATH")
@@ -69,7 +71,22 @@ CASES = {
                         {"t_end": 5, "dt": 0.05, "initial": {"x1": 1},
                          "signals": {"u1": "0.2*sin(t)", "rho": {"uniform": [-0.2, 0.2]},
                                      "w1": {"uniform": [-0.02, 0.02]}}}, 0.05),
+    # the sliding-mode estimator (Abs, regularised sign, parameters k_sm, eps_sm) on the
+    # paper-style scenario, cut after the fault has appeared (t = 5)
+    "sliding-mode": ("sliding_example.py", dict(observer="sliding-mode", faults=["d"]),
+                     {**{k: v for k, v in json.loads((SCEN / "sliding_example.json")
+                                                     .read_text()).items()
+                         if k != "description"}, "t_end": 7}, 0.001),
+    # exact zero-order hold of the canonical interval observer (linear three-tank)
+    "interval-canonical-zoh": ("three_tank_linear.py",
+                               dict(observer="interval", estimate="x1", form="canonical",
+                                    eigenvalues=["-1", "-2"]),
+                               {**{k: v for k, v in json.loads(
+                                   (SCEN / "three_tank_linear_interval.json").read_text())
+                                   .items() if k != "description"}, "t_end": 8}, 0.01),
 }
+#: continuous cases exported with another discretisation than RK4
+DISC = {"interval-canonical-zoh": "zoh"}
 
 
 @pytest.fixture(autouse=True)
@@ -176,8 +193,9 @@ def test_example_reproduces_python_path(kind, built, tmp_path):
     initial = {s.name: float(sc.initial.get(s.name, 0.0)) for s in _initial_symbols(o)}
     if sc.observer_initial:
         initial.update(sc.observer_initial)
+    disc = DISC.get(kind, "rk4")
     paths = export_observer(o, tmp_path, dt=h if dt not in (None, "arg") else None,
-                            initial=initial or None)
+                            initial=initial or None, discretisation=disc)
     assert [p.name for p in paths] == [f"{o.name}.c", f"{o.name}.h", f"{o.name}_example.c"]
     assert not list(tmp_path.glob(".*.tmp"))
     exe = _build(paths, tmp_path)
@@ -194,7 +212,7 @@ def test_example_reproduces_python_path(kind, built, tmp_path):
     Xc, Oc = data[:, 1:1 + len(xs)], data[:, 1 + len(xs):]
     np.testing.assert_array_equal(Xc[0], x0)
     # interpreted casadi, same step (baked dt or h argument as exported)
-    f = observer_step(o, h=h if dt not in (None, "arg") else None)
+    f = observer_step(o, h=h if dt not in (None, "arg") else None, discretisation=disc)
     Xp, Op = _python_path(f, o, sig, x0, h)
     _close(Xp, Xc)
     _close(Op, Oc)
@@ -286,11 +304,13 @@ def test_step_wrapper_and_work_sizes(built, tmp_path):
 @needs_cc
 @pytest.mark.skipif(VALGRIND is None, reason="valgrind not installed (apt-get install -y"
                     " valgrind); the exported example is not checked for memory errors")
-@pytest.mark.parametrize("kind", ["diagnostic", "virtual-sensor", "interval"])
+@pytest.mark.parametrize("kind", ["diagnostic", "virtual-sensor", "interval", "sliding-mode",
+                                  "interval-canonical-zoh"])
 def test_example_runs_clean_under_valgrind(kind, built, tmp_path):
     m, o, sc, ref, dt = built[kind]
     h = float(sc.dt) if o.time == "continuous" else None
-    paths = export_observer(o, tmp_path, dt=h if dt not in (None, "arg") else None)
+    paths = export_observer(o, tmp_path, dt=h if dt not in (None, "arg") else None,
+                            discretisation=DISC.get(kind, "rk4"))
     exe = _build(paths, tmp_path)
     _input_csv(o, ref, tmp_path / "in.csv")
     args = ["in.csv"] + ([f"dt={h!r}"] if dt == "arg" else [])
@@ -392,3 +412,21 @@ def test_silence_unused_parameters():
            " (void)mem;\n" in out
     assert "int g(void) {\n  return 1;" in out
     assert "  if (x) {\n" in out and "(void)x" not in out
+
+
+def test_zoh_export_documents_the_matrices_and_checks_arguments(built, tmp_path):
+    m, o, sc, ref, dt = built["interval-canonical-zoh"]
+    src = export_sources(o, name="ivz", dt=0.01, discretisation="zoh")
+    assert "exact zero-order hold" in src.h and "Ad    = e^(A dt)" in src.h
+    assert "#define ivz_DT 0.01   /* the step size baked in (exact ZOH) */" in src.h
+    with pytest.raises(UsageError, match="needs dt"):
+        export_sources(o, discretisation="zoh")
+    with pytest.raises(UsageError, match="must be one of"):
+        export_sources(o, dt=0.01, discretisation="euler")
+    m2, o2, *_ = built["sliding-mode"]
+    with pytest.raises(UsageError, match="affine in its states"):
+        export_observer(o2, tmp_path, dt=0.001, discretisation="zoh")
+    m3, o3, *_ = built["diagnostic"]
+    with pytest.raises(UsageError, match="continuous-time"):
+        export_observer(o3, tmp_path, discretisation="zoh")
+    assert not list(tmp_path.iterdir())

@@ -14,11 +14,29 @@
   that fails to load anyway is removed and rebuilt.
 * A missing compiler or a compiler error raises :class:`CodegenError` (one line, with
   the compiler's first error); the interpreted casadi Function is untouched and usable.
+
+**Fingerprints (cache hits without translation).**  Computing ``KEY`` needs the C,
+i.e. the sympy → casadi translation and casadi's code generation (10–30 ms).  Callers
+that start from sympy (:func:`compile_observer_step`, :func:`compile_plant_step`,
+:class:`~observer_cad.codegen.trajectory.CompiledSimulator`) also pass a cheap
+*pre-translation fingerprint*: the sha256 of a structural serialisation of the
+equations (:func:`structure`: node types, exact numbers, symbols with their
+assumptions — what ``sympy.srepr`` says, 30–50× faster), the options (step size,
+discretisation, names), the casadi and sympy versions, a digest of this package's
+codegen sources, the compiler (resolved path, size and mtime of the binary) and the
+flags.  ``CACHE/NAME-FP.ref`` (JSON, written atomically after the library) maps the
+fingerprint to the library ``NAME-KEY.so`` and keeps the function's name and
+docstring, so a hit reads one small file and loads the library: no translation, no C
+generation, no compiler run.  The content hash stays the artefact key: a changed model
+changes the fingerprint, misses, is translated, and recompiles only if its C changed.
+A ``.ref`` whose library is missing or does not load is ignored (and replaced after the
+rebuild).
 """
 from __future__ import annotations
 
 import dataclasses
 import hashlib
+import json
 import os
 import shutil
 import subprocess
@@ -28,16 +46,22 @@ import time
 from pathlib import Path
 
 import casadi as ca
+import sympy as sp
 
 from ..errors import ObserverCadError
 
 __all__ = ["CodegenError", "cache_dir", "compiler", "generate_c", "compile_source",
-           "compile_function", "compile_or_interpret", "CompiledFunction", "STATS", "FLAGS"]
+           "compile_function", "compile_or_interpret", "CompiledFunction", "STATS", "FLAGS",
+           "structure", "fingerprint", "lookup_fingerprint", "record_fingerprint",
+           "forget_fingerprint", "compile_observer_step", "compile_plant_step"]
 
 FLAGS = ("-O3", "-shared", "-fPIC")
-STATS = {"compiles": 0, "hits": 0}
+#: compiles: compiler runs; hits: content-key hits (C generated, compiler skipped);
+#: fingerprint_hits: pre-translation hits (no translation, no C generation)
+STATS = {"compiles": 0, "hits": 0, "fingerprint_hits": 0}
 _LOCK = threading.Lock()
 _CC_ID: dict = {}
+_SRC_DIGEST: list = []
 
 
 class CodegenError(ObserverCadError):
@@ -77,6 +101,135 @@ def _compiler_id(path: str) -> str:
         hit = f"{path}\n{ver[0] if ver else ''}"
         _CC_ID[key] = hit
     return hit
+
+
+def _compiler_stat_id(path: str) -> str:
+    """A cheap identity of the compiler binary for fingerprints (no process started):
+    the resolved path, size and mtime of the file ``path`` leads to."""
+    real = os.path.realpath(path)
+    try:
+        st = os.stat(real)
+    except OSError as exc:
+        raise CodegenError(f"C compiler '{path}': {exc.strerror}") from None
+    return f"{path}->{real}:{st.st_size}:{st.st_mtime_ns}"
+
+
+def _codegen_digest() -> str:
+    """sha256 of this subpackage's sources (computed once per process): a change to the
+    translator, the trajectory loop or the cache invalidates every fingerprint."""
+    if not _SRC_DIGEST:
+        h = hashlib.sha256()
+        here = Path(__file__).resolve().parent
+        for nm in ("translate.py", "trajectory.py", "compile.py"):
+            try:
+                h.update((here / nm).read_bytes())
+            except OSError:
+                h.update(nm.encode())
+        _SRC_DIGEST.append(h.hexdigest())
+    return _SRC_DIGEST[0]
+
+
+def structure(*items) -> str:
+    """A structural serialisation of sympy expressions (and plain values), as
+    unambiguous as ``sympy.srepr`` but linear in the number of *unique* nodes and
+    30–50× faster: each node is written once as ``Type(#child, …)`` and referred to by
+    its index; numbers exactly (``Q(p,q)`` rationals, ``F(mpf)`` floats), symbols by
+    class, name, dummy index and assumptions.  Non-sympy items (str, int, float, None,
+    tuples, lists, dicts) are written with ``repr``-like tokens."""
+    memo: dict = {}
+    out: list = []
+
+    def walk(e):
+        if isinstance(e, sp.Basic):
+            k = memo.get(e)
+            if k is not None:
+                return k
+            if e.is_Symbol:
+                extra = f",{e.dummy_index}" if isinstance(e, sp.Dummy) else ""
+                tok = (f"{type(e).__name__}({e.name!r}{extra};"
+                       f"{sorted(e.assumptions0.items())})")
+            elif e.is_Rational:
+                tok = f"Q({e.p},{e.q})"
+            elif e.is_Float:
+                tok = f"F{e._mpf_}"
+            else:
+                tok = type(e).__name__ + "(" + ",".join(walk(a) for a in e.args) + ")"
+            out.append(tok)
+            k = f"#{len(out) - 1}"
+            memo[e] = k
+            return k
+        if isinstance(e, (list, tuple)):
+            return "[" + ",".join(walk(a) for a in e) + "]"
+        if isinstance(e, dict) or hasattr(e, "items"):
+            return "{" + ",".join(f"{walk(a)}:{walk(b)}" for a, b in e.items()) + "}"
+        if isinstance(e, (str, int, float, bool)) or e is None:
+            return f"{type(e).__name__}:{e!r}"
+        return walk(sp.sympify(e))
+
+    roots = [walk(x) for x in items]
+    return "\n".join(out) + "\n=" + ",".join(roots)
+
+
+def fingerprint(parts, *, cc=None, flags=FLAGS) -> str:
+    """The pre-translation cache key: sha256 of ``structure(*parts)`` (the caller's
+    equations and options), the casadi and sympy versions, the codegen sources' digest,
+    the compiler's cheap identity and the flags.  CodegenError without a compiler."""
+    ccpath = compiler(cc)
+    h = hashlib.sha256()
+    for piece in (structure(*parts), ca.__version__, sp.__version__, _codegen_digest(),
+                  _compiler_stat_id(ccpath), " ".join(flags)):
+        h.update(piece.encode())
+        h.update(b"\0")
+    return h.hexdigest()
+
+
+def _ref_path(d: Path, name: str, fp: str) -> Path:
+    return d / f"{name}-{fp[:32]}.ref"
+
+
+def lookup_fingerprint(fp: str, name: str, *, cache=None) -> dict | None:
+    """The record a fingerprint maps to (``library`` an existing path, ``function``,
+    ``doc``, ``key``), or None."""
+    d = cache_dir(cache)
+    try:
+        rec = json.loads(_ref_path(d, name, fp).read_text())
+    except (OSError, ValueError):
+        return None
+    if not isinstance(rec, dict) or rec.get("fingerprint") != fp:
+        return None
+    lib = rec.get("library")
+    if not isinstance(lib, str) or "/" in lib or os.sep in lib or lib.startswith("."):
+        return None
+    path = d / lib
+    if not path.is_file():
+        return None
+    rec["library"] = path
+    return rec
+
+
+def record_fingerprint(fp: str, name: str, library: Path, *, cache=None, function=None,
+                       doc=None, key=None) -> None:
+    """Write ``CACHE/NAME-FP.ref`` atomically (a temporary file, then os.replace).
+    Failure to write is not an error (the next call just translates again)."""
+    d = cache_dir(cache)
+    rec = {"fingerprint": fp, "library": Path(library).name, "function": function,
+           "doc": doc, "key": key, "casadi": ca.__version__}
+    try:
+        fd, tmp = tempfile.mkstemp(prefix=f".tmp-{name}-", suffix=".ref", dir=d)
+    except OSError:
+        return
+    try:
+        with os.fdopen(fd, "w") as fh:
+            json.dump(rec, fh)
+        os.replace(tmp, _ref_path(d, name, fp))
+    except OSError:
+        pass
+    finally:
+        _cleanup(tmp)
+
+
+def forget_fingerprint(fp: str, name: str, *, cache=None) -> None:
+    _cleanup(_ref_path(cache_dir(cache), name, fp))
 
 
 def generate_c(f: ca.Function, *, header_comment: str | None = None) -> str:
@@ -161,12 +314,14 @@ def compile_source(source: str, name: str, *, cache=None, cc=None, flags=FLAGS,
 @dataclasses.dataclass(frozen=True)
 class CompiledFunction:
     """A compiled casadi Function (``function``: loaded by ``casadi.external``), the
-    library it came from and whether it was a cache hit."""
+    library it came from, whether it was a cache hit and whether the sympy → casadi
+    translation ran (False on a fingerprint hit)."""
 
     function: ca.Function
     path: Path
     cached: bool
     seconds: float
+    translated: bool = True
 
     def __call__(self, *args, **kw):
         return self.function(*args, **kw)
@@ -180,16 +335,74 @@ def _load(name: str, path: Path) -> ca.Function:
         raise CodegenError(f"cannot load {path}: {msg[-1] if msg else exc}") from None
 
 
-def compile_function(f: ca.Function, *, cache=None, cc=None, flags=FLAGS) -> CompiledFunction:
-    """Generate, compile (or reuse) and load ``f``; the result behaves like ``f``."""
+def compile_function(f, *, cache=None, cc=None, flags=FLAGS, identity=None,
+                     name: str | None = None) -> CompiledFunction:
+    """Generate, compile (or reuse) and load ``f``; the result behaves like ``f``.
+
+    ``f`` is a casadi Function, or a zero-argument callable building one (called only
+    when the cache cannot answer without it).  ``identity``: a tuple of sympy
+    expressions and plain values that determines ``f`` *before* translation (the
+    equations and the options it is built from); with it, a hit on the fingerprint
+    (:func:`fingerprint`) loads the library without calling ``f`` or generating C.
+    ``name`` (the Function's name) is required when ``f`` is a callable.
+    """
     t0 = time.perf_counter()
+    flags = tuple(flags)
+    fp = None
+    if name is None:
+        if not isinstance(f, ca.Function):
+            raise TypeError("compile_function: name= is required when f is a builder")
+        name = f.name()
+    if identity is not None:
+        fp = fingerprint(("compile_function", name, tuple(identity)), cc=cc, flags=flags)
+        rec = lookup_fingerprint(fp, name, cache=cache)
+        if rec is not None:
+            try:
+                g = _load(str(rec.get("function") or name), rec["library"])
+            except CodegenError:
+                forget_fingerprint(fp, name, cache=cache)
+            else:
+                g.__doc__ = rec.get("doc")
+                with _LOCK:
+                    STATS["fingerprint_hits"] += 1
+                return CompiledFunction(g, rec["library"], True, time.perf_counter() - t0,
+                                        translated=False)
+    if not isinstance(f, ca.Function):
+        f = f()
     src = generate_c(f)
-    name = f.name()
-    res = compile_source(src, name, cache=cache, cc=cc, flags=flags,
-                         check=lambda p: _load(name, p))
-    g = _load(name, res.path)
+    fname = f.name()
+    res = compile_source(src, fname, cache=cache, cc=cc, flags=flags,
+                         check=lambda p: _load(fname, p))
+    g = _load(fname, res.path)
     g.__doc__ = getattr(f, "__doc__", None)
+    if fp is not None:
+        record_fingerprint(fp, name, res.path, cache=cache, function=fname, doc=g.__doc__,
+                           key=res.key)
     return CompiledFunction(g, res.path, res.cached, time.perf_counter() - t0)
+
+
+def compile_observer_step(observer, *, h: float | None = None, name: str | None = None,
+                          cse: bool = False, discretisation: str = "rk4", cache=None, cc=None,
+                          flags=FLAGS) -> CompiledFunction:
+    """:func:`~observer_cad.codegen.translate.observer_step`, compiled; a second call for
+    the same observer and options is a fingerprint hit (no translation, no C)."""
+    from .translate import observer_identity, observer_step, observer_step_name
+    ident = observer_identity(observer, h=h, name=name, cse=cse, discretisation=discretisation)
+    return compile_function(
+        lambda: observer_step(observer, h=h, name=name, cse=cse, discretisation=discretisation),
+        cache=cache, cc=cc, flags=flags, identity=ident,
+        name=observer_step_name(observer, name))
+
+
+def compile_plant_step(model, *, h: float | None = None, name: str | None = None,
+                       substitute_parameters: bool = False, cache=None, cc=None,
+                       flags=FLAGS) -> CompiledFunction:
+    """:func:`~observer_cad.codegen.translate.plant_step`, compiled (fingerprint-cached)."""
+    from .translate import plant_identity, plant_step, plant_step_name
+    ident = plant_identity(model, h=h, name=name, substitute_parameters=substitute_parameters)
+    return compile_function(
+        lambda: plant_step(model, h=h, name=name, substitute_parameters=substitute_parameters),
+        cache=cache, cc=cc, flags=flags, identity=ident, name=plant_step_name(model, name))
 
 
 def compile_or_interpret(f: ca.Function, **kw):

@@ -9,7 +9,9 @@
 * ``NAME.c`` is casadi's generated code for the observer step
   ``NAME(x, y, u, p[, h]) -> (x_next, out)`` (:func:`~observer_cad.codegen.observer_step`:
   ``y``, ``u`` held over the step; continuous time by fixed-step RK4, the step size
-  baked in when ``dt`` is given, else a fifth argument ``h``), with double precision,
+  baked in when ``dt`` is given, else a fifth argument ``h``; or, with
+  ``discretisation="zoh"`` and ``dt``, the exact zero-order-hold step of an observer
+  affine in its states), with double precision,
   plus a plain-pointer wrapper ``NAME_step(...)`` and the default initial state and
   parameters (``NAME_x0``, ``NAME_p_default``) and signal names.
 * ``NAME.h`` documents the argument order, meaning and sizes, the equations, the
@@ -48,7 +50,7 @@ import sympy as sp
 from ..csvout import atomic_write_text
 from ..errors import UsageError
 from ..observer import Observer
-from .translate import describe, observer_step, split_signals
+from .translate import DISCRETISATIONS, describe, observer_step, split_signals, zoh_matrices
 
 __all__ = ["export_observer", "export_sources", "ExportedSources", "EXAMPLE_FLAGS",
            "silence_unused_parameters"]
@@ -130,7 +132,10 @@ def _initial_state(observer: Observer, initial: Mapping | None):
     given = {str(k): float(v) for k, v in (initial or {}).items()}
     states = [str(s) for s in observer.states]
     par = dict(observer.parameters)
-    free_used = set()
+    # every symbol some initial value depends on is a valid key, even when the state
+    # that uses it is given directly
+    free_used = {str(sym) for s in observer.states
+                 for sym in sp.sympify(observer.initial.get(s, 0)).xreplace(par).free_symbols}
     x0, notes = [], []
     for s in observer.states:
         if str(s) in given:
@@ -159,6 +164,10 @@ def _initial_state(observer: Observer, initial: Mapping | None):
     return x0, sorted(set(notes))
 
 
+def _matrix_text(M) -> str:
+    return "[" + "; ".join(", ".join(f"{float(v):.17g}" for v in row) for row in M) + "]"
+
+
 def _sizes(f: ca.Function) -> dict:
     return {"SZ_ARG": int(f.sz_arg()), "SZ_RES": int(f.sz_res()),
             "SZ_IW": int(f.sz_iw()), "SZ_W": int(f.sz_w())}
@@ -175,7 +184,8 @@ def _double_array(cname, vals):
 
 
 def export_sources(observer: Observer, *, name: str | None = None, dt: float | None = None,
-                   initial: Mapping | None = None) -> ExportedSources:
+                   initial: Mapping | None = None,
+                   discretisation: str = "rk4") -> ExportedSources:
     """The text of the three files (nothing written); see :func:`export_observer`."""
     if not isinstance(observer, Observer):
         raise UsageError("export_observer needs an Observer (observer_cad.pipeline.build_observer)")
@@ -197,9 +207,25 @@ def export_sources(observer: Observer, *, name: str | None = None, dt: float | N
             raise UsageError(f"export: dt must be a number, got {dt!r}") from None
         if not (math.isfinite(dt) and dt > 0):
             raise UsageError(f"export: dt must be a positive finite step size, got {dt!r}")
+    if discretisation not in DISCRETISATIONS:
+        raise UsageError(f"export: discretisation must be one of {', '.join(DISCRETISATIONS)},"
+                         f" got {discretisation!r}")
+    zoh = discretisation == "zoh"
+    if zoh and observer.time != "continuous":
+        raise UsageError(f"export: discretisation='zoh' applies to continuous-time observers;"
+                         f" {observer.name} is discrete")
+    if zoh and dt is None:
+        raise UsageError("export: discretisation='zoh' needs dt (e^(A dt) is computed when the"
+                         " code is generated)")
     h_arg = observer.time == "continuous" and dt is None
 
-    f = observer_step(observer, h=dt, name=name)
+    f = observer_step(observer, h=dt, name=name, discretisation=discretisation)
+    zoh_text = []
+    if zoh:
+        A, Ad, Gam, _ = zoh_matrices(observer, dt)
+        zoh_text = [f" *   A     = {_matrix_text(A)}",
+                    f" *   Ad    = e^(A dt) = {_matrix_text(Ad)}",
+                    f" *   Gamma = int_0^dt e^(A s) ds = {_matrix_text(Gam)}"]
     ys, us = split_signals(observer)
     xs = [str(s) for s in observer.states]
     ps = list(observer.parameters)
@@ -272,6 +298,13 @@ def export_sources(observer: Observer, *, name: str | None = None, dt: float | N
         if h_arg:
             hl.append(" * Continuous time: one call is one classical RK4 step of size h (an"
                       " argument), with y and u held over the step.")
+        elif zoh:
+            hl.append(f" * Continuous time, exact zero-order hold: one call advances the"
+                      f" affine update x' = A x + g(y, u, p) by {name}_DT = {dt!r} with y and u"
+                      " held,")
+            hl.append(" * x_next = Ad x + Gamma g(y, u, p) (scipy.linalg.expm, double"
+                      " precision):")
+            hl += zoh_text
         else:
             hl.append(f" * Continuous time: one call is one classical RK4 step of size"
                       f" {name}_DT = {dt!r}, with y and u held over the step.")
@@ -339,7 +372,8 @@ def export_sources(observer: Observer, *, name: str | None = None, dt: float | N
            f"#define {name}_NOUT {no}   /* outputs out */",
            f"#define {name}_H_ARG {1 if h_arg else 0}   /* 1: the step size h is an argument */"]
     if observer.time == "continuous" and not h_arg:
-        hl.append(f"#define {name}_DT {_cdouble(dt)}   /* the RK4 step size baked in */")
+        hl.append(f"#define {name}_DT {_cdouble(dt)}   /* the step size baked in"
+                  f" ({'exact ZOH' if zoh else 'RK4'}) */")
     hl += [f"#define {name}_SZ_ARG {sz['SZ_ARG']}",
            f"#define {name}_SZ_RES {sz['SZ_RES']}",
            f"#define {name}_SZ_IW {sz['SZ_IW']}",
@@ -392,7 +426,8 @@ def export_sources(observer: Observer, *, name: str | None = None, dt: float | N
 
 
 def export_observer(observer: Observer, out_dir, *, name: str | None = None,
-                    dt: float | None = None, initial: Mapping | None = None) -> list:
+                    dt: float | None = None, initial: Mapping | None = None,
+                    discretisation: str = "rk4") -> list:
     """Write ``NAME.c``, ``NAME.h`` and ``NAME_example.c`` into ``out_dir`` (created if
     missing); returns their paths in that order.
 
@@ -401,9 +436,13 @@ def export_observer(observer: Observer, out_dir, *, name: str | None = None,
     ``h`` as its last input and the example needs ``dt=H`` on its command line (an
     error for discrete observers).  ``initial``: values of the plant states the
     observer's initial state depends on (e.g. ``{"x1": 0.1}``), or of observer states;
-    others are 0 (stated in the header).
+    others are 0 (stated in the header).  ``discretisation``: ``"rk4"`` (default) or
+    ``"zoh"``, the exact zero-order-hold step of an observer affine in its states
+    (continuous time, ``dt`` required; see
+    :func:`~observer_cad.codegen.translate.zoh_matrices`).
     """
-    src = export_sources(observer, name=name, dt=dt, initial=initial)
+    src = export_sources(observer, name=name, dt=dt, initial=initial,
+                         discretisation=discretisation)
     out = Path(out_dir)
     try:
         out.mkdir(parents=True, exist_ok=True)

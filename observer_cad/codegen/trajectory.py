@@ -25,6 +25,7 @@ import ctypes
 import os
 import time
 from concurrent.futures import ThreadPoolExecutor
+from pathlib import Path
 
 import numpy as np
 import sympy as sp
@@ -33,8 +34,9 @@ from ..errors import UsageError
 from ..model import PlantModel
 from ..observer import Observer, output_symbols
 from ..simulate import Scenario, SimulationResult, _signal_arrays
-from .compile import FLAGS, CodegenError, compile_source, generate_c
-from .translate import joint_step
+from .compile import (_LOCK, FLAGS, STATS, CodegenError, compile_source, fingerprint,
+                      forget_fingerprint, generate_c, lookup_fingerprint, record_fingerprint)
+from .translate import describe, joint_identity, joint_step, joint_step_name
 
 __all__ = ["CompiledSimulator", "simulate_compiled", "loop_source", "TRAJ_FLAGS"]
 
@@ -92,8 +94,13 @@ class CompiledSimulator:
     """Plant + observer compiled into one trajectory function.
 
     ``CompiledSimulator(model, observer)`` translates, generates, compiles (or reuses
-    the cached library) and loads; ``.step`` is the interpreted casadi joint step,
-    ``.seconds`` the time that took, ``.cached`` whether the library came from the cache.
+    the cached library) and loads.  A library already built for the same equations,
+    options, compiler and flags is found by its pre-translation fingerprint
+    (:func:`~observer_cad.codegen.compile.fingerprint`) and loaded without translating
+    or generating C (``.translated`` is then False).  ``.step`` is the interpreted
+    casadi joint step (built on first use after a fingerprint hit), ``.source`` the C
+    of the library, ``.seconds`` the time the construction took, ``.cached`` whether
+    the library came from the cache.
     """
 
     def __init__(self, model: PlantModel, observer: Observer | None, *, cache=None, cc=None,
@@ -105,42 +112,83 @@ class CompiledSimulator:
             raise UsageError(f"observer is {observer.time}-time but the model is"
                              f" {self.model.time}-time")
         m = self.model
+        self._name = name
+        self._step = None
+        self._source = None
+        self.translated = False
         self.inputs = list(m.inputs) + list(m.faults) + list(m.disturbances) + list(m.noise)
-        self.step = joint_step(m, observer, name=name)
-        self.ns = self.step.size1_out(0)
-        self.ny = self.step.size1_out(1)
-        self.no = self.step.size1_out(2)
+        self.ns = len(m.states) + (len(observer.states) if observer is not None else 0)
+        self.ny = len(m.outputs)
+        self.no = len(observer.outputs) if observer is not None else 0
         self.nv = len(self.inputs)
-        src = generate_c(self.step) + loop_source(self.step, self.nv)
-        self.source = src
-        fname = self.step.name()
-
-        def check(path):
-            lib = ctypes.CDLL(str(path))
-            getattr(lib, f"{fname}_traj")
-
-        if flags is None:
+        fname = joint_step_name(m, observer, name)
+        lib_name = f"{fname}_traj"
+        flag_sets = [TRAJ_FLAGS, FLAGS] if flags is None else [tuple(flags)]
+        ident = ("trajectory", joint_identity(m, observer, name=name),
+                 "auto" if flags is None else tuple(flags))
+        fp = fingerprint(ident, cc=cc, flags=flag_sets[0])
+        rec = lookup_fingerprint(fp, lib_name, cache=cache)
+        if rec is not None:
             try:
-                res = compile_source(src, f"{fname}_traj", cache=cache, cc=cc,
-                                     flags=TRAJ_FLAGS, check=check)
-            except CodegenError as exc:
-                if "C compiler" in str(exc) and "not found" in str(exc):
-                    raise
-                res = compile_source(src, f"{fname}_traj", cache=cache, cc=cc, flags=FLAGS,
+                self._open(rec["library"], fname)
+            except CodegenError:
+                forget_fingerprint(fp, lib_name, cache=cache)
+                rec = None
+            else:
+                self.path, self.cached = rec["library"], True
+                with _LOCK:
+                    STATS["fingerprint_hits"] += 1
+        if rec is None:
+            step = self.step
+            src = generate_c(step) + loop_source(step, self.nv)
+            self._source = src
+
+            def check(path):
+                lib = ctypes.CDLL(str(path))
+                getattr(lib, f"{fname}_traj")
+
+            try:
+                res = compile_source(src, lib_name, cache=cache, cc=cc, flags=flag_sets[0],
                                      check=check)
-        else:
-            res = compile_source(src, f"{fname}_traj", cache=cache, cc=cc, flags=flags,
-                                 check=check)
-        self.path, self.cached = res.path, res.cached
+            except CodegenError as exc:
+                if len(flag_sets) == 1 or ("C compiler" in str(exc) and "not found" in str(exc)):
+                    raise
+                res = compile_source(src, lib_name, cache=cache, cc=cc, flags=flag_sets[1],
+                                     check=check)
+            self.path, self.cached = res.path, res.cached
+            self._open(res.path, fname)
+            record_fingerprint(fp, lib_name, res.path, cache=cache, function=fname,
+                               doc=describe(step), key=res.key)
+        self.seconds = time.perf_counter() - t0
+
+    def _open(self, path, fname):
         try:
-            self._lib = ctypes.CDLL(str(res.path))
-            fn = getattr(self._lib, f"{fname}_traj")
+            lib = ctypes.CDLL(str(path))
+            fn = getattr(lib, f"{fname}_traj")
         except (OSError, AttributeError) as exc:
-            raise CodegenError(f"cannot load {res.path}: {exc}") from None
+            raise CodegenError(f"cannot load {path}: {exc}") from None
         fn.restype = ctypes.c_int
         fn.argtypes = [ctypes.c_longlong, _P, _P, _P, _P, _P]
-        self._fn = fn
-        self.seconds = time.perf_counter() - t0
+        self._lib, self._fn, self._fname = lib, fn, fname
+
+    @property
+    def step(self):
+        """The interpreted casadi joint step ``NAME_sim_step(s, v, h)`` (translated on
+        first use)."""
+        if self._step is None:
+            self._step = joint_step(self.model, self.observer, name=self._name)
+            self.translated = True
+        return self._step
+
+    @property
+    def source(self) -> str:
+        """The C source of the library (the casadi step and the trajectory loop)."""
+        if self._source is None:
+            try:
+                self._source = Path(self.path).with_suffix(".c").read_text()
+            except OSError:
+                self._source = generate_c(self.step) + loop_source(self.step, self.nv)
+        return self._source
 
     # ------------------------------------------------------------------ raw arrays
     def run_arrays(self, t, V, s0=None, *, S=None, Y=None, O=None):
@@ -165,7 +213,7 @@ class CompiledSimulator:
         if N:
             rc = self._fn(N, _buf(t), _buf(V), _buf(S), _buf(Y), _buf(O))
             if rc:
-                raise CodegenError(f"{self.step.name()} failed at step {rc - 1}")
+                raise CodegenError(f"{self._fname} failed at step {rc - 1}")
         return S, Y, O
 
     # ------------------------------------------------------------------ scenarios

@@ -13,9 +13,13 @@ argument order and meaning; :func:`describe` gives the same text):
 
 * :func:`observer_step` — ``NAME_step(x, y, u, p[, h]) -> (x_next, out)``: the observer
   alone, as it runs embedded: it receives the sampled measurements ``y`` and known
-  inputs ``u`` and holds them over the step.  Continuous time is discretised by
-  fixed-step RK4 inside the graph (step size ``h`` an option, or an input when
-  ``h=None``).  ``out`` is the observer's outputs at the *current* state.
+  inputs ``u`` and holds them over the step.  Continuous time is discretised inside
+  the graph: fixed-step RK4 by default (step size ``h`` an option, or an input when
+  ``h=None``), or, with ``discretisation="zoh"``, the exact zero-order-hold step of an
+  observer whose update is affine in its states, ``ξ' = A ξ + g(y, u, p)`` with a
+  constant A: ``ξ_next = e^{A h} ξ + Γ g``, ``Γ = ∫₀ʰ e^{A τ} dτ``, both from one
+  ``scipy.linalg.expm`` of ``[[A, I], [0, 0]] h`` (double precision; see
+  :func:`zoh_matrices`).  ``out`` is the observer's outputs at the *current* state.
 * :func:`plant_step` — ``NAME_plant_step(x, v, p[, h]) -> (x_next, y)`` for the plant:
   ``v`` = inputs, faults, disturbances, noise (model order), ``y`` = h(x, w) at the
   current state.
@@ -32,6 +36,7 @@ import re
 from typing import Iterable, Mapping
 
 import casadi as ca
+import numpy as np
 import sympy as sp
 
 from ..errors import UsageError
@@ -39,7 +44,12 @@ from ..model import PlantModel
 from ..observer import Observer
 
 __all__ = ["to_casadi", "Translator", "observer_step", "plant_step", "joint_step",
-           "describe", "split_signals", "rk4"]
+           "describe", "split_signals", "rk4", "zoh_matrices", "DISCRETISATIONS",
+           "observer_step_name", "plant_step_name", "joint_step_name", "observer_identity",
+           "plant_identity", "joint_identity"]
+
+#: continuous-time discretisations of :func:`observer_step`
+DISCRETISATIONS = ("rk4", "zoh")
 
 
 _OPTS = {"cse": True}  # casadi-side common subexpression elimination (RK4 stages)
@@ -75,9 +85,14 @@ class Translator:
 
     # ------------------------------------------------------------------ helpers
     def _state_dependent(self, e) -> bool:
+        """Whether ``e`` contains a state symbol (memoised per node, so a whole
+        expression DAG costs one visit per unique node, unlike ``free_symbols``)."""
         r = self._dep.get(e)
         if r is None:
-            r = bool(e.free_symbols & self.states)
+            if e.is_Symbol:
+                r = e in self.states
+            else:
+                r = any(self._state_dependent(a) for a in e.args)
             self._dep[e] = r
         return r
 
@@ -296,15 +311,108 @@ def _fmt(names):
     return ", ".join(str(s) for s in names) if names else "(empty)"
 
 
+def observer_step_name(observer: Observer, name: str | None = None) -> str:
+    """The C name :func:`observer_step` gives its Function."""
+    return _cname(name or f"{observer.name}_step")
+
+
+def _check_discretisation(observer: Observer, h, discretisation: str) -> str:
+    if discretisation not in DISCRETISATIONS:
+        raise UsageError(f"discretisation must be one of {', '.join(DISCRETISATIONS)},"
+                         f" got {discretisation!r}")
+    if discretisation == "zoh":
+        if observer.time != "continuous":
+            raise UsageError(f"discretisation='zoh' applies to continuous-time observers;"
+                             f" {observer.name} is discrete (one call = one sample)")
+        if h is None:
+            raise UsageError("discretisation='zoh' needs a fixed step size h (e^{A h} is"
+                             " computed when the function is built)")
+    return discretisation
+
+
+def zoh_matrices(observer: Observer, h: float):
+    """``(A, Ad, Gamma, g)`` of the exact zero-order-hold step of size ``h``.
+
+    The update must be affine in the observer's states with a constant state matrix,
+    ``ξ' = A ξ + g(y, u, p)`` (A numeric: it may not depend on states, signals or
+    parameters); otherwise :class:`~observer_cad.errors.UsageError` names the first
+    offending equation.  With the signals held over the step the exact solution is
+    ``ξ(t + h) = Ad ξ(t) + Gamma g``, ``Ad = e^{A h}``, ``Gamma = ∫₀ʰ e^{A τ} dτ``
+    (= A⁻¹(e^{A h} − I) when A is invertible), read off one matrix exponential
+    ``expm([[A, I], [0, 0]] h) = [[Ad, Gamma], [0, I]]`` (scipy.linalg.expm, double
+    precision).  ``g`` is the list of sympy expressions ``g_i = ξ'_i`` at ``ξ = 0``.
+    """
+    import scipy.linalg
+    xs = list(observer.states)
+    upd = [sp.sympify(e) for e in observer.update]
+    n = len(xs)
+    try:
+        h = float(h)
+    except (TypeError, ValueError):
+        raise UsageError(f"discretisation='zoh': h must be a number, got {h!r}") from None
+    if not (np.isfinite(h) and h > 0):
+        raise UsageError(f"discretisation='zoh': h must be a positive finite step, got {h!r}")
+    xset = set(xs)
+    A = np.zeros((n, n))
+    for i, e in enumerate(upd):
+        for j, x in enumerate(xs):
+            a = sp.diff(e, x)
+            if a.free_symbols or a.has(sp.Derivative) or not a.is_number:
+                if a.free_symbols & xset or a.has(sp.Derivative):
+                    raise UsageError(
+                        f"discretisation='zoh' needs an observer update affine in its states"
+                        f" (x' = A x + g(y, u, p)); {observer.name} is not: the equation for"
+                        f" {xs[i]} is nonlinear in {x}; use discretisation='rk4'")
+                raise UsageError(
+                    f"discretisation='zoh' needs a constant state matrix A (e^(A h) is"
+                    f" precomputed); in {observer.name} d({xs[i]}')/d{x} = {a} depends on"
+                    f" {', '.join(sorted(map(str, a.free_symbols)))}; use discretisation='rk4'")
+            A[i, j] = float(a)
+    g = [e.xreplace({x: 0 for x in xs}) for e in upd]
+    for i, e in enumerate(g):
+        if e.free_symbols & xset:  # defensive: an affine update has no state left
+            raise UsageError(f"discretisation='zoh': the equation for {xs[i]} is not affine"
+                             " in the states; use discretisation='rk4'")
+    if n == 0:
+        return A, np.zeros((0, 0)), np.zeros((0, 0)), g
+    M = np.zeros((2 * n, 2 * n))
+    M[:n, :n] = A * h
+    M[:n, n:] = np.eye(n) * h
+    E = scipy.linalg.expm(M)
+    return A, E[:n, :n].copy(), E[:n, n:].copy(), g
+
+
+def _zoh_step(observer: Observer, h, X, base):
+    """SX x_next of the exact ZOH step; state terms written last in every sum."""
+    xs = list(observer.states)
+    _, Ad, Gam, g = zoh_matrices(observer, h)
+    n = len(xs)
+    t = Translator(base, xs)
+    gv = [t.tr(e) for e in g]
+    rows = []
+    for i in range(n):
+        terms = [float(Gam[i, j]) * gv[j] for j in range(n) if Gam[i, j] != 0.0]
+        terms += [float(Ad[i, j]) * X[j] for j in range(n) if Ad[i, j] != 0.0]
+        acc = None
+        for term in terms:
+            acc = term if acc is None else acc + term
+        rows.append(acc if acc is not None else ca.SX(0.0))
+    return _vec(rows)
+
+
 def observer_step(observer: Observer, *, h: float | None = None, name: str | None = None,
-                  cse: bool = False) -> ca.Function:
+                  cse: bool = False, discretisation: str = "rk4") -> ca.Function:
     """``NAME(x, y, u, p[, h]) -> (x_next, out)`` for the observer alone.
 
     ``x`` observer states, ``y`` measurements (y1…), ``u`` the other signals it reads
     (known inputs), ``p`` its parameters (defaults: ``observer.parameters``).  For
     continuous time the step is RK4 with ``y``, ``u`` held; the step size is ``h`` or,
-    when ``h`` is None, a fifth input.  ``out`` = outputs at the current state.
+    when ``h`` is None, a fifth input.  ``discretisation="zoh"`` (continuous time, ``h``
+    given) makes the step the exact zero-order hold of an update affine in the states
+    (:func:`zoh_matrices`; a nonlinear observer is rejected with a UsageError).  ``out``
+    = outputs at the current state.
     """
+    _check_discretisation(observer, h, discretisation)
     ys, us = split_signals(observer)
     ps = list(observer.parameters)
     xs = list(observer.states)
@@ -319,6 +427,8 @@ def observer_step(observer: Observer, *, h: float | None = None, name: str | Non
     out = _vec([tr_out.tr(e) for e in outs])
     if observer.time == "discrete":
         xn = _vec([tr_out.tr(e) for e in upd])
+    elif discretisation == "zoh":
+        xn = _zoh_step(observer, h, X, base)
     else:
         base_tr = Translator(base, xs)  # x-free subexpressions shared over the stages
 
@@ -327,23 +437,38 @@ def observer_step(observer: Observer, *, h: float | None = None, name: str | Non
             t.cache.update(base_tr.cache)
             res = [t.tr(e) for e in upd]
             return _vec(res)
-        # pre-translate x-free parts once
+        # pre-translate the x-free parts (with a signal or parameter) once
+        seen: set = set()
+
+        def pre(e):
+            if e in seen or e.is_Symbol or not e.args:
+                return
+            seen.add(e)
+            if not base_tr._state_dependent(e):
+                if e.free_symbols:
+                    base_tr.tr(e)
+                return
+            for a in e.args:
+                pre(a)
         for e in upd:
-            for a in sp.preorder_traversal(e):
-                if not (a.free_symbols & set(xs)) and not a.is_Symbol and a.free_symbols:
-                    base_tr.tr(a)
+            pre(e)
         step = H if H is not None else ca.SX(float(h))
         xn = rk4(f, X, step)
-    fname = _cname(name or f"{observer.name}_step")
+    fname = observer_step_name(observer, name)
     ins, in_names = [X, Y, U, P], ["x", "y", "u", "p"]
     if H is not None:
         ins.append(H)
         in_names.append("h")
     F = ca.Function(fname, ins, [xn, out], in_names, ["x_next", "out"], _OPTS)
+    if observer.time == "continuous" and discretisation == "zoh":
+        how = (f", exact zero-order-hold step h = {h!r} (x_next = e^(A h) x + Gamma g(y, u, p),"
+               " y and u held)")
+    elif observer.time == "continuous" and h is not None:
+        how = f", RK4 step h = {h!r}"
+    else:
+        how = ""
     doc = [f"{fname}({', '.join(in_names)}) -> (x_next, out): {observer.kind} observer"
-           f" '{observer.name}', {observer.time} time"
-           + (f", RK4 step h = {h!r}" if observer.time == "continuous" and h is not None else "")
-           + ".",
+           f" '{observer.name}', {observer.time} time" + how + ".",
            f"  x      [{n}]  observer states: {_fmt(xs)}",
            f"  y      [{len(ys)}]  measured outputs (held over the step): {_fmt(ys)}",
            f"  u      [{len(us)}]  known inputs (held over the step): {_fmt(us)}",
@@ -356,12 +481,45 @@ def observer_step(observer: Observer, *, h: float | None = None, name: str | Non
     return _attach_doc(F, doc)
 
 
+def _observer_parts(observer: Observer | None):
+    if observer is None:
+        return (None,)
+    return (observer.name, observer.kind, observer.time, tuple(observer.states),
+            tuple(observer.signals), dict(observer.parameters), tuple(observer.update),
+            tuple(observer.outputs))
+
+
+def _model_parts(m: PlantModel):
+    return (m.name, m.time, tuple(m.states), tuple(m.inputs), tuple(m.faults),
+            tuple(m.disturbances), tuple(m.noise), tuple(m.dynamics), tuple(m.outputs),
+            dict(m.parameters))
+
+
+def observer_identity(observer: Observer, *, h=None, name=None, cse=False,
+                      discretisation="rk4") -> tuple:
+    """What determines :func:`observer_step`'s Function before translation (for the
+    compile cache's fingerprint): the equations, signals, parameters and options."""
+    return ("observer_step", observer_step_name(observer, name),
+            None if h is None else float(h), bool(cse), discretisation,
+            _observer_parts(observer))
+
 def _plant_parts(model: PlantModel, substitute: bool):
     m = model.substitute_parameters() if (substitute and model.parameters) else model
     xs = list(m.states)
     vs = list(m.inputs) + list(m.faults) + list(m.disturbances) + list(m.noise)
     ps = [] if substitute else list(m.parameters)
     return m, xs, vs, ps
+
+
+def plant_step_name(model: PlantModel, name: str | None = None) -> str:
+    return _cname(name or f"{model.name}_plant_step")
+
+
+def plant_identity(model: PlantModel, *, h=None, name=None,
+                   substitute_parameters: bool = False) -> tuple:
+    """What determines :func:`plant_step`'s Function before translation."""
+    return ("plant_step", plant_step_name(model, name), None if h is None else float(h),
+            bool(substitute_parameters), _model_parts(model))
 
 
 def plant_step(model: PlantModel, *, h: float | None = None, name: str | None = None,
@@ -386,7 +544,7 @@ def plant_step(model: PlantModel, *, h: float | None = None, name: str | None = 
             t = Translator({**base, **dict(zip(xs, _scalars(xv, n)))}, xs)
             return _vec([t.tr(e) for e in m.dynamics])
         xn = rk4(f, X, H if H is not None else ca.SX(float(h)))
-    fname = _cname(name or f"{m.name}_plant_step")
+    fname = plant_step_name(model, name)
     ins, in_names = [X, V, P], ["x", "v", "p"]
     if H is not None:
         ins.append(H)
@@ -401,6 +559,18 @@ def plant_step(model: PlantModel, *, h: float | None = None, name: str | None = 
     doc += [f"  x_next [{n}]  states one step later",
             f"  y      [{len(m.outputs)}]  outputs y1… = h(x, w) at the current state"]
     return _attach_doc(F, doc)
+
+
+def joint_step_name(model: PlantModel, observer: Observer | None,
+                    name: str | None = None) -> str:
+    return _cname(name or f"{(observer.name if observer else model.name)}_sim_step")
+
+
+def joint_identity(model: PlantModel, observer: Observer | None, *, name=None) -> tuple:
+    """What determines :func:`joint_step`'s Function before translation (the model's
+    equations with its parameter values, the observer's, the name)."""
+    return ("joint_step", joint_step_name(model, observer, name), _model_parts(model),
+            _observer_parts(observer))
 
 
 def joint_step(model: PlantModel, observer: Observer | None, *, name: str | None = None
@@ -443,7 +613,7 @@ def joint_step(model: PlantModel, observer: Observer | None, *, name: str | None
                 return _vec(r0)
             return _vec(rhs_and_y(sv)[2])
         sn = rk4(f, S, H)
-    fname = _cname(name or f"{(observer.name if observer else m.name)}_sim_step")
+    fname = joint_step_name(m, observer, name)
     F = ca.Function(fname, [S, V, H], [sn, y, out], ["s", "v", "h"], ["s_next", "y", "out"], _OPTS)
     doc = [f"{fname}(s, v, h) -> (s_next, y, out): plant '{m.name}'"
            + (f" + {observer.kind} observer '{observer.name}'" if observer else "")
