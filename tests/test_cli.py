@@ -250,7 +250,9 @@ def test_help_show_mentions_every_option(capsys):
 
 
 # ----------------------------------------------------------------------------- demo
-def test_demo(capsys):
+def test_demo(capsys, tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setenv("OBSERVER_CAD_CACHE", str(tmp_path / "cache"))
     rc, out, err = run(capsys, ["demo"])
     assert rc == 0, err
     assert err == ""

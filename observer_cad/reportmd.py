@@ -1,0 +1,294 @@
+"""Markdown reports with LaTeX: designs, observers, conditions, timings and figures.
+
+Used by ``observer-cad demo`` (``out/report.md``) and by :mod:`observer_cad.interop`
+(LaTeX export of a design's matrices). Equations and matrices are rendered by
+:func:`sympy.latex` into ``$$ … $$`` blocks; the observer's symbols get their usual
+typography (``xs1`` → x*₁, ``xl1``/``xu1`` → lower/upper copies, ``d_hat`` → d̂,
+``x1_lower`` → x̲₁ …). Markdown text taken from designs (condition names and details)
+is escaped so that ``J*`` or ``|`` cannot turn into emphasis or table cells.
+"""
+from __future__ import annotations
+
+import re
+from typing import Iterable, Sequence
+
+import sympy as sp
+
+__all__ = ["symbol_latex", "matrix_name_latex", "matrix_latex", "expr_latex",
+           "design_matrices_latex", "design_equations_latex", "observer_equations_latex",
+           "latex_block", "md_escape", "conditions_table", "certificate_table",
+           "design_section", "render_report", "lag_states"]
+
+
+# ---------------------------------------------------------------- symbols and names
+def _accent(accent: str, inner: str) -> str:
+    """``\\hat{x}_{1}`` rather than ``\\hat{x_{1}}``: the accent on the letter only."""
+    m = re.fullmatch(r"(\\?[A-Za-z]+)(_\{.*\})?(\^\{.*\})?", inner)
+    if m and m.group(2) and not m.group(3):
+        return rf"{accent}{{{m.group(1)}}}{m.group(2)}"
+    if m and m.group(2) and m.group(3):
+        return rf"{accent}{{{m.group(1)}}}{m.group(3)}{m.group(2)}"
+    return rf"{accent}{{{inner}}}"
+
+
+_SPECIAL = {
+    "k_sm": r"k_{\mathrm{sm}}",
+    "eps_sm": r"\varepsilon_{\mathrm{sm}}",
+    "alpha_eps": r"\varepsilon_{\alpha}",
+    "alpha": r"\alpha",
+    "t": "t",
+}
+
+
+def symbol_latex(name) -> str:
+    """LaTeX for one symbol name of a model, design or observer."""
+    name = str(name)
+    if name in _SPECIAL:
+        return _SPECIAL[name]
+    m = re.fullmatch(r"xs(\d+)", name)
+    if m:
+        return rf"x^{{*}}_{{{m.group(1)}}}"
+    m = re.fullmatch(r"x([lu])(\d+)", name)
+    if m:
+        acc = r"\underline" if m.group(1) == "l" else r"\overline"
+        return rf"{acc}{{x}}^{{*}}_{{{m.group(2)}}}"
+    m = re.fullmatch(r"(.+)_lag(\d+)", name)
+    if m:  # the value one (or k) steps earlier, kept as an observer state
+        return rf"{{{symbol_latex(m.group(1))}}}^{{[-{m.group(2)}]}}"
+    for suffix, acc in (("_hat", r"\hat"), ("_lower", r"\underline"), ("_upper", r"\overline"),
+                        ("_min", r"\underline"), ("_max", r"\overline")):
+        if name.endswith(suffix) and len(name) > len(suffix):
+            return _accent(acc, symbol_latex(name[: -len(suffix)]))
+    m = re.fullmatch(r"([A-Za-z]+)_(\w+)", name)
+    if m and m.group(1) not in ("x",):
+        base = sp.latex(sp.Symbol(m.group(1)))
+        sub = m.group(2)
+        sub = sp.latex(sp.Symbol(sub)) if len(sub) > 1 and sp.latex(sp.Symbol(sub)).startswith("\\") \
+            else (sub if sub.isdigit() or len(sub) == 1 else rf"\mathrm{{{sub}}}")
+        return f"{base}_{{{sub}}}"
+    return sp.latex(sp.Symbol(name))
+
+
+def matrix_name_latex(name: str) -> str:
+    """``Phi`` → Φ, ``F_star`` → F*, ``Hz`` → H_z, ``F_diag`` → F_diag, …"""
+    parts = name.split("_")
+    base = parts[0]
+    tex = {"Phi": r"\Phi", "Hz": "H_{z}", "Psi": r"\Psi"}.get(base, base)
+    sup, sub = "", []
+    for p in parts[1:]:
+        if p == "star":
+            sup = "^{*}"
+        else:
+            sub.append(rf"\mathrm{{{p}}}")
+    if sub:
+        if tex == "H_{z}":
+            tex = "H_{z," + ",".join(sub) + "}"
+        else:
+            tex = f"{tex}_{{{','.join(sub)}}}"
+    return tex + sup
+
+
+def _names(exprs) -> dict:
+    syms = set()
+    for e in exprs:
+        syms |= sp.sympify(e).free_symbols
+    return {s: symbol_latex(s.name) for s in syms}
+
+
+def expr_latex(e, names: dict | None = None) -> str:
+    """One expression, with the observer's symbol typography."""
+    e = sp.sympify(e)
+    return sp.latex(e, symbol_names=names if names is not None else _names([e]))
+
+
+def matrix_latex(M) -> str:
+    """A matrix in round brackets (``pmatrix``-like); empty matrices are named as such."""
+    M = sp.Matrix(M)
+    if M.rows == 0 or M.cols == 0:
+        return rf"\emptyset_{{{M.rows}\times {M.cols}}}"
+    return sp.latex(M, mat_delim="(", symbol_names=_names(list(M)))
+
+
+def latex_block(lines: Sequence[str]) -> str:
+    """A display-math block ``$$ \\begin{aligned} … \\end{aligned} $$``."""
+    lines = [ln for ln in lines if ln]
+    if not lines:
+        return ""
+    body = " \\\\\n".join(lines)
+    return "$$\n\\begin{aligned}\n" + body + "\n\\end{aligned}\n$$"
+
+
+def design_matrices_latex(design) -> dict:
+    """Every matrix of a design: name → ``"\\Phi = \\left(\\begin{matrix}…"`` (LaTeX)."""
+    return {n: f"{matrix_name_latex(n)} = {matrix_latex(M)}" for n, M in design.ordered_matrices}
+
+
+def _dot(sym) -> str:
+    s = symbol_latex(sym)
+    m = re.fullmatch(r"(\\underline\{x\}|\\overline\{x\}|x)\^\{\*\}_\{(\d+)\}", s)
+    if m:  # \dot{x}^{*}_{1}, \dot{\underline{x}}^{*}_{1}
+        return rf"\dot{{{m.group(1)}}}^{{*}}_{{{m.group(2)}}}"
+    return rf"\dot{{{s}}}"
+
+
+def _is_lag(x, e) -> bool:
+    """A delay line ``v_lagk(t+1) = v_lag(k-1)`` (or ``= v``): shown in one sentence."""
+    m = re.fullmatch(r"(.+)_lag(\d+)", str(x))
+    if not m:
+        return False
+    k = int(m.group(2))
+    prev = m.group(1) if k == 1 else f"{m.group(1)}_lag{k - 1}"
+    return str(e) == prev
+
+
+def _equation_lines(states, rhs, outputs, time: str, collapse_lags: bool = False) -> list:
+    exprs = list(rhs) + [e for _, e in outputs]
+    names = _names(exprs + list(states))
+    lines = []
+    for x, e in zip(states, rhs):
+        if collapse_lags and time == "discrete" and _is_lag(x, e):
+            continue
+        lhs = _dot(x) if time == "continuous" else rf"{symbol_latex(x)}(t+1)"
+        lines.append(f"{lhs} &= {expr_latex(e, names)}")
+    for name, e in outputs:
+        lines.append(f"{symbol_latex(name)} &= {expr_latex(e, names)}")
+    return lines
+
+
+def design_equations_latex(design) -> list:
+    """The design's observer equations (x*' or x*(t+1), then its outputs) as aligned lines."""
+    return _equation_lines(design.observer_states, design.equations, design.outputs, design.time)
+
+
+def observer_equations_latex(observer, collapse_lags: bool = False) -> list:
+    """The runnable observer's equations (gains and bounds as named parameters);
+    ``collapse_lags`` leaves out the delay lines ``v^{[-k]}(t+1) = v^{[-k+1]}``."""
+    return _equation_lines(observer.states, observer.update, observer.outputs, observer.time,
+                           collapse_lags)
+
+
+def lag_states(observer) -> list:
+    """The observer's delay-line states (``y1_lag1`` …), in order."""
+    if observer.time != "discrete":
+        return []
+    return [x for x, e in zip(observer.states, observer.update) if _is_lag(x, e)]
+
+
+# ---------------------------------------------------------------- markdown
+def md_escape(text) -> str:
+    """Plain text safe inside markdown paragraphs and table cells."""
+    text = str(text).replace("\\", "\\\\")
+    for ch in "*_`|<>[]#":
+        text = text.replace(ch, "\\" + ch)
+    return text.replace("\n", " ")
+
+
+def _mark(c) -> str:
+    if c.holds:
+        return "✅ ok"
+    return "❌ FAIL" if c.required else "➖ no (informational)"
+
+
+def conditions_table(conditions: Iterable) -> str:
+    rows = ["| | condition | evidence | source |", "|---|---|---|---|"]
+    for c in conditions:
+        rows.append(f"| {_mark(c)} | {md_escape(c.name)} | {md_escape(c.detail)} |"
+                    f" {md_escape(c.reference)} |")
+    return "\n".join(rows)
+
+
+def certificate_table(cert) -> str:
+    kind = "exact (simplified to 0)" if cert.exact else f"float, tolerance {cert.tolerance:.1e}"
+    rows = [f"Certificate: **{'PASSED' if cert.passed else 'FAILED'}**, {kind}.", "",
+            "| identity | holds | residual |", "|---|---|---|"]
+    for i in cert.identities:
+        rows.append(f"| {md_escape(i.name)} | {'✅' if i.holds else '❌'} | {md_escape(i.residual)} |")
+    return "\n".join(rows)
+
+
+def _fmt_s(v) -> str:
+    if v is None:
+        return "—"
+    return f"{v * 1e3:.0f} ms" if v < 1 else f"{v:.2f} s"
+
+
+def design_section(*, anchor: str, heading: str, paper: str, command: str, model_name: str,
+                   design, observer=None, timings: dict | None = None,
+                   figures: Sequence = (), notes: Sequence[str] = (),
+                   full_text: str = "", level: int = 2) -> str:
+    """One design in the report: what, how to reproduce, equations, matrices, conditions,
+    assumptions, certificate, timings, figures, and the full text output."""
+    h = "#" * level
+    out = [f'<a id="{anchor}"></a>', f"{h} {md_escape(heading)}", "",
+           f"*{md_escape(paper)}* — model `{model_name}`, {design.observer}, {design.form} form,"
+           f" k = {design.k}, {'symbolic' if design.symbolic else 'numeric'}"
+           f" ({design.method} arithmetic){', APPROXIMATE' if design.approximate else ''}.", ""]
+    if command:
+        out += ["Reproduce:", "", "```sh", command, "```", ""]
+    for n in notes:
+        out += [n, ""]
+    if design.lambdas:
+        out += ["Jordan eigenvalues: $" + ", ".join(rf"\lambda_{{{i + 1}}} = {sp.latex(sp.sympify(v))}"
+                                                      for i, v in enumerate(design.lambdas)) + "$", ""]
+    if design.closed_loop_eigenvalues:
+        out += ["Closed-loop eigenvalues of $F^{*} - K H^{*}$: $"
+                + ", ".join(sp.latex(sp.sympify(v)) for v in design.closed_loop_eigenvalues) + "$", ""]
+    if design.equations:
+        out += ["**Reduced model (observer) equations** (the design):", "",
+                latex_block(design_equations_latex(design)), ""]
+    if observer is not None and (observer.kind != design.observer or
+                                 list(observer.update) != list(design.equations)):
+        desc = str(observer.description)
+        out += [f"**Runnable observer** ({md_escape(observer.kind)}, {observer.time} time) —"
+                " compiled and simulated" + (f": {md_escape(desc)}." if len(desc) <= 100 else ":"), ""]
+        if len(desc) > 100:
+            out += ["```text", desc, "```", ""]
+        out += [latex_block(observer_equations_latex(observer, collapse_lags=True)), ""]
+        lags = lag_states(observer)
+        if lags:
+            out += ["plus the delay lines " + ", ".join(f"${symbol_latex(x)}$" for x in lags)
+                    + r" ($v^{[-k]}$ holds the value of $v$ k steps earlier).", ""]
+        if observer.parameters:
+            out += ["with " + ", ".join(
+                f"${symbol_latex(p)} = {sp.latex(sp.sympify(v))}$" for p, v in observer.parameters.items())
+                + ".", ""]
+        if observer.delays:
+            out += ["Delayed outputs: " + ", ".join(
+                f"${symbol_latex(k)}$ at step t is the estimate for t − {v}" for k, v in observer.delays.items())
+                + " (the figures align it with the true signal).", ""]
+    if design.nonlinear:
+        out += ["Nonlinear terms after argument substitution (METHOD §2c):", "",
+                latex_block([rf"\Psi^{{*}}_{{{ns.index}}} &= {expr_latex(ns.function)}"
+                             rf" \quad (\text{{argument }} {expr_latex(ns.argument)})"
+                             for ns in design.nonlinear]), ""]
+    out += ["**Matrices**", "", latex_block([v.replace(" = ", " &= ", 1)
+                                             for v in design_matrices_latex(design).values()]), ""]
+    out += ["**Conditions**", "", conditions_table(design.conditions), ""]
+    if observer is not None:
+        extra = [c for c in observer.conditions if c not in design.conditions]
+        if extra:
+            out += ["Observer conditions (gains, bounds, stability of the runnable observer):", "",
+                    conditions_table(extra), ""]
+    out += ["**Assumptions**", ""]
+    if design.assumptions:
+        out += ["".join(f"- ${sp.latex(a, symbol_names=_names([a]))}$\n" for a in design.assumptions)]
+    else:
+        out += ["none (the design holds for all parameter values)", ""]
+    if observer is not None:
+        extra = [a for a in observer.assumptions if a not in design.assumptions]
+        if extra:
+            out += ["Observer assumptions:", "", "".join(f"- {md_escape(a)}\n" for a in extra)]
+    out += ["**Choice**: " + md_escape(design.choice), ""]
+    out += [certificate_table(design.certificate), ""]
+    if timings:
+        out += ["**Timings**: " + ", ".join(f"{k} {_fmt_s(v)}" for k, v in timings.items()), ""]
+    for path, caption in figures:
+        out += [f"![{md_escape(caption)}]({path})", "", f"*{md_escape(caption)}*", ""]
+    if full_text:
+        out += ["<details><summary>Full text output (as <code>observer-cad design</code> prints it)"
+                "</summary>", "", "```text", full_text.rstrip(), "```", "", "</details>", ""]
+    return "\n".join(out)
+
+
+def render_report(title: str, intro: Sequence[str], sections: Sequence[str]) -> str:
+    return "\n".join([f"# {title}", "", *intro, "", *sections]).rstrip() + "\n"

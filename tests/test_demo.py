@@ -1,0 +1,135 @@
+"""``observer-cad demo`` (issue 7 item 1): designs, compiles, simulates, plots and writes
+``out/report.md``. One full run into a temporary directory with an empty compile cache;
+the checks are on what it wrote (no wall-clock assertions)."""
+from __future__ import annotations
+
+import io
+import json
+import re
+
+import pytest
+
+from observer_cad import demo
+from observer_cad.reportmd import md_escape, symbol_latex
+
+
+@pytest.fixture(scope="module")
+def demo_run(models_dir, tmp_path_factory):
+    out = tmp_path_factory.mktemp("demo_out")
+    cache = tmp_path_factory.mktemp("cache")
+    mp = pytest.MonkeyPatch()
+    mp.setenv("OBSERVER_CAD_CACHE", str(cache))
+    try:
+        buf = io.StringIO()
+        rc = demo.run_demo(models_dir, out, stream=buf)
+    finally:
+        mp.undo()
+    return rc, out, buf.getvalue(), cache
+
+
+def test_demo_succeeds_and_reports_progress(demo_run):
+    rc, out, log, _ = demo_run
+    assert rc == 0, log
+    n = len(demo.CASES)
+    for i in range(1, n + 1):
+        assert f"[{i:2d}/{n}]" in log
+    assert "certificate PASSED" in log and "FAILED" not in log
+    assert re.search(r"^total \d+\.\d s", log, re.M), log[-500:]
+    assert log.count("[figure]") == len(demo.FIGURES)
+
+
+def test_compiled_with_a_cold_cache(demo_run):
+    rc, out, log, cache = demo_run
+    if "falling back to the reference simulator" in log:
+        pytest.skip("no C compiler here: the demo used the reference simulator")
+    assert "C compiled now" in log
+    assert list(cache.glob("*.so")), "the compiled libraries went to OBSERVER_CAD_CACHE"
+
+
+def test_report_references_existing_pngs(demo_run):
+    rc, out, log, _ = demo_run
+    report = (out / "report.md").read_text(encoding="utf-8")
+    refs = re.findall(r"\]\((figures/[^)]+\.png)\)", report)
+    assert refs
+    for r in refs:
+        p = out / r
+        assert p.is_file() and p.stat().st_size > 10_000, r
+        assert p.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    written = {p.name for p in (out / "figures").glob("*.png")}
+    assert written == {name for name, *_ in demo.FIGURES}
+    assert {r.split("/")[1] for r in refs} == written
+    # the papers' figures are all there
+    for name in ("000_fig1", "000_fig2", "000_fig3", "000_fig4", "002_fig2", "002_fig3", "001_fig2"):
+        assert f"figures/{name}.png" in refs
+    # atomic writes leave no temporary files behind
+    assert not [p for p in out.rglob(".*") if p.is_file()]
+
+
+def test_every_design_certified(demo_run):
+    rc, out, log, _ = demo_run
+    for case in demo.CASES:
+        data = json.loads((out / "designs" / f"{case.key}.json").read_text(encoding="utf-8"))
+        assert data["certificate"]["passed"] is True, case.key
+        assert all(i["holds"] for i in data["certificate"]["identities"]), case.key
+        tex = (out / "designs" / f"{case.key}.tex").read_text(encoding="utf-8")
+        assert tex.startswith(r"\documentclass") and r"\Phi &= " in tex
+    report = (out / "report.md").read_text(encoding="utf-8")
+    assert report.count("Certificate: **PASSED**") == len(demo.CASES)
+    assert "FAILED" not in report and "❌" not in report
+    summary = report.split("## Figures")[0]
+    assert summary.count("| ✅ |") == len(demo.CASES)
+
+
+def test_report_has_latex_conditions_and_timings(demo_run):
+    rc, out, log, _ = demo_run
+    report = (out / "report.md").read_text(encoding="utf-8")
+    blocks = re.findall(r"^\$\$\n(.*?)\n\$\$$", report, re.S | re.M)
+    assert len(blocks) >= 3 * len(demo.CASES)
+    for b in blocks:
+        assert b.startswith(r"\begin{aligned}") and b.endswith(r"\end{aligned}")
+        assert b.count("{") == b.count("}"), b[:200]
+    # seed 000's fault model (symbolic k1..k6) and seed 002's virtual sensor, in LaTeX
+    assert r"\Phi &= \left(\begin{matrix}k_{4} & 0 & - k_{1}\end{matrix}\right)" in report
+    assert r"\dot{x}^{*}_{1} &= u_{1} - \sqrt{x^{*}_{1} - y_{1}}" in report
+    assert report.count("| | condition | evidence | source |") >= len(demo.CASES)
+    assert "rank condition (3.3) at k = 1" in report
+    assert "**Assumptions**" in report and r"$k_{1} \neq 0$" in report
+    assert report.count("**Timings**: design") == len(demo.CASES)
+    for case in demo.CASES:
+        assert f'<a id="{case.key}"></a>' in report
+    # the full text of every design is kept
+    assert report.count("<summary>Full text output") == len(demo.CASES)
+
+
+def test_fallback_without_a_compiler(models_dir, tmp_path, monkeypatch):
+    """No C compiler: the demo says so and simulates with the reference simulator."""
+    keys = {"lin_vs_jordan", "drive_diag"}
+    monkeypatch.setattr(demo, "CASES", tuple(c for c in demo.CASES if c.key in keys))
+    monkeypatch.setenv("CC", "no-such-compiler-observer-cad")
+    monkeypatch.setenv("OBSERVER_CAD_CACHE", str(tmp_path / "cache"))
+    buf = io.StringIO()
+    assert demo.run_demo(models_dir, tmp_path / "out", stream=buf) == 0
+    log = buf.getvalue()
+    assert "falling back to the reference simulator" in log
+    assert "no-such-compiler-observer-cad" in log
+    report = (tmp_path / "out" / "report.md").read_text(encoding="utf-8")
+    assert "reference simulator (numpy)" in report
+    assert "figures/drive_residual.png" in report
+    assert "skipped" in log  # figures whose designs were not run are skipped, not failed
+
+
+def test_no_compile_option(models_dir, tmp_path, monkeypatch):
+    monkeypatch.setattr(demo, "CASES", tuple(c for c in demo.CASES if c.key == "drive_diag"))
+    buf = io.StringIO()
+    assert demo.run_demo(models_dir, tmp_path, compile=False, stream=buf) == 0
+    assert "compilation switched off" in buf.getvalue()
+    assert not list(tmp_path.glob("*.so"))
+
+
+def test_markdown_and_latex_helpers():
+    assert md_escape("Phi F - F* Phi | x_1") == r"Phi F - F\* Phi \| x\_1"
+    assert symbol_latex("xs2") == "x^{*}_{2}"
+    assert symbol_latex("xl1") == r"\underline{x}^{*}_{1}"
+    assert symbol_latex("rho_hat") == r"\hat{\rho}"
+    assert symbol_latex("x1_upper") == r"\overline{x}_{1}"
+    assert symbol_latex("y2_lag1") == "{y_{2}}^{[-1]}"
