@@ -202,7 +202,13 @@ def run(repeats: int, cold_runs: int) -> str:
     print("\n".join(rows[-3:]), flush=True)
     load1 = _load()
 
-    head = [
+    busy = max(float(x) for x in (load0 + " " + load1).split() if x != "?") \
+        if "?" not in (load0 + load1) else 0.0
+    warn = ([f"**The machine was busy** (load average up to {busy:.1f} on {info['nproc']}"
+             " CPUs): wall-clock times are inflated, the CPU times in parentheses are the"
+             " better guide; re-run on a quiet machine before comparing with the targets.", ""]
+            if busy > 0.75 * info["nproc"] else [])
+    head = warn + [
         f"Measured {started} by `python3 benchmarks/bench_synthesis.py --write`: "
         f"{info['nproc']} CPUs ({info['cpu']}), Python {info['python']}, sympy {info['sympy']},"
         f" numpy {info['numpy']}, {info['platform']}. Load average (1, 5, 15 min) {load0} at"

@@ -1,0 +1,19 @@
+"""Regenerate every benchmark table in benchmarks/README.md with one command:
+
+    python3 benchmarks/run.py
+
+(runs bench_synthesis.py --write, then bench_codegen.py --write; each rewrites its own
+section atomically).
+"""
+import subprocess
+import sys
+from pathlib import Path
+
+HERE = Path(__file__).resolve().parent
+
+if __name__ == "__main__":
+    for script in ("bench_synthesis.py", "bench_codegen.py"):
+        print(f"== {script}", flush=True)
+        rc = subprocess.call([sys.executable, str(HERE / script), "--write"] + sys.argv[1:])
+        if rc:
+            sys.exit(rc)
