@@ -143,8 +143,9 @@ def _add_design_options(p) -> None:
     p.add_argument("--symbolic", action="store_true",
                    help="keep parameters as symbols (default: substitute their values as exact rationals)")
     p.add_argument("--method", choices=["auto", "exact", "float"], default="auto",
-                   help="unknown-input: exact algebra, or SVD with a tolerance (default auto: "
-                        "float above 20 states for numeric models)")
+                   help="exact algebra, or SVD / generalised eigenvalues with a tolerance "
+                        "(canonical unknown-input and linear Jordan designs; default auto: float "
+                        "above 20 states for numeric models)")
     p.add_argument("--rtol", type=float, default=None,
                    help="relative rank tolerance of the float path (default 1e3·eps·size)")
 

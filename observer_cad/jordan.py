@@ -44,6 +44,9 @@ __all__ = ["Admissible", "admissible_lambdas", "design_jordan", "parse_estimate"
 
 LAMBDA = sp.Symbol("lambda")
 
+#: Above this state dimension a numeric linear Jordan design uses the float pencil path.
+FLOAT_AUTO_N = 20
+
 
 def observer_symbols(k: int):
     """Names of the reduced model's states: xs1, xs2, …"""
@@ -196,7 +199,8 @@ def _rank(M) -> int:
 def design_jordan(model: PlantModel, *, observer: str, estimate=None,
                   faults: Sequence[str] | None = None, decouple: Sequence[str] = (),
                   lambdas: Sequence | None = None, symbolic: bool = False,
-                  structure: Structure | None = None) -> Design:
+                  structure: Structure | None = None, method: str = "auto",
+                  rtol: float | None = None) -> Design:
     """Jordan-form design of a diagnostic observer, virtual sensor or interval observer.
 
     Parameters
@@ -219,6 +223,18 @@ def design_jordan(model: PlantModel, *, observer: str, estimate=None,
     """
     if observer not in ("diagnostic", "virtual-sensor", "interval"):
         raise UsageError(f"Jordan form supports diagnostic, virtual-sensor and interval, not {observer!r}")
+    if method not in ("auto", "exact", "float"):
+        raise UsageError(f"method must be 'auto', 'exact' or 'float', got {method!r}")
+    if method == "auto":  # large numeric linear models: the pencil numerically (with evidence)
+        big = len(model.states) > FLOAT_AUTO_N and not (symbolic and model.parameters)
+        method = "float" if big and extract_structure(
+            model.substitute_parameters() if model.parameters else model).is_linear else "exact"
+    if method == "float":
+        if symbolic and model.parameters:
+            raise UsageError("the float path needs numeric parameters: design without --symbolic")
+        from .jordan_float import design_jordan_float
+        return design_jordan_float(model, observer=observer, estimate=estimate, faults=faults,
+                                   decouple=decouple, lambdas=lambdas, rtol=rtol)
     work = model if symbolic else model.substitute_parameters()
     st = structure if (structure is not None and symbolic) else extract_structure(work)
     where = model.where

@@ -112,7 +112,8 @@ def _exact(model, observer, faults, disturbances, estimate, form, lambdas, eigen
                                                eigenvalues=eigenvalues, symbolic=symbolic)
         from .jordan import design_jordan
         return design_jordan(model, observer="diagnostic", faults=faults or None,
-                             decouple=disturbances, lambdas=lambdas, symbolic=symbolic)
+                             decouple=disturbances, lambdas=lambdas, symbolic=symbolic,
+                             method=method, rtol=rtol)
     # virtual-sensor / interval
     if form == "canonical":
         from .virtual import design_virtual_sensor_canonical
@@ -129,4 +130,4 @@ def _exact(model, observer, faults, disturbances, estimate, form, lambdas, eigen
         return d
     from .jordan import design_jordan
     return design_jordan(model, observer=observer, estimate=estimate, decouple=disturbances,
-                         lambdas=lambdas, symbolic=symbolic)
+                         lambdas=lambdas, symbolic=symbolic, method=method, rtol=rtol)
