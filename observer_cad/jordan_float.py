@@ -39,8 +39,8 @@ from . import linalg
 from .canonical import _SingleThreadBLAS, _np_exact, _to_sympy_float
 from .certificate import certify_design
 from .design import Condition, Design
-from .errors import InfeasibleDesignError, ModelError, UsageError
-from .jordan import observer_symbols, output_symbols, parse_estimate
+from .errors import InfeasibleDesignError, UsageError
+from .jordan import observer_symbols, output_symbols, resolve_jordan_task
 from .model import PlantModel
 from .structure import extract_structure
 
@@ -313,35 +313,8 @@ def _design(model, observer, estimate, faults, decouple, lambdas, rtol):
     tol = DEFAULT_RTOL if rtol is None else float(rtol)
     res_tol = max(1e-7, 100.0 * tol)
 
-    # Step 1: the task (as design_jordan)
-    M = None
-    if observer in ("virtual-sensor", "interval"):
-        if estimate is None:
-            raise UsageError(f"--observer {observer} needs --estimate EXPR (e.g. x1)")
-        M = parse_estimate(work, estimate)
-    fault_syms = []
-    if observer == "diagnostic":
-        names = list(faults) if faults else [f.name for f in work.faults]
-        if not names:
-            raise ModelError(f"{where}: the model declares no faults to detect")
-        for nm in names:
-            s = work.symbol(str(nm))
-            if s is None or (s not in work.faults and s not in work.disturbances):
-                raise ModelError(f"{where}: unknown fault '{nm}'; declared faults: "
-                                 + (", ".join(f.name for f in work.faults) or "none"))
-            fault_syms.append(s)
-    dec = [] if observer == "interval" else [r for r in work.disturbances if r not in fault_syms]
-    for nm in decouple or ():
-        s = work.symbol(str(nm))
-        if s is None or (s not in work.faults and s not in work.disturbances):
-            raise ModelError(f"{where}: unknown disturbance '{nm}'")
-        if s in fault_syms:
-            raise UsageError(f"'{nm}' cannot be both detected (--fault) and decoupled (--disturbance)")
-        if s not in dec:
-            dec.append(s)
-    Ds = sp.Matrix(st.unknown_input_columns(fault_syms)) if fault_syms else sp.zeros(n, 0)
-    Ls = sp.Matrix(st.L) if observer == "interval" else (
-        sp.Matrix(st.unknown_input_columns(dec)) if dec else sp.zeros(n, 0))
+    # Step 1: the task (shared with design_jordan)
+    M, fault_syms, dec, Ds, Ls = resolve_jordan_task(work, st, observer, estimate, faults, decouple)
     decoupled = observer != "interval"
     F, G, H = (_np_exact(sp.Matrix(X)) for X in (st.F, st.G, st.H))
     D, L = _np_exact(Ds), _np_exact(Ls)

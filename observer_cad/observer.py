@@ -26,10 +26,9 @@ from typing import Mapping
 
 import sympy as sp
 
-from .design import Condition, Design
+from .design import Design
 from .errors import ModelError, UsageError
 from .model import PlantModel
-from .structure import extract_structure
 
 __all__ = ["Observer", "box_min", "box_max", "pos", "neg", "estimate_name",
            "virtual_sensor_observer", "diagnostic_observer", "interval_observer",

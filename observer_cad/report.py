@@ -59,7 +59,7 @@ def format_structure(st: Structure) -> str:
     out = [f"Model {m.name} ({m.time} time{', from ' + m.source if m.source else ''})",
            f"  states       x = ({names(m.states)})",
            f"  inputs       u = ({names(m.inputs)})",
-           f"  outputs      " + ", ".join(f"y{i + 1} = {h}" for i, h in enumerate(m.outputs)),
+           "  outputs      " + ", ".join(f"y{i + 1} = {h}" for i, h in enumerate(m.outputs)),
            f"  faults       d = ({names(m.faults)})",
            f"  disturbances rho = ({names(m.disturbances)})",
            f"  noise        w = ({names(m.noise)})"]

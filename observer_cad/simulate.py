@@ -24,14 +24,13 @@ from __future__ import annotations
 
 import dataclasses
 import json
-import math
 from pathlib import Path
 from typing import Mapping
 
 import numpy as np
 import sympy as sp
 
-from .errors import ModelError, UsageError
+from .errors import UsageError
 from .model import PlantModel
 from .observer import Observer, output_symbols
 

@@ -149,7 +149,6 @@ def design_virtual_sensor_canonical(model: PlantModel, *, estimate, variant: str
             dec.append(s)
     L = sp.Matrix(st.unknown_input_columns(dec)) if dec else sp.zeros(n, 0)
     H0 = sp.Matrix.vstack(H, M) if variant == "004" else H
-    l0 = H0.rows
 
     attempts = []
     chosen = None
