@@ -95,3 +95,18 @@ def test_kind_designs_simulates_and_holds(models_dir, tmp_path, capsys, model, a
         t, dh, d = data["t"], data["d_hat"], data["d"]
         late = t > 4
         assert np.max(np.abs(dh[late] - d[late])) < 0.02
+
+
+def test_drem_cli_reports_insufficient_excitation(models_dir, tmp_path, capsys):
+    """A constant input gives no excitation: simulate says so (one line, exit 3) instead of
+    silently returning estimates; design --json carries the observer's equations."""
+    j = json.loads(_run(capsys, ["design", str(models_dir / "drem_example.py"), "--observer",
+                                 "drem", "--json"]))
+    assert j["equations"] and "x1_hat" in j["outputs"]
+    rc = main(["simulate", str(models_dir / "drem_example.py"), "--observer", "drem",
+               "--scenario", str(models_dir / "scenarios" / "drem_constant_input.json"),
+               "--out", str(tmp_path / "o")])
+    err = capsys.readouterr().err
+    assert rc == 3
+    assert "insufficient excitation" in err and len(err.strip().splitlines()) == 1
+    assert (tmp_path / "o" / "signals.csv").exists()
