@@ -286,6 +286,12 @@ def design_jordan(model: PlantModel, *, observer: str, estimate=None,
     M, fault_syms, dec, D, L = resolve_jordan_task(work, st, observer, estimate, faults, decouple)
     decoupled = observer != "interval"
 
+    if M is not None:  # z already measured: say so rather than build a trivial observer
+        X0 = linalg.solve_left(H, M)
+        if X0 is not None:
+            raise UsageError(f"{where}: z = {estimate} is measured directly: z = "
+                             f"{sp.expand((X0 * sp.Matrix(output_symbols(l)))[0, 0])}; no observer is needed")
+
     # Step 2: L0 (maximal rank, L0 L = 0) and the admissible λ
     if decoupled and L.cols:
         basis, _ = linalg.left_null_space(L)

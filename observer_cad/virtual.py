@@ -177,6 +177,7 @@ def design_virtual_sensor_canonical(model: PlantModel, *, estimate, variant: str
                 why = why_nl
                 continue
             chosen = (k, v, R0, J0, Phi, idents, subs)
+            chosen_rank = (rk.rank, need, len(members))
             break
         if chosen:
             break
@@ -219,7 +220,8 @@ def design_virtual_sensor_canonical(model: PlantModel, *, estimate, variant: str
 
     conds = [
         Condition(f"rank condition (3.3) at k = {k}" + (" (outputs y and y_v = z)" if variant == "004" else ""),
-                  True, f"null space of (W L) nonempty at k = {k}", "seed 001 §2; seed 004"),
+                  True, f"rank (W L) = {chosen_rank[0]} < {chosen_rank[1]} rows; left null space"
+                  f" of dimension {chosen_rank[2]}", "seed 001 §2; seed 004"),
         Condition("k is minimal", True, "; ".join(attempts) if attempts else "k = 1", "seed 001 §2"),
         Condition("virtual-sensor condition rank [Φ; H] = rank [Φ; H; M]", True,
                   f"M = H_z Φ + Q H with H_z = {list(Hz)}, Q = {list(Q)}", "seed 002 eq. (3.2)"),

@@ -156,11 +156,16 @@ def test_random_jordan_designs_pass_certificates(seed):
     rng = random.Random(seed)
     n = rng.randint(3, 5)
     model = _random_model(rng, n, rng.randint(1, 2), rng.randint(0, 1), nonlinear=seed % 2 == 0)
+    from observer_cad import UsageError, extract_structure
     try:
         d = design_jordan(model, observer="virtual-sensor", estimate="x1")
     except InfeasibleDesignError:
         return
-    from observer_cad import extract_structure
+    except UsageError as exc:  # x1 is itself a combination of the outputs
+        assert "measured directly" in str(exc)
+        H = sp.Matrix(extract_structure(model).H)
+        assert sp.Matrix.vstack(H, sp.Matrix([[1] + [0] * (n - 1)])).rank() == H.rank()
+        return
     st = extract_structure(model)
     Phi, J = sp.Matrix(d.matrices["Phi"]), sp.Matrix(d.matrices["J_star"])
     F, H = sp.Matrix(st.F), sp.Matrix(st.H)
@@ -342,3 +347,11 @@ def test_canonical_diagnostic_nonlinear_includes_psi(models_dir):
     m = load_model(models_dir / "three_tank.py")
     d = design_diagnostic_canonical(m, fault="rho2")
     assert d.nonlinear and any(e.has(sp.sqrt(sp.Symbol("xs1"))) or "sqrt" in str(e) for e in d.equations)
+
+
+def test_measured_signal_needs_no_observer(models_dir, capsys):
+    from observer_cad.cli import main
+    rc = main(["design", str(models_dir / "electric_drive.py"), "--observer", "virtual-sensor",
+               "--estimate", "x1"])
+    err = capsys.readouterr().err
+    assert rc == 2 and "measured directly" in err and "z = y1" in err
