@@ -27,7 +27,7 @@ from typing import Mapping
 import sympy as sp
 
 from .design import Design
-from .errors import ModelError, UsageError
+from .errors import UsageError
 from .model import PlantModel
 
 __all__ = ["Observer", "box_min", "box_max", "pos", "neg", "estimate_name",
@@ -126,18 +126,6 @@ def estimate_name(model: PlantModel, design: Design) -> str:
         if e in model.states:
             return str(e)
     return "z"
-
-
-def _bounds(model: PlantModel, syms, what: str):
-    lo, hi = [], []
-    for s in syms:
-        if s not in model.bounds:
-            raise ModelError(f"{model.where}: the interval observer needs bounds on {what}"
-                             f" '{s}' (declare bounds={{{s}: (low, high)}} in the model)")
-        a, b = model.bounds[s]
-        lo.append(a)
-        hi.append(b)
-    return sp.Matrix(lo) if lo else sp.zeros(0, 1), sp.Matrix(hi) if hi else sp.zeros(0, 1)
 
 
 def _signals(model: PlantModel, l: int):

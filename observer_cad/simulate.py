@@ -156,6 +156,16 @@ def _signal_arrays(model: PlantModel, sc: Scenario, t: np.ndarray, runs: int):
     return out
 
 
+def align_delay(v: np.ndarray, delay: int) -> np.ndarray:
+    """Shift an output produced ``delay`` steps late so that column t holds the estimate of
+    time t (NaN where it is not available yet). ``v`` has shape (runs, N)."""
+    if not delay:
+        return v
+    shifted = np.full_like(v, np.nan)
+    shifted[:, :-delay] = v[:, delay:]
+    return shifted
+
+
 def _vector_fn(args, exprs):
     """Numpy function of arrays (one per arg) returning a list of arrays (broadcast)."""
     # cse: long expressions (e.g. DREM's determinants) share their subexpressions
@@ -256,13 +266,7 @@ def simulate(model: PlantModel, observer: Observer | None, scenario: Scenario, *
     if f_out is not None:
         ov = f_out(*[X[len(xs) + j] for j in range(len(obs_states))], *yv, *allu)
         for (name, _), v in zip(observer.outputs, ov):
-            v = np.array(v, dtype=float)
-            delay = int(observer.delays.get(name, 0))
-            if delay:
-                shifted = np.full_like(v, np.nan)
-                shifted[:, :-delay] = v[:, delay:]
-                v = shifted
-            cols[name] = v
+            cols[name] = align_delay(np.array(v, dtype=float), int(observer.delays.get(name, 0)))
             order.append(name)
     if runs is None:
         cols = {k: v[0] for k, v in cols.items()}

@@ -33,7 +33,7 @@ import sympy as sp
 from ..errors import UsageError
 from ..model import PlantModel
 from ..observer import Observer, output_symbols
-from ..simulate import Scenario, SimulationResult, _signal_arrays
+from ..simulate import Scenario, SimulationResult, _signal_arrays, align_delay
 from .compile import (_LOCK, FLAGS, STATS, CodegenError, compile_source, fingerprint,
                       forget_fingerprint, generate_c, lookup_fingerprint, record_fingerprint)
 from .translate import describe, joint_identity, joint_step, joint_step_name
@@ -283,13 +283,7 @@ class CompiledSimulator:
             [s.name for s in self.inputs if s not in m.noise]
         if observer is not None:
             for j, (name, _) in enumerate(observer.outputs):
-                v = O[:, :, j]
-                delay = int(observer.delays.get(name, 0))
-                if delay:
-                    shifted = np.full_like(v, np.nan)
-                    shifted[:, :-delay] = v[:, delay:]
-                    v = shifted
-                cols[name] = v
+                cols[name] = align_delay(O[:, :, j], int(observer.delays.get(name, 0)))
                 order.append(name)
         if runs is None:
             cols = {k: v[0] for k, v in cols.items()}
