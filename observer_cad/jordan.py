@@ -412,23 +412,8 @@ def design_jordan(model: PlantModel, *, observer: str, estimate=None,
     cert = certify_design(plant, mats, M=M, substitutions=subs, decoupled=decoupled)
 
     # Step 7: equations and reported conditions
-    us = sp.Matrix(work.inputs) if work.inputs else sp.zeros(0, 1)
-    rhs = mats["F_star"] * sp.Matrix(xs) + mats["J_star"] * sp.Matrix(ys)
-    if us.rows:
-        rhs += mats["G_star"] * us
-    if nonlinear:
-        psi = sp.zeros(C.cols, 1)
-        for ns in nonlinear:
-            psi[ns.index - 1, 0] = ns.function
-        rhs += mats["C_star"] * psi
-    equations = tuple(sp.expand(e, deep=False) for e in rhs)
-    outputs = []
-    if M is not None:
-        z = mats["Hz"] * sp.Matrix(xs) + mats["Q"] * sp.Matrix(ys)
-        outputs = [("z" if z.rows == 1 else f"z{i + 1}", sp.expand(e)) for i, e in enumerate(z)]
-    if observer == "diagnostic":
-        r = mats["R_star"] * sp.Matrix(ys) - mats["H_star"] * sp.Matrix(xs)
-        outputs = [("r" if r.rows == 1 else f"r{i + 1}", sp.expand(e)) for i, e in enumerate(r)]
+    equations, outputs = jordan_equations(mats, work.inputs, xs, ys, observer, M, nonlinear,
+                                          C.cols)
 
     conds += _report_conditions(observer, work.time, lams, mats, Phi, H, D, M, fault_syms, CA,
                                  nonlinear, k, decoupled)
@@ -458,6 +443,39 @@ def design_jordan(model: PlantModel, *, observer: str, estimate=None,
         else str(list(M * sp.Matrix(work.states))),
         lambdas=lams, nonlinear=tuple(nonlinear), equations=equations,
         observer_states=tuple(xs), outputs=tuple(outputs))
+
+
+def jordan_equations(mats, inputs, xs, ys, observer, M, nonlinear=(), q=0):
+    """Right-hand sides F* x* + J* y + G* u + C* Ψ* and the outputs (z = H_z x* + Q y, or
+    the residual r = R* y − H* x* for diagnostic observers) of a Jordan design."""
+    rhs = mats["F_star"] * sp.Matrix(xs) + mats["J_star"] * sp.Matrix(ys)
+    if inputs:
+        rhs += mats["G_star"] * sp.Matrix(inputs)
+    if nonlinear:
+        psi = sp.zeros(q, 1)
+        for ns in nonlinear:
+            psi[ns.index - 1, 0] = ns.function
+        rhs += mats["C_star"] * psi
+    equations = tuple(sp.expand(e, deep=False) for e in rhs)
+    outputs = []
+    if M is not None:
+        z = mats["Hz"] * sp.Matrix(xs) + mats["Q"] * sp.Matrix(ys)
+        outputs = [("z" if z.rows == 1 else f"z{i + 1}", sp.expand(e)) for i, e in enumerate(z)]
+    if observer == "diagnostic":
+        r = mats["R_star"] * sp.Matrix(ys) - mats["H_star"] * sp.Matrix(xs)
+        outputs = [("r" if r.rows == 1 else f"r{i + 1}", sp.expand(e)) for i, e in enumerate(r)]
+    return equations, tuple(outputs)
+
+
+def _check_rows(rows, size, observer, H, D, M, st, tried):
+    """True when the rows are independent and satisfy the task; records why not."""
+    Phi = sp.Matrix.vstack(*[r[1] for r in rows])
+    if _rank(Phi) < size:
+        return False
+    ok, why = _task_ok(observer, Phi, H, D, M, st)
+    if not ok and len(tried) < 12:
+        tried.append(f"k={size}, λ = ({', '.join(str(r[0]) for r in rows)}): {why}")
+    return ok
 
 
 def _rows_in_rowspace(family, H):
@@ -495,14 +513,8 @@ def _directed_rows(fam, lam_list, H, M, n, observer, D, st, tried):
                     rows.append((lam, Phi_i, (c * JB).applyfunc(sp.cancel)))
             if len(rows) != size:
                 continue  # a smaller set does it (found earlier unless the task failed)
-            Phi = sp.Matrix.vstack(*[r[1] for r in rows])
-            if _rank(Phi) < size:
-                continue
-            ok, why = _task_ok(observer, Phi, H, D, M, st)
-            if ok:
+            if _check_rows(rows, size, observer, H, D, M, st, tried):
                 return rows
-            if len(tried) < 12:
-                tried.append(f"k={size}, λ = ({', '.join(str(r[0]) for r in rows)}): {why}")
     return None
 
 
@@ -515,14 +527,8 @@ def _combination_rows(pool, n, observer, H, D, M, st, tried):
                 lams = [r[0] for r in rows]
                 if (len(set(lams)) == len(lams)) != distinct:
                     continue
-                Phi = sp.Matrix.vstack(*[r[1] for r in rows])
-                if _rank(Phi) < size:
-                    continue
-                ok, why = _task_ok(observer, Phi, H, D, M, st)
-                if ok:
+                if _check_rows(rows, size, observer, H, D, M, st, tried):
                     return rows
-                if len(tried) < 12:
-                    tried.append(f"k={size}, λ = ({', '.join(str(r[0]) for r in rows)}): {why}")
     return None
 
 

@@ -40,7 +40,7 @@ from .canonical import _SingleThreadBLAS, _np_exact, _to_sympy_float
 from .certificate import certify_design
 from .design import Condition, Design
 from .errors import InfeasibleDesignError, UsageError
-from .jordan import observer_symbols, output_symbols, resolve_jordan_task
+from .jordan import jordan_equations, observer_symbols, output_symbols, resolve_jordan_task
 from .model import PlantModel
 from .structure import extract_structure
 
@@ -432,18 +432,7 @@ def _design(model, observer, estimate, faults, decouple, lambdas, rtol):
 
     # Step 7: equations, outputs, conditions
     xs, ys = observer_symbols(k), output_symbols(l)
-    us = sp.Matrix(work.inputs) if work.inputs else sp.zeros(0, 1)
-    rhs = mats["F_star"] * sp.Matrix(xs) + mats["J_star"] * sp.Matrix(ys)
-    if us.rows:
-        rhs += mats["G_star"] * us
-    equations = tuple(sp.expand(e, deep=False) for e in rhs)
-    outputs = []
-    if M is not None:
-        z = mats["Hz"] * sp.Matrix(xs) + mats["Q"] * sp.Matrix(ys)
-        outputs = [("z" if z.rows == 1 else f"z{i + 1}", sp.expand(e)) for i, e in enumerate(z)]
-    if observer == "diagnostic":
-        r = mats["R_star"] * sp.Matrix(ys) - mats["H_star"] * sp.Matrix(xs)
-        outputs = [("r" if r.rows == 1 else f"r{i + 1}", sp.expand(e)) for i, e in enumerate(r)]
+    equations, outputs = jordan_equations(mats, work.inputs, xs, ys, observer, M)
 
     for i, lam in enumerate(lams):
         conds.append(Condition(f"λ_{i + 1} = {_fmt(lam)} stable", _stable(lam, work.time),
