@@ -73,14 +73,14 @@ import scipy  # noqa: E402
 import scipy.signal  # noqa: E402
 import sympy as sp  # noqa: E402
 
-from observer_cad.codegen import CompiledSimulator, compile_function  # noqa: E402
-from observer_cad.codegen.compile import compile_source  # noqa: E402
-from observer_cad.csvout import atomic_write_text  # noqa: E402
-from observer_cad.model import load_model  # noqa: E402
-from observer_cad.observer import output_symbols  # noqa: E402
-from observer_cad.pipeline import build_observer  # noqa: E402
-from observer_cad.simulate import scenario_from_dict, simulate  # noqa: E402
-from observer_cad.synthesis import design  # noqa: E402
+from observer_cad.codegen import CompiledSimulator, compile_function
+from observer_cad.codegen import compile_source
+from observer_cad.reporting import atomic_write_text
+from observer_cad.model import load_model
+from observer_cad.observers import output_symbols
+from observer_cad.observers import build_observer
+from observer_cad.simulation import scenario_from_dict, simulate
+from observer_cad.synthesis import design
 
 README = Path(__file__).resolve().parent / "README.md"
 BEGIN = "<!-- BEGIN CODEGEN RESULTS (bench_codegen.py --write) -->"
@@ -287,7 +287,7 @@ import sys, time
 sys.path.insert(0, {root!r})
 from observer_cad.model import load_model
 from observer_cad.synthesis import design
-from observer_cad.pipeline import build_observer
+from observer_cad.observers import build_observer
 from observer_cad.codegen import CompiledSimulator
 m = load_model({model!r})
 o = build_observer(m, design(m, **{kw!r}))

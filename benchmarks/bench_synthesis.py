@@ -59,8 +59,8 @@ def _example_call(spec):
 
 
 def _random_parts():
-    from observer_cad.randsys import random_model
-    from observer_cad.structure import extract_structure
+    from observer_cad.model import random_model
+    from observer_cad.model import extract_structure
 
     t0 = time.perf_counter()
     model = random_model(RANDOM["n"], RANDOM["l"], RANDOM["p"], seed=RANDOM["seed"], integer=False)
@@ -93,7 +93,7 @@ def _child(which: str) -> None:
         print(json.dumps({"t": t, "cpu": c, "k": d.k, "build": t_build, "extract": t_extract}))
     elif which == "random-plain":
         from observer_cad import design_canonical
-        from observer_cad.randsys import random_model
+        from observer_cad.model import random_model
 
         model = random_model(RANDOM["n"], RANDOM["l"], RANDOM["p"], seed=RANDOM["seed"],
                              integer=False)

@@ -18,8 +18,7 @@ Time enters through the clock state tau (tau' = 1, tau(0) = 0).
 """
 import sympy as sp
 
-from observer_cad import PlantModel
-from observer_cad.drem import DremSpec
+from observer_cad import DremSpec, PlantModel
 
 x1, x2, tau = sp.symbols("x1 x2 tau")
 u = sp.Symbol("u")

@@ -1,16 +1,36 @@
-"""observer_cad: design toolchain for reduced-order, disturbance-decoupled observers."""
+"""observer_cad: design toolchain for reduced-order, disturbance-decoupled observers.
+
+The package reads as the pipeline, each stage importing only from earlier ones::
+
+    model → numerics → synthesis → observers → simulation → codegen → reporting → cli
+
+The everyday API is re-exported here::
+
+    from observer_cad import load_model, design, build_observer, simulate
+    model = load_model("models/electric_drive.py")
+    d = design(model, observer="unknown-input", faults=["d"])
+    obs = build_observer(model, d)
+"""
 from .errors import (CertificateError, DimensionError, InfeasibleDesignError, ModelError,
                      ObserverCadError, UsageError)
-from .model import PlantModel, load_model
-from .structure import NonlinearTerm, Structure, extract_structure
+from .model import NonlinearTerm, PlantModel, Structure, extract_structure, load_model
+from .synthesis import (Certificate, Condition, Design, certify_reduced_model, design,
+                        design_canonical)
+from .observers import DremSpec, Observer, build_observer
+from .simulation import Scenario, SimulationResult, load_scenario, simulate
 
 __all__ = [
     "PlantModel", "load_model", "Structure", "NonlinearTerm", "extract_structure",
+    "design", "design_canonical", "Design", "Condition", "Certificate", "certify_reduced_model",
+    "Observer", "build_observer", "DremSpec", "Scenario", "SimulationResult", "load_scenario", "simulate",
+    "CompiledSimulator",
     "ObserverCadError", "ModelError", "DimensionError", "InfeasibleDesignError",
     "CertificateError", "UsageError",
 ]
-from .canonical import design_canonical
-from .certificate import Certificate, certify_reduced_model
-from .design import Condition, Design
 
-__all__ += ["design_canonical", "Design", "Condition", "Certificate", "certify_reduced_model"]
+
+def __getattr__(name):  # PEP 562: casadi is imported only when compiled code is asked for
+    if name == "CompiledSimulator":
+        from .codegen import CompiledSimulator
+        return CompiledSimulator
+    raise AttributeError(f"module 'observer_cad' has no attribute {name!r}")

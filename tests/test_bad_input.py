@@ -28,8 +28,7 @@ import sympy as sp
 
 from observer_cad import design_canonical, extract_structure, load_model
 from observer_cad.cli import main
-from observer_cad.errors import (DimensionError, InfeasibleDesignError, ModelError,
-                                 ObserverCadError, UsageError)
+from observer_cad.errors import DimensionError, InfeasibleDesignError, ModelError, ObserverCadError, UsageError
 
 ROOT = Path(__file__).resolve().parent.parent
 DRIVE = str(ROOT / "models" / "electric_drive.py")

@@ -35,16 +35,14 @@ casadi = pytest.importorskip("casadi")
 scipy_linalg = pytest.importorskip("scipy.linalg")
 scipy_signal = pytest.importorskip("scipy.signal")
 
-from observer_cad.codegen import (CompiledSimulator,  # noqa: E402
-                                  compile_observer_step, observer_step, to_casadi,
-                                  zoh_matrices)
-from observer_cad.codegen.translate import split_signals  # noqa: E402
-from observer_cad.errors import UsageError  # noqa: E402
-from observer_cad.model import load_model  # noqa: E402
-from observer_cad.observer import Observer, output_symbols  # noqa: E402
-from observer_cad.pipeline import build_observer  # noqa: E402
-from observer_cad.simulate import load_scenario, scenario_from_dict, simulate  # noqa: E402
-from observer_cad.synthesis import design  # noqa: E402
+from observer_cad.codegen import CompiledSimulator, compile_observer_step, observer_step, to_casadi, zoh_matrices
+from observer_cad.codegen import split_signals
+from observer_cad.errors import UsageError
+from observer_cad.model import load_model
+from observer_cad.observers import Observer, output_symbols
+from observer_cad.observers import build_observer
+from observer_cad.simulation import load_scenario, scenario_from_dict, simulate
+from observer_cad.synthesis import design
 
 ROOT = Path(__file__).resolve().parents[1]
 SCEN = ROOT / "models" / "scenarios"
@@ -435,7 +433,7 @@ def test_zoh_rejects_nonlinear_and_bad_use(built):
 # ------------------------------------------------------------------ DREM
 def _drem():
     try:
-        from observer_cad.drem import drem_observer, load_drem
+        from observer_cad.observers import drem_observer, load_drem
     except Exception as exc:  # noqa: BLE001 - module being written
         pytest.skip(f"observer_cad.drem not usable: {exc}")
     path = ROOT / "models" / "drem_example.py"

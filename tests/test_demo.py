@@ -9,8 +9,8 @@ import re
 
 import pytest
 
-from observer_cad import demo
-from observer_cad.reportmd import md_escape, symbol_latex
+import observer_cad.cli._demo as demo  # fault injection: the case list is patched
+from observer_cad.reporting import md_escape, symbol_latex
 
 
 @pytest.fixture(scope="module")

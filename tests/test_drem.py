@@ -19,11 +19,8 @@ import scipy.linalg
 import sympy as sp
 
 from observer_cad import ModelError, PlantModel, UsageError
-from observer_cad.drem import (DremSpec, ExcitationError, analyse, chain_error_residual,
-                               check_excitation, determinants, drem_design, excitation_report,
-                               gains_from_poles, load_drem, parametrisation_residual,
-                               shift_matrix, suggest_gamma, true_unknowns)
-from observer_cad.simulate import load_scenario, scenario_from_dict, simulate
+from observer_cad.observers import DremSpec, ExcitationError, analyse, chain_error_residual, check_excitation, determinants, drem_design, excitation_report, gains_from_poles, load_drem, parametrisation_residual, shift_matrix, suggest_gamma, true_unknowns
+from observer_cad.simulation import load_scenario, scenario_from_dict, simulate
 
 SETTLE = 25.0
 TOL_STATE = 1e-4
@@ -360,7 +357,7 @@ def _have_cc():
 
 @pytest.mark.skipif(not _have_cc(), reason="no C compiler")
 def test_compiled_path_matches_reference(tmp_path):
-    from observer_cad.codegen.trajectory import simulate_compiled
+    from observer_cad.codegen import simulate_compiled
     d = drem_design(SCALAR, SCALAR_SPEC, gamma=5e5)
     sc = scenario_from_dict({"t_end": 5, "dt": 0.02, "initial": {"x1": 1},
                              "signals": {"u": "sin(t) + sin(2.3*t) + 0.5"}})

@@ -32,16 +32,15 @@ import sympy as sp
 
 casadi = pytest.importorskip("casadi")
 
-from observer_cad.codegen import compile_function, observer_step  # noqa: E402
-from observer_cad.codegen.export import (EXAMPLE_FLAGS, export_observer,  # noqa: E402
-                                         export_sources, silence_unused_parameters)
-from observer_cad.codegen.translate import split_signals  # noqa: E402
-from observer_cad.csvout import write_signals_csv  # noqa: E402
-from observer_cad.errors import UsageError  # noqa: E402
-from observer_cad.model import load_model  # noqa: E402
-from observer_cad.pipeline import build_observer  # noqa: E402
-from observer_cad.simulate import scenario_from_dict, simulate  # noqa: E402
-from observer_cad.synthesis import design  # noqa: E402
+from observer_cad.codegen import compile_function, observer_step
+from observer_cad.codegen import EXAMPLE_FLAGS, export_observer, export_sources, silence_unused_parameters
+from observer_cad.codegen import split_signals
+from observer_cad.reporting import write_signals_csv
+from observer_cad.errors import UsageError
+from observer_cad.model import load_model
+from observer_cad.observers import build_observer
+from observer_cad.simulation import scenario_from_dict, simulate
+from observer_cad.synthesis import design
 
 ROOT = Path(__file__).resolve().parents[1]
 SCEN = ROOT / "models" / "scenarios"

@@ -16,10 +16,9 @@ import pytest
 import sympy as sp
 
 from observer_cad import InfeasibleDesignError, design_canonical
-from observer_cad import linalg
-from observer_cad.randsys import (generic_k, random_matrices, random_model,
-                                  random_structure)
-from observer_cad.structure import Structure, extract_structure
+from observer_cad import numerics as linalg
+from observer_cad.model import generic_k, random_matrices, random_model, random_structure
+from observer_cad.model import Structure, extract_structure
 
 BENCH = dict(n=60, l=8, p=1, seed=0)  # the benchmark system (benchmarks/bench_synthesis.py)
 
@@ -211,9 +210,9 @@ def test_float_rank_margin_and_full_rank_evidence():
 
 
 def test_blas_thread_setting_is_restored():
-    from observer_cad.canonical import _SingleThreadBLAS
+    from observer_cad.numerics import SingleThreadBLAS
 
-    funcs = _SingleThreadBLAS._find()
+    funcs = SingleThreadBLAS._find()
     if not funcs:
         pytest.skip("no OpenBLAS thread control found in this process")
     before = funcs[0]()

@@ -16,11 +16,9 @@ import pytest
 import sympy as sp
 
 from observer_cad import PlantModel, UsageError, load_model
-from observer_cad.interop import (design_latex, design_latex_document, linear_matrices,
-                                  matrices_from_json, read_design_json, to_statespace,
-                                  write_design_json)
-from observer_cad.pipeline import build_observer
-from observer_cad.simulate import scenario_from_dict, simulate
+from observer_cad.reporting import design_latex, design_latex_document, linear_matrices, matrices_from_json, read_design_json, to_statespace, write_design_json
+from observer_cad.observers import build_observer
+from observer_cad.simulation import scenario_from_dict, simulate
 from observer_cad.synthesis import design
 
 

@@ -25,10 +25,10 @@ import pytest
 import sympy as sp
 
 from observer_cad import UsageError, load_model
-from observer_cad.interval import full_state_intervals, interval_observer_nonlinear
-from observer_cad.jordan import design_jordan
-from observer_cad.observer import interval_observer
-from observer_cad.simulate import load_scenario, scenario_from_dict, simulate
+from observer_cad.observers import full_state_intervals, interval_observer_nonlinear
+from observer_cad.synthesis import design_jordan
+from observer_cad.observers import interval_observer
+from observer_cad.simulation import load_scenario, scenario_from_dict, simulate
 
 TOL = 1e-9
 # The acceptance size: 1,000 seeded runs × 2,000 steps. Each such run takes 2-8 s of CPU
@@ -291,7 +291,7 @@ def test_drive_understated(drive, models_dir):
     assert violations(res, ["x2"]) > 0
     # the fault's bound understated: z = 2 x2 + x3, whose rows see d (noise-free, so the
     # noise margin leaves no slack that could hide the understated fault bound)
-    from observer_cad.simulate import scenario_from_dict
+    from observer_cad.simulation import scenario_from_dict
     quiet = json.loads(json.dumps({k: v for k, v in json.load(open(
         models_dir / "scenarios" / "electric_drive_interval.json")).items() if k != "description"}))
     quiet["signals"].update({"w1": "0", "w2": "0"})

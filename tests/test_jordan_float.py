@@ -3,9 +3,9 @@ import numpy as np
 import pytest
 import sympy as sp
 
-from observer_cad import jordan, linalg, randsys
+from observer_cad import model as randsys, numerics as linalg, synthesis as jordan
 from observer_cad.errors import InfeasibleDesignError, UsageError
-from observer_cad.jordan_float import admissible_lambdas_float, design_jordan_float
+from observer_cad.synthesis import admissible_lambdas_float, design_jordan_float
 
 # (n, l, p): square pencils (l = p), wide ones (l < p), generic ones (l > p)
 SHAPES = [(4, 1, 1), (5, 2, 2), (6, 1, 2), (7, 2, 3), (8, 1, 1), (5, 3, 1), (6, 2, 0)]
@@ -131,7 +131,7 @@ def test_user_lambda_not_admissible():
 
 
 def _st(m):
-    from observer_cad.structure import extract_structure
+    from observer_cad.model import extract_structure
     st = extract_structure(m)
     basis, _ = linalg.left_null_space(sp.Matrix(st.L))
     return sp.Matrix(st.F), sp.Matrix(st.H), sp.Matrix.vstack(*basis)
@@ -201,8 +201,8 @@ def test_n40_wide_pencil_admissible_evidence():
 def test_design_jordan_auto_selects_the_float_path_for_large_models(models_dir):
     """design_jordan(method='auto') uses the numeric pencil for numeric linear models with
     more than 20 states, and the exact path below that."""
-    from observer_cad.jordan import design_jordan
-    from observer_cad.randsys import random_model
+    from observer_cad.synthesis import design_jordan
+    from observer_cad.model import random_model
     big = random_model(40, 10, 2, seed=5, integer=False, time="continuous")
     d = design_jordan(big, observer="virtual-sensor", estimate="x1")
     assert d.method == "float" and d.certificate.passed and not d.certificate.exact

@@ -4,7 +4,7 @@ import random
 import numpy as np
 import sympy as sp
 
-from observer_cad import linalg
+from observer_cad import numerics as linalg
 
 from oracle import frac_rank
 

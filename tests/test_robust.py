@@ -14,13 +14,12 @@ import pytest
 import sympy as sp
 
 from observer_cad import InfeasibleDesignError, PlantModel, UsageError, load_model
-from observer_cad.canonical import design_canonical
-from observer_cad.jordan import design_jordan
-from observer_cad.report import format_design
-from observer_cad.robust import (design_robust_canonical, design_robust_jordan,
-                                 jordan_candidates, robust_basis)
-from observer_cad.structure import extract_structure
-from observer_cad.virtual import design_virtual_sensor_canonical
+from observer_cad.synthesis import design_canonical
+from observer_cad.synthesis import design_jordan
+from observer_cad.reporting import format_design
+from observer_cad.synthesis import design_robust_canonical, design_robust_jordan, jordan_candidates, robust_basis
+from observer_cad.model import extract_structure
+from observer_cad.synthesis import design_virtual_sensor_canonical
 
 
 def _plant(name, F, H, L, D=None, G=None):

@@ -10,8 +10,8 @@ import pytest
 import sympy as sp
 
 from observer_cad import design_canonical, extract_structure, load_model
-from observer_cad.canonical import krylov_blocks, member_to_phi
-from observer_cad.certificate import certify_reduced_model
+from observer_cad.synthesis import krylov_blocks, member_to_phi
+from observer_cad.synthesis import certify_reduced_model
 
 from oracle import frac_rank
 

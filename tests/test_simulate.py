@@ -8,8 +8,8 @@ import sympy as sp
 
 from observer_cad import PlantModel, UsageError, load_model
 from observer_cad.cli import main
-from observer_cad.observer import Observer, virtual_sensor_observer
-from observer_cad.simulate import scenario_from_dict, simulate
+from observer_cad.observers import Observer, virtual_sensor_observer
+from observer_cad.simulation import scenario_from_dict, simulate
 from observer_cad.synthesis import design
 
 

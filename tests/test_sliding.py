@@ -19,10 +19,10 @@ import pytest
 import sympy as sp
 
 from observer_cad import InfeasibleDesignError, ModelError, PlantModel, UsageError, load_model
-from observer_cad.simulate import load_scenario, simulate
-from observer_cad.sliding import (EPS, K1, admissible_sliding_lambdas, design_sliding,
-                                  gain_bound, reaching_time, sliding_pencil)
-from observer_cad.structure import extract_structure
+from observer_cad.simulation import load_scenario, simulate
+from observer_cad.observers import sliding_observer
+from observer_cad.synthesis import EPS, K1, admissible_sliding_lambdas, design_sliding, gain_bound, reaching_time, sliding_pencil
+from observer_cad.model import extract_structure
 
 TOL = 0.01  # stated tracking tolerance on |d̂ − d| after the reaching time (+ 5 τ_L)
 
@@ -39,7 +39,8 @@ def scenario(models_dir):
 
 @pytest.fixture(scope="module")
 def nominal(model, scenario):
-    design, obs = design_sliding(model)
+    design = design_sliding(model)
+    obs = sliding_observer(model, design)
     return design, obs, simulate(model, obs, scenario)
 
 
@@ -74,7 +75,7 @@ def test_admissible_lambda_generic_and_finite(model):
     assert admissible_sliding_lambdas(st.F, st.H, st.L).generic
     # any λ < 0 works here; the noise coefficient J* + λR* = Φ_1 F H⁺ does not depend on λ
     for lam in (-1, -4):
-        d, _ = design_sliding(model, lam=lam)
+        d = design_sliding(model, lam=lam)
         J, R = d.matrices["J_star"], d.matrices["R_star"]
         assert J + lam * R == sp.Matrix([[-3, 4]])
     with pytest.raises(InfeasibleDesignError, match="not stable"):
@@ -134,9 +135,10 @@ def test_fault_estimate_tracks_after_reaching_time(model, nominal):
 
 def test_gain_below_bound_fails(model, scenario):
     """Companion: with k1 = 0.2 × bound there is no sliding mode; d̂ saturates at k1/|D*|."""
-    d0, _ = design_sliding(model)
+    d0 = design_sliding(model)
     gb = gain_bound(model, d0)
-    design, obs = design_sliding(model, k1=0.2 * gb.bound)
+    design = design_sliding(model, k1=0.2 * gb.bound)
+    obs = sliding_observer(model, design)
     cond = next(c for c in design.conditions if c.name.startswith("sliding gain bound"))
     assert not cond.holds
     res = simulate(model, obs, dataclasses.replace(scenario, t_end=7))
@@ -152,12 +154,13 @@ def test_printed_bound_is_not_sufficient(model, scenario):
     peaks of d = 0.9 sin(t − 5); the derived bound (× 1.05) keeps it."""
     # x*(0) = 1, x̂*(0) = 0.9: |e(0)| = 0.1 ≤ δ; the peak of d is at t = 6.57
     sc = dataclasses.replace(scenario, t_end=7, observer_initial={"xs1": 0.9})
-    d0, _ = design_sliding(model, delta=0.2)
+    d0 = design_sliding(model, delta=0.2)
     gb = gain_bound(model, d0, delta=0.2)
     assert gb.printed == pytest.approx(0.85) and gb.printed < gb.bound
     errs = {}
     for name, k1 in (("printed", gb.printed), ("derived", 1.05 * gb.bound)):
-        _, obs = design_sliding(model, delta=0.2, k1=k1)
+        _d = design_sliding(model, delta=0.2, k1=k1)
+        obs = sliding_observer(model, _d)
         res = simulate(model, obs, sc)
         errs[name] = np.abs(res["d_hat"] - res["d"])[res["t"] >= 1].max()
     assert errs["printed"] > 0.05       # measured 0.099 ≈ 0.9 − 0.85 + layer
@@ -170,7 +173,8 @@ def test_noise_enters_with_j_plus_lambda_r(model, scenario):
     Seed 002's J* w in place of (J* + λR*) W w does not account for the bias. λ = −4 makes
     the two differ: J* = (1, 0), J* + λR* = (−3, 4). e is measured (r = −e), e' by finite
     differences; measured residuals 2.4e-3 (derived) vs 0.078 (printed)."""
-    design, obs = design_sliding(model, lam=-4, eps=0.01)
+    design = design_sliding(model, lam=-4, eps=0.01)
+    obs = sliding_observer(model, design)
     assert design.matrices["J_star"] == sp.Matrix([[1, 0]])
     sc = dataclasses.replace(scenario, t_end=7, signals={
         **scenario.signals, "w1": "0.01*sin(2*t)", "w2": "0.01*cos(1.5*t)"})
@@ -192,7 +196,8 @@ def test_noise_enters_with_j_plus_lambda_r(model, scenario):
 def test_sign_injection_with_filtered_equivalent(model, scenario):
     """The paper's discontinuous sign(e): chattering at step size; the low-pass filtered
     injection still estimates d (looser tolerance: lag τ ḋ, ripple dt/τ)."""
-    design, obs = design_sliding(model, injection="sign")
+    design = design_sliding(model, injection="sign")
+    obs = sliding_observer(model, design)
     assert any(e.has(sp.sign) for e in obs.update)
     res = simulate(model, obs, dataclasses.replace(scenario, t_end=7))
     t = res["t"]
@@ -210,7 +215,8 @@ def test_nonlinear_term_needs_lipschitz(model, scenario):
     nl = dataclasses.replace(model, name="sliding_nl", dynamics=tuple(dyn))
     with pytest.raises(UsageError, match="Lipschitz"):
         design_sliding(nl)
-    design, obs = design_sliding(nl, lipschitz=0.2)
+    design = design_sliding(nl, lipschitz=0.2)
+    obs = sliding_observer(nl, design)
     gb = gain_bound(nl, design, lipschitz=0.2)
     assert gb.term("δN*").value == pytest.approx(0.2) and gb.bound == pytest.approx(1.27)
     xs1 = obs.states[0]

@@ -19,10 +19,9 @@ import sympy as sp
 
 from observer_cad import PlantModel, design_canonical, load_model
 from observer_cad.errors import ObserverCadError, UsageError
-from observer_cad.simulate import load_scenario, scenario_from_dict, simulate
-from observer_cad.uio import (ALPHA, ALPHA_PREV, combine_observers, default_gains,
-                              derive_estimate, design_jordan_unknown_input,
-                              unknown_input_observer, vector_unknown_input_observer)
+from observer_cad.simulation import load_scenario, scenario_from_dict, simulate
+from observer_cad.observers import ALPHA, ALPHA_PREV, combine_observers, default_gains, derive_estimate, unknown_input_observer, vector_unknown_input_observer
+from observer_cad.synthesis import design_jordan_unknown_input
 
 R = sp.Rational
 k1, k2, k3, k4, k5, k6 = sp.symbols("k1:7")
@@ -393,7 +392,7 @@ def test_observer_json_and_no_wallclock(drive, d_designs):
 def test_approximate_design_error_bounded_by_residual():
     """A robust (approximate, METHOD §2d) design: L* ρ is not decoupled; the estimate's
     error is D*⁻¹ L* ρ(t), bounded by |L*/D*| ρ*."""
-    from observer_cad.robust import design_robust_canonical
+    from observer_cad.synthesis import design_robust_canonical
     m = PlantModel(
         name="rob", time="discrete", states=[x1, x2, x3], inputs=[u], faults=[d],
         disturbances=[rho], outputs=[x1, x3],

@@ -9,17 +9,9 @@ whole-trajectory simulation in one compiled call, standalone C export.
     res = CompiledSimulator(model, obs).simulate(scenario)   # == simulate(model, obs, scenario)
     export_observer(obs, "out", dt=0.01)      # out/NAME.c, NAME.h, NAME_example.c (standalone C)
 """
-from .compile import (CodegenError, CompiledFunction, STATS, cache_dir, compile_function,
-                      compile_observer_step, compile_or_interpret, compile_plant_step,
-                      compile_source, fingerprint, generate_c, structure)
-from .translate import (DISCRETISATIONS, Translator, describe, joint_step, observer_step,
-                        plant_step, rk4, to_casadi, zoh_matrices)
-from .export import export_observer, export_sources
-from .trajectory import CompiledSimulator, simulate_compiled
+from ._compile import (CACHE_LOCK, CodegenError, cache_dir, compiler, generate_c, compile_source, compile_function, compile_or_interpret, CompiledFunction, STATS, FLAGS, structure, fingerprint, lookup_fingerprint, record_fingerprint, forget_fingerprint, compile_observer_step, compile_plant_step)
+from ._export import (export_observer, export_sources, ExportedSources, EXAMPLE_FLAGS, silence_unused_parameters)
+from ._trajectory import (CompiledSimulator, simulate_compiled, loop_source, TRAJ_FLAGS)
+from ._translate import (to_casadi, Translator, observer_step, plant_step, joint_step, describe, split_signals, rk4, zoh_matrices, DISCRETISATIONS, observer_step_name, plant_step_name, joint_step_name, observer_identity, plant_identity, joint_identity)
 
-__all__ = ["CodegenError", "CompiledFunction", "STATS", "cache_dir", "compile_function",
-           "compile_observer_step", "compile_or_interpret", "compile_plant_step",
-           "compile_source", "fingerprint", "generate_c", "structure", "DISCRETISATIONS",
-           "Translator", "describe", "joint_step", "observer_step", "plant_step", "rk4",
-           "to_casadi", "zoh_matrices",
-           "CompiledSimulator", "simulate_compiled", "export_observer", "export_sources"]
+__all__ = ["CACHE_LOCK", "CodegenError", "cache_dir", "compiler", "generate_c", "compile_source", "compile_function", "compile_or_interpret", "CompiledFunction", "STATS", "FLAGS", "structure", "fingerprint", "lookup_fingerprint", "record_fingerprint", "forget_fingerprint", "compile_observer_step", "compile_plant_step", "export_observer", "export_sources", "ExportedSources", "EXAMPLE_FLAGS", "silence_unused_parameters", "CompiledSimulator", "simulate_compiled", "loop_source", "TRAJ_FLAGS", "to_casadi", "Translator", "observer_step", "plant_step", "joint_step", "describe", "split_signals", "rk4", "zoh_matrices", "DISCRETISATIONS", "observer_step_name", "plant_step_name", "joint_step_name", "observer_identity", "plant_identity", "joint_identity"]

@@ -1,0 +1,4 @@
+"""``python3 -m observer_cad`` runs the command line."""
+from .cli import main
+
+raise SystemExit(main())

@@ -1,0 +1,4 @@
+"""``python3 -m observer_cad.cli`` runs the command line."""
+from ._main import main
+
+raise SystemExit(main())

@@ -1,0 +1,8 @@
+"""Stage 1 — the plant model: what the engineer writes (:class:`PlantModel`, model files),
+the structure extracted from it (F, G, H, C, D, L, W, Ψ) and random test systems.
+"""
+from ._plant import (PlantModel, load_model, to_rational)
+from ._random import (random_matrices, random_model, random_structure, generic_k)
+from ._structure import (NonlinearTerm, Structure, extract_structure)
+
+__all__ = ["PlantModel", "load_model", "to_rational", "random_matrices", "random_model", "random_structure", "generic_k", "NonlinearTerm", "Structure", "extract_structure"]

@@ -1,0 +1,368 @@
+"""The plant model: what a control engineer writes once, symbolically.
+
+A model file is a plain Python module that defines ``model = PlantModel(...)``;
+:func:`load_model` imports one by path. The model is immutable and validated on
+construction: every symbol is declared in exactly one role, lengths agree, outputs
+are linear in the states, noise appears only in the outputs.
+
+Plant (METHOD §1), continuous ``dx/dt`` or discrete ``x(t+1)``::
+
+    x' = F x + G u + C Ψ(x, u) + D d + L ρ,     y = H x + W w
+"""
+from __future__ import annotations
+
+import dataclasses
+import importlib.util
+import sys
+from fractions import Fraction
+from pathlib import Path
+from types import MappingProxyType
+from typing import Any, Mapping
+
+import sympy as sp
+
+from ..errors import DimensionError, ModelError
+
+__all__ = ["PlantModel", "load_model", "to_rational"]
+
+TIME_DOMAINS = ("continuous", "discrete")
+
+
+def to_rational(value: Any, what: str) -> sp.Expr:
+    """Convert a number to an exact sympy Rational (floats via their decimal string).
+
+    ``0.02`` becomes ``1/50``, not the binary expansion of the double.
+    """
+    if isinstance(value, sp.Basic):
+        if value.is_Rational:
+            return value
+        if value.is_Float:
+            return sp.Rational(str(value))
+        if value.is_number:
+            return value
+        raise ModelError(f"{what}: value {value} is not a number")
+    if isinstance(value, bool):
+        raise ModelError(f"{what}: value {value!r} is not a number")
+    if isinstance(value, int):
+        return sp.Integer(value)
+    if isinstance(value, Fraction):
+        return sp.Rational(value.numerator, value.denominator)
+    if isinstance(value, float):
+        if value != value or value in (float("inf"), float("-inf")):
+            raise ModelError(f"{what}: value {value!r} is not a finite number")
+        return sp.Rational(repr(value))
+    if isinstance(value, str):
+        try:
+            return sp.Rational(value)
+        except (TypeError, ValueError):
+            pass
+    raise ModelError(f"{what}: value {value!r} is not a number")
+
+
+def _symbols(seq: Any, role: str, where: str) -> tuple[sp.Symbol, ...]:
+    if seq is None:
+        return ()
+    if isinstance(seq, sp.Symbol):
+        seq = (seq,)
+    try:
+        items = tuple(seq)
+    except TypeError:
+        raise ModelError(f"{where}: {role} must be a list of sympy Symbols, got {seq!r}") from None
+    for s in items:
+        if not isinstance(s, sp.Symbol):
+            raise ModelError(f"{where}: {role} must be plain sympy Symbols; {s!r} is not")
+    seen = set()
+    for s in items:
+        if s in seen:
+            raise ModelError(f"{where}: symbol '{s}' is listed twice in {role}")
+        seen.add(s)
+    return items
+
+
+def _exprs(seq: Any, role: str, where: str) -> tuple[sp.Expr, ...]:
+    if seq is None:
+        return ()
+    if isinstance(seq, (sp.Expr, int, float)):
+        seq = (seq,)
+    if isinstance(seq, sp.MatrixBase):
+        seq = list(seq)
+    out = []
+    for i, e in enumerate(seq):
+        try:
+            e = sp.sympify(e, strict=True) if not isinstance(e, sp.Basic) else e
+        except sp.SympifyError:
+            raise ModelError(f"{where}: {role}[{i + 1}] = {e!r} is not a sympy expression") from None
+        if not isinstance(e, sp.Expr):
+            raise ModelError(f"{where}: {role}[{i + 1}] = {e} is not a scalar expression")
+        out.append(e)
+    return tuple(out)
+
+
+@dataclasses.dataclass(frozen=True)
+class PlantModel:
+    """An immutable, validated plant model.
+
+    Parameters
+    ----------
+    name : str
+        Name of the model (used in reports and generated code).
+    time : {"continuous", "discrete"}
+        Time domain: right-hand sides are ``dx/dt`` or ``x(t+1)``.
+    states : list of Symbol
+        State variables x1 ... xn.
+    outputs : list of Expr
+        Measured outputs y1 ... yl, linear in the states, plus noise symbols.
+    dynamics : list of Expr
+        Right-hand side, one expression per state.
+    inputs, faults, disturbances, noise : list of Symbol, optional
+        Known controls u, unknown inputs / faults d, disturbances ρ to decouple from,
+        measurement noise w (appearing only in the outputs).
+    parameters : mapping Symbol -> number or None, optional
+        Symbolic parameters and their default values (None: no default; numeric
+        designs then fail with a clear error).
+    bounds : mapping Symbol -> (low, high), optional
+        Bounds on faults, disturbances and noise.
+    domain : list of sympy relations, optional
+        The state domain that nonlinear checks may assume, e.g. ``x1 >= x2``.
+    linear_part : matrix, optional
+        The state matrix F of the linear/nonlinear split (METHOD §1). When given, the
+        difference between the right-hand side's own linear part and F is absorbed
+        into the nonlinear terms as formal terms ``β_j A_j x`` (seed 002 §8).
+    source : str, optional
+        The model file it came from (set by :func:`load_model`; used in messages).
+    """
+
+    name: str
+    time: str
+    states: tuple
+    outputs: tuple
+    dynamics: tuple
+    inputs: tuple = ()
+    faults: tuple = ()
+    disturbances: tuple = ()
+    noise: tuple = ()
+    parameters: Mapping = dataclasses.field(default_factory=dict)
+    bounds: Mapping = dataclasses.field(default_factory=dict)
+    domain: tuple = ()
+    linear_part: Any = None
+    source: str | None = None
+
+    def __post_init__(self) -> None:
+        where = self.where
+        set_ = lambda k, v: object.__setattr__(self, k, v)  # noqa: E731 (frozen dataclass)
+        if not isinstance(self.name, str) or not self.name.strip():
+            raise ModelError(f"{where}: name must be a non-empty string")
+        if self.time not in TIME_DOMAINS:
+            raise ModelError(f"{where}: time must be 'continuous' or 'discrete', got {self.time!r}")
+        set_("states", _symbols(self.states, "states", where))
+        set_("inputs", _symbols(self.inputs, "inputs", where))
+        set_("faults", _symbols(self.faults, "faults", where))
+        set_("disturbances", _symbols(self.disturbances, "disturbances", where))
+        set_("noise", _symbols(self.noise, "noise", where))
+        set_("dynamics", _exprs(self.dynamics, "dynamics", where))
+        set_("outputs", _exprs(self.outputs, "outputs", where))
+        if not self.states:
+            raise DimensionError(f"{where}: the model has no states")
+        if not self.outputs:
+            raise DimensionError(f"{where}: the model has no outputs")
+        if len(self.dynamics) != len(self.states):
+            raise DimensionError(
+                f"{where}: {len(self.states)} states but {len(self.dynamics)} dynamics equations")
+
+        # parameters: symbol -> exact default (or None)
+        params = {}
+        raw = self.parameters or {}
+        if not isinstance(raw, Mapping):
+            raw = {p: None for p in _symbols(raw, "parameters", where)}
+        for p, v in raw.items():
+            if not isinstance(p, sp.Symbol):
+                raise ModelError(f"{where}: parameter {p!r} is not a sympy Symbol")
+            params[p] = None if v is None else to_rational(v, f"{where}: parameter '{p}'")
+        set_("parameters", MappingProxyType(params))
+
+        # every symbol in exactly one role
+        roles: dict[sp.Symbol, str] = {}
+        for role, syms in (("states", self.states), ("inputs", self.inputs),
+                           ("faults", self.faults), ("disturbances", self.disturbances),
+                           ("noise", self.noise), ("parameters", tuple(params))):
+            for s in syms:
+                if s in roles:
+                    raise ModelError(
+                        f"{where}: symbol '{s}' is declared in two roles: {roles[s]} and {role}")
+                roles[s] = role
+        for i, (x, f) in enumerate(zip(self.states, self.dynamics)):
+            for s in sorted(f.free_symbols - set(roles), key=str):
+                raise ModelError(
+                    f"{where}: undeclared symbol '{s}' in dynamics equation {i + 1} (for {x})")
+            for s in sorted(f.free_symbols & set(self.noise), key=str):
+                raise ModelError(
+                    f"{where}: noise '{s}' appears in dynamics equation {i + 1} (for {x});"
+                    " measurement noise may enter the outputs only")
+        for i, h in enumerate(self.outputs):
+            name = f"y{i + 1}"
+            for s in sorted(h.free_symbols - set(roles), key=str):
+                raise ModelError(f"{where}: undeclared symbol '{s}' in output {name} = {h}")
+            bad = h.free_symbols & (set(self.inputs) | set(self.faults) | set(self.disturbances))
+            for s in sorted(bad, key=str):
+                raise ModelError(
+                    f"{where}: output {name} = {h} depends on {roles[s][:-1]} '{s}';"
+                    " outputs may contain states, noise and parameters only")
+        for w in self.noise:
+            if not any(w in h.free_symbols for h in self.outputs):
+                raise ModelError(f"{where}: noise '{w}' is declared but appears in no output")
+
+        # bounds
+        bounds = {}
+        for s, b in (self.bounds or {}).items():
+            if not isinstance(s, sp.Symbol) or s not in roles:
+                raise ModelError(f"{where}: bounds given for undeclared symbol '{s}'")
+            if roles[s] not in ("faults", "disturbances", "noise", "inputs"):
+                raise ModelError(
+                    f"{where}: bounds may be given for faults, disturbances, noise and inputs;"
+                    f" '{s}' is in {roles[s]}")
+            try:
+                lo, hi = b
+            except (TypeError, ValueError):
+                raise ModelError(f"{where}: bounds of '{s}' must be a pair (low, high)") from None
+            lo = to_rational(lo, f"{where}: lower bound of '{s}'")
+            hi = to_rational(hi, f"{where}: upper bound of '{s}'")
+            if bool(lo > hi):
+                raise ModelError(f"{where}: bounds of '{s}' have low {lo} > high {hi}")
+            bounds[s] = (lo, hi)
+        set_("bounds", MappingProxyType(bounds))
+
+        # domain: relations in the states (and parameters)
+        dom = []
+        for i, rel in enumerate(self.domain or ()):
+            if not isinstance(rel, sp.core.relational.Relational):
+                raise ModelError(f"{where}: domain[{i + 1}] = {rel!r} is not a sympy relation")
+            extra = rel.free_symbols - set(self.states) - set(params)
+            if extra:
+                raise ModelError(
+                    f"{where}: domain[{i + 1}] = {rel} uses '{sorted(extra, key=str)[0]}',"
+                    " which is not a state or parameter")
+            dom.append(rel)
+        set_("domain", tuple(dom))
+
+        if self.linear_part is not None:
+            try:
+                F = sp.ImmutableMatrix(self.linear_part)
+            except Exception:
+                raise ModelError(f"{where}: linear_part is not a matrix") from None
+            n = len(self.states)
+            if F.shape != (n, n):
+                raise DimensionError(f"{where}: linear_part must be {n}x{n}, got {F.shape[0]}x{F.shape[1]}")
+            extra = F.free_symbols - set(params)
+            if extra:
+                raise ModelError(
+                    f"{where}: linear_part uses '{sorted(extra, key=str)[0]}', which is not a parameter")
+            set_("linear_part", F)
+
+    # ------------------------------------------------------------------ helpers
+    @property
+    def where(self) -> str:
+        """Prefix for messages: the model file if known, else the model name."""
+        src = self.__dict__.get("source")
+        if src:
+            return str(src)
+        return f"model '{self.__dict__.get('name', '?')}'"
+
+    @property
+    def output_names(self) -> tuple[str, ...]:
+        return tuple(f"y{i + 1}" for i in range(len(self.outputs)))
+
+    def role_of(self, sym: sp.Symbol) -> str | None:
+        for role in ("states", "inputs", "faults", "disturbances", "noise"):
+            if sym in getattr(self, role):
+                return role
+        if sym in self.parameters:
+            return "parameters"
+        return None
+
+    def symbol(self, name: str) -> sp.Symbol | None:
+        """The declared symbol called ``name`` (any role), or None."""
+        for role in ("states", "inputs", "faults", "disturbances", "noise"):
+            for s in getattr(self, role):
+                if s.name == name:
+                    return s
+        for s in self.parameters:
+            if s.name == name:
+                return s
+        return None
+
+    def parameter_values(self) -> dict:
+        """Defaults of all parameters; raises ModelError naming one without a value."""
+        for p, v in self.parameters.items():
+            if v is None:
+                raise ModelError(
+                    f"{self.where}: parameter '{p}' has no value; give one in the model"
+                    " or design with --symbolic")
+        return dict(self.parameters)
+
+    def substitute_parameters(self) -> "PlantModel":
+        """The same model with every parameter replaced by its exact default."""
+        vals = self.parameter_values()
+        if not vals:
+            return self
+        sub = lambda e: sp.sympify(e).xreplace(vals)  # noqa: E731
+        for i, f in enumerate(self.dynamics):
+            g = sub(f)
+            if g.has(sp.zoo, sp.nan, sp.oo, -sp.oo):
+                raise ModelError(f"{self.where}: the parameter values make dynamics equation"
+                                 f" {i + 1} undefined (division by zero): {f}")
+        return dataclasses.replace(
+            self,
+            dynamics=tuple(sub(f) for f in self.dynamics),
+            outputs=tuple(sub(h) for h in self.outputs),
+            parameters={},
+            domain=tuple(sub(r) for r in self.domain),
+            linear_part=None if self.linear_part is None else self.linear_part.xreplace(vals),
+        )
+
+    def __str__(self) -> str:  # pragma: no cover - cosmetic
+        return f"PlantModel({self.name!r}, {self.time}, n={len(self.states)}, l={len(self.outputs)})"
+
+
+def load_model(path: str | Path) -> PlantModel:
+    """Import a model file (a plain Python module defining ``model``) and return it.
+
+    Errors (missing file, import failure, no ``model``, wrong type, invalid model)
+    are :class:`ModelError` with a one-line message naming the file.
+    """
+    p = Path(path)
+    if not p.is_file():
+        raise ModelError(f"{path}: no such model file")
+    modname = f"_observer_cad_model_{abs(hash(str(p.resolve())))}"
+    spec = importlib.util.spec_from_file_location(modname, p)
+    if spec is None or spec.loader is None:
+        raise ModelError(f"{path}: cannot be imported as a Python module")
+    module = importlib.util.module_from_spec(spec)
+    try:
+        spec.loader.exec_module(module)
+    except ModelError as exc:
+        msg = str(exc)
+        if not msg.startswith(str(path)):
+            msg = f"{path}: {msg}"
+        raise type(exc)(msg) from None  # keep the class (DimensionError)
+    except BaseException as exc:  # noqa: BLE001 - any failure of user code
+        if isinstance(exc, KeyboardInterrupt):
+            raise
+        detail = " / ".join(line.strip() for line in str(exc).strip().splitlines() if line.strip())
+        lineno = ""
+        tb = exc.__traceback__
+        here = p.resolve()
+        while tb is not None:
+            if Path(tb.tb_frame.f_code.co_filename).resolve() == here:
+                lineno = f", line {tb.tb_lineno}"
+            tb = tb.tb_next
+        if isinstance(exc, SyntaxError) and exc.lineno:
+            lineno = f", line {exc.lineno}"
+        raise ModelError(f"{path}: failed to import{lineno}: {type(exc).__name__}: {detail}") from None
+    finally:
+        sys.modules.pop(modname, None)
+    model = getattr(module, "model", None)
+    if model is None:
+        raise ModelError(f"{path}: the model file defines no 'model'")
+    if not isinstance(model, PlantModel):
+        raise ModelError(f"{path}: 'model' is a {type(model).__name__}, not a PlantModel")
+    return dataclasses.replace(model, source=str(path))

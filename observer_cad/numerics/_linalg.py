@@ -1,0 +1,349 @@
+"""Exact and floating-point linear algebra for synthesis.
+
+Exact path: matrices over the rationals or over rational functions of the model's
+parameters, through sympy's ``DomainMatrix`` (never ``Matrix.rank`` on expressions,
+which is slow and can be silently wrong). Gauss–Jordan elimination is done here, on
+domain elements, so that every pivot divided by is recorded: a rank with symbolic
+parameters is *generic* and holds under the conditions ``pivot ≠ 0`` that
+:class:`ExactRank` reports. Pivots are chosen to need as few conditions as possible
+(nonzero constants first, then entries whose factors are already assumed, then the
+simplest).
+
+Float path: SVD with a stated tolerance; :class:`FloatRank` carries the singular
+values around the cut and the gap, the evidence for the rank decision.
+"""
+from __future__ import annotations
+
+import dataclasses
+import functools
+
+import numpy as np
+import sympy as sp
+from sympy.polys.matrices import DomainMatrix
+
+__all__ = ["default_rtol", "rank_from_sv", "ExactRank", "FloatRank", "exact_rank", "left_null_space", "echelon_rows", "solve_left", "float_rank", "float_left_null_space", "nonzero_conditions", "denominator_conditions", "to_domain_matrix"]
+
+
+# ---------------------------------------------------------------- conditions
+def nonzero_conditions(expr) -> frozenset:
+    """See :func:`_nonzero_conditions` (cached: pivot choice asks for the same entries often)."""
+    return _nonzero_conditions(sp.sympify(expr))
+
+
+@functools.lru_cache(maxsize=8192)
+def _nonzero_conditions(expr) -> frozenset:
+    """The irreducible polynomial factors f of a nonzero expression's numerator,
+    returned as relations ``Ne(f, 0)``: the expression is nonzero iff none vanishes.
+
+    Constant factors give nothing. Signs are normalised (``Ne(k4, 0)``, never
+    ``Ne(-k4, 0)``).
+    """
+    expr = sp.sympify(expr)
+    if not expr.free_symbols:
+        return frozenset()
+    num, _ = sp.fraction(sp.cancel(sp.together(expr)))
+    _, factors = sp.factor_list(num)
+    out = set()
+    for f, _mult in factors:
+        if not f.free_symbols:
+            continue
+        if f.could_extract_minus_sign():
+            f = -f
+        out.add(sp.Ne(sp.expand(f), 0))
+    return frozenset(out)
+
+
+def denominator_conditions(expr) -> frozenset:
+    """``Ne(f, 0)`` for every irreducible factor f of an expression's denominator."""
+    expr = sp.sympify(expr)
+    if not expr.free_symbols:
+        return frozenset()
+    _, den = sp.fraction(sp.cancel(sp.together(expr)))
+    return nonzero_conditions(den)
+
+
+# ---------------------------------------------------------------- exact path
+def to_domain_matrix(M) -> DomainMatrix:
+    """A sympy Matrix as a DomainMatrix over a field (QQ, or QQ(params), or EX)."""
+    M = sp.Matrix(M)
+    dm = DomainMatrix.from_Matrix(M)
+    if dm.domain.is_EX:  # algebraic numbers (e.g. an irrational λ): an algebraic field
+        try:
+            dm2 = DomainMatrix.from_Matrix(M, extension=True)
+            if not dm2.domain.is_EX:
+                dm = dm2
+        except Exception:  # pragma: no cover - sympy could not build the extension
+            pass
+    return dm.to_field()
+
+
+def _cost(K, e, assumed: set) -> tuple:
+    """How expensive is it to assume e ≠ 0 (lower is better)."""
+    try:
+        if K.is_QQ or K.is_ZZ:
+            return (0, 0, 0, 0)
+        if hasattr(e, "numer") and hasattr(e, "denom") and hasattr(e.numer, "is_ground"):
+            if e.numer.is_ground:
+                return (0, 0, 0, 0)
+            expr = K.to_sympy(e)
+        else:
+            expr = K.to_sympy(e)
+            if not expr.free_symbols:
+                return (0, 0, 0, 0)
+    except Exception:  # pragma: no cover - exotic domains
+        expr = K.to_sympy(e)
+    conds = nonzero_conditions(expr)
+    new = conds - assumed
+    size = sp.count_ops(expr)
+    return (1, len(new), len(conds), size)
+
+
+@dataclasses.dataclass(frozen=True)
+class ExactRank:
+    """Result of exact Gauss–Jordan elimination.
+
+    ``rank``; ``pivots`` (pivot column of each row, full pivoting); ``conditions``: relations ``Ne(f, 0)`` under
+    which the rank holds (empty for rational matrices: then the rank is exact).
+    """
+
+    rank: int
+    pivots: tuple
+    conditions: frozenset
+    reduced: sp.Matrix  # the eliminated matrix (rows beyond the rank are zero)
+
+    @property
+    def generic(self) -> bool:
+        return bool(self.conditions)
+
+
+def _gauss_jordan(dm: DomainMatrix, assumed: set | None = None, *, full: bool = False):
+    """Gauss–Jordan elimination over a field, recording the pivots' conditions.
+
+    With ``full=False`` the pivot columns are the leftmost possible (reduced row
+    echelon form). With ``full=True`` any remaining column may give the pivot, so that
+    nonzero constants are preferred and a symbolic rank needs the fewest conditions;
+    rows then have a 1 in their pivot column and zeros in the other pivot columns.
+    Returns ``(K, rows, pivot_columns, new_conditions)``; rows beyond the rank are zero.
+    """
+    K = dm.domain
+    rows = [list(r) for r in dm.to_dense().rep.to_ddm()]
+    nr, nc = dm.shape
+    pivots: list = []
+    conds: set = set(assumed or ())
+    new_conds: set = set()
+    r = 0
+    cols = list(range(nc))
+    while r < nr and cols:
+        if full:
+            cands = [(i, c) for c in cols for i in range(r, nr) if not K.is_zero(rows[i][c])]
+        else:
+            cands = []
+            for c in list(cols):
+                cands = [(i, c) for i in range(r, nr) if not K.is_zero(rows[i][c])]
+                if cands:
+                    break
+                cols.remove(c)
+        if not cands:
+            break
+        bi, bc = min(cands, key=lambda ic: (_cost(K, rows[ic[0]][ic[1]], conds), ic[1], ic[0]))
+        rows[r], rows[bi] = rows[bi], rows[r]
+        p = rows[r][bc]
+        pc = nonzero_conditions(K.to_sympy(p)) if not (K.is_QQ or K.is_ZZ) else frozenset()
+        new_conds |= pc
+        conds |= pc
+        inv = K.quo(K.one, p)
+        rows[r] = [K.mul(v, inv) for v in rows[r]]
+        for i in range(nr):
+            if i != r and not K.is_zero(rows[i][bc]):
+                fac = rows[i][bc]
+                rows[i] = [K.sub(a, K.mul(fac, b)) for a, b in zip(rows[i], rows[r])]
+        pivots.append(bc)
+        cols.remove(bc)
+        r += 1
+    return K, rows, tuple(pivots), frozenset(new_conds)
+
+
+def exact_rank(M, assumed=()) -> ExactRank:
+    """Rank of a matrix over QQ or QQ(parameters), with the conditions it needs."""
+    M = sp.Matrix(M)
+    if M.rows == 0 or M.cols == 0:
+        return ExactRank(0, (), frozenset(), M)
+    dm = to_domain_matrix(M)
+    K, rows, pivots, conds = _gauss_jordan(dm, set(assumed), full=True)
+    R = sp.Matrix([[K.to_sympy(v) for v in row] for row in rows])
+    return ExactRank(len(pivots), pivots, conds, R)
+
+
+def left_null_space(M, assumed=()):
+    """Basis of {v : v M = 0} (list of 1×rows matrices) and the rank's conditions.
+
+    Returns ``(basis, ExactRank of M)``. The basis comes from the eliminated Mᵀ: one
+    vector per non-pivot column, with a 1 there.
+    """
+    M = sp.Matrix(M)
+    m = M.rows
+    if M.cols == 0:
+        return [sp.Matrix([[1 if j == i else 0 for j in range(m)]]) for i in range(m)], \
+            ExactRank(0, (), frozenset(), sp.zeros(0, m))
+    dm = to_domain_matrix(M.T)
+    K, rows, pivots, conds = _gauss_jordan(dm, set(assumed), full=True)
+    basis = []
+    for f in range(m):
+        if f in pivots:
+            continue
+        v = [K.zero] * m
+        v[f] = K.one
+        for i, p in enumerate(pivots):
+            v[p] = K.neg(rows[i][f])
+        basis.append(sp.Matrix([[sp.cancel(K.to_sympy(e)) for e in v]]))
+    R = sp.Matrix([[K.to_sympy(v) for v in row] for row in rows])
+    return basis, ExactRank(len(pivots), pivots, conds, R)
+
+
+def echelon_rows(vectors) -> list:
+    """Reduced row echelon basis of the span of the given row vectors.
+
+    Its first member has the leftmost possible leading entry, normalised to 1, and zeros
+    in the other members' leading positions: the sparsest, most readable members.
+    """
+    if not vectors:
+        return []
+    M = sp.Matrix.vstack(*vectors)
+    dm = to_domain_matrix(M)
+    K, rows, pivots, _ = _gauss_jordan(dm)
+    return [sp.Matrix([[sp.cancel(K.to_sympy(e)) for e in rows[i]]]) for i in range(len(pivots))]
+
+
+def solve_left(A, B, assumed=()):
+    """Solve X A = B exactly; return X (one particular solution) or None.
+
+    Free variables are set to zero.
+    """
+    A = sp.Matrix(A)
+    B = sp.Matrix(B)
+    # X A = B  <=>  Aᵀ Xᵀ = Bᵀ ; reduce [Aᵀ | Bᵀ]
+    aug = sp.Matrix.hstack(A.T, B.T)
+    dm = to_domain_matrix(aug)
+    K, rows, pivots, _ = _gauss_jordan(dm, set(assumed))
+    na = A.rows
+    if any(p >= na for p in pivots):
+        return None
+    X = sp.zeros(B.rows, na)
+    for i, p in enumerate(pivots):
+        for j in range(B.rows):
+            X[j, p] = sp.cancel(K.to_sympy(rows[i][na + j]))
+    return X
+
+
+# ---------------------------------------------------------------- float path
+@dataclasses.dataclass(frozen=True)
+class FloatRank:
+    """Numerical rank from an SVD, with the evidence.
+
+    ``singular_values`` (all, descending), ``tol`` the cut, ``rank`` the number above
+    it, ``gap`` the ratio σ_rank / σ_(rank+1) (inf when nothing is cut). ``shape`` is
+    the matrix's shape and ``rtol`` the relative tolerance the cut was derived from
+    (``tol = max(atol, rtol·σ_1)``).
+
+    The decision is trustworthy when the singular values on both sides of the cut are
+    far from it: :attr:`margin` is ``min(σ_rank / tol, tol / σ_(rank+1))`` over the
+    sides that exist (inf for a zero matrix with nothing kept and nothing cut).
+    """
+
+    rank: int
+    singular_values: tuple
+    tol: float
+    gap: float
+    shape: tuple = ()
+    rtol: float | None = None
+
+    @property
+    def margin(self) -> float:
+        s, r, tol = self.singular_values, self.rank, self.tol
+        out = []
+        if r > 0:
+            out.append(s[r - 1] / tol if tol > 0 else float("inf"))
+        if r < len(s):
+            out.append(tol / s[r] if s[r] > 0 else float("inf"))
+        return float(min(out)) if out else float("inf")
+
+    @property
+    def full(self) -> bool:
+        """Nothing was cut: the rank is min(shape), decided by σ_min alone."""
+        return self.rank == len(self.singular_values)
+
+    def evidence(self) -> str:
+        s = self.singular_values
+        r = self.rank
+        shape = f" of {self.shape[0]}×{self.shape[1]}" if len(self.shape) == 2 else ""
+        tol = f"tol {self.tol:.2e}" + (f" = {self.rtol:.1e}·σ_1" if self.rtol is not None
+                                      and s and self.tol == self.rtol * s[0] else "")
+        around = []
+        if r > 0:
+            kept = f"σ_{r} = {s[r - 1]:.3e}"
+            if self.tol > 0:
+                kept += f" = {s[r - 1] / self.tol:.1e}·tol"
+            around.append(kept)
+        if r < len(s):
+            cut = f"σ_{r + 1} = {s[r]:.3e}"
+            if self.tol > 0:
+                cut += f" = {s[r] / self.tol:.1e}·tol"
+            around.append(cut)
+        if not s:
+            tail = "empty matrix"
+        elif s[0] == 0:
+            tail = "zero matrix"
+        elif self.full:
+            rc = self.shape if len(self.shape) == 2 else (0, 0)
+            kind = "column " if rc[1] < rc[0] else "row " if rc[0] < rc[1] else ""
+            tail = f"nothing cut: full {kind}rank"
+        else:
+            tail = "gap " + ("inf" if self.gap == float("inf") else f"{self.gap:.2e}")
+        return f"rank {r}{shape} ({tol}; {', '.join(around + [tail])})"
+
+
+def default_rtol(shape) -> float:
+    return max(shape) * np.finfo(float).eps * 1e3 if len(shape) else 0.0
+
+
+def rank_from_sv(s, shape, atol, rtol) -> FloatRank:
+    s = np.asarray(s, dtype=float)
+    smax = s[0] if s.size else 0.0
+    if rtol is None:
+        rtol = default_rtol(shape)
+    tol = max(atol or 0.0, rtol * smax)
+    r = int(np.sum(s > tol))
+    if r == 0 or r >= s.size:
+        gap = float("inf") if r >= s.size else 0.0
+    else:
+        gap = float(s[r - 1] / s[r]) if s[r] > 0 else float("inf")
+    return FloatRank(r, tuple(float(v) for v in s), float(tol), gap, tuple(int(d) for d in shape),
+                     float(rtol))
+
+
+def float_rank(M, *, atol: float | None = None, rtol: float | None = None) -> FloatRank:
+    """Numerical rank by SVD; tolerance ``max(atol, rtol·σ_max)``.
+
+    The default ``rtol`` is ``max(shape)·eps·1e3`` (about 2e-11 for an 80-row matrix).
+    """
+    M = np.asarray(M, dtype=float)
+    if M.size == 0:
+        return FloatRank(0, (), 0.0, float("inf"), tuple(M.shape), rtol)
+    s = np.linalg.svd(M, compute_uv=False)
+    return rank_from_sv(s, M.shape, atol, rtol)
+
+
+def float_left_null_space(M, *, atol: float | None = None, rtol: float | None = None):
+    """Orthonormal basis (rows) of the numerical left null space, and the FloatRank.
+
+    ``N M ≈ 0`` with ``N Nᵀ = I``; the rows span the left singular vectors of the
+    singular values at or below the cut (and the structural ones when M has more rows
+    than columns).
+    """
+    M = np.asarray(M, dtype=float)
+    m = M.shape[0]
+    if M.shape[1] == 0 or m == 0:
+        return np.eye(m), FloatRank(0, (), 0.0, float("inf"), tuple(M.shape), rtol)
+    U, s, _ = np.linalg.svd(M, full_matrices=True)
+    fr = rank_from_sv(s, M.shape, atol, rtol)
+    return U[:, fr.rank:].T.copy(), fr

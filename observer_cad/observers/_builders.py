@@ -1,0 +1,119 @@
+"""From a design to a runnable observer: the dispatch by observer kind.
+
+:func:`build_observer` turns a certified :class:`~observer_cad.design.Design` into the
+single :class:`~observer_cad.observer.Observer` representation that simulation and code
+generation consume.
+"""
+from __future__ import annotations
+
+import dataclasses
+
+import sympy as sp
+
+from ..synthesis import Design
+from ..errors import UsageError
+from ..model import PlantModel
+from ._drem import DremDesign
+from ._interval import interval_observer_nonlinear
+from ._observer import Observer, estimate_name, output_symbols
+from ._sliding import sliding_observer
+from ._uio import unknown_input_observer
+
+__all__ = ["build_observer", "virtual_sensor_observer", "diagnostic_observer", "interval_observer"]
+
+
+def _signals(model: PlantModel, l: int):
+    return tuple(output_symbols(l)) + tuple(model.inputs)
+
+
+def _mapped_initial(model: PlantModel, design: Design) -> dict:
+    """Default initial state x*(0) = Φ x(0), an expression in the plant's initial state
+    (the simulator substitutes it; a scenario's ``observer_initial`` overrides it to
+    study the transient from a wrong start)."""
+    Phi = sp.Matrix(design.matrices["Phi"])
+    xs0 = Phi * sp.Matrix(model.states)
+    return {x: xs0[i] for i, x in enumerate(design.observer_states)}
+
+
+def virtual_sensor_observer(model: PlantModel, design: Design) -> Observer:
+    """The virtual sensor's equations: the design's x*' and z = H_z x* + Q y."""
+    if design.observer != "virtual-sensor" or not design.equations:
+        raise UsageError("virtual_sensor_observer needs a virtual-sensor design")
+    l = len(model.outputs)
+    name = estimate_name(model, design)
+    zexpr = dict(design.outputs)["z"]
+    return Observer(
+        name=f"{model.name}_virtual_sensor", kind="virtual-sensor", time=model.time,
+        states=design.observer_states, signals=_signals(model, l), parameters={},
+        update=design.equations, outputs=((f"{name}_hat", zexpr),),
+        initial=_mapped_initial(model, design), conditions=design.conditions,
+        assumptions=design.assumptions, design=design,
+        description=f"virtual sensor for z = {design.estimate}")
+
+
+def diagnostic_observer(model: PlantModel, design: Design) -> Observer:
+    """Residual generator: the design's equations and r = R* y − H* x*."""
+    if not design.equations or "r" not in dict(design.outputs):
+        raise UsageError("diagnostic_observer needs a design with a residual")
+    l = len(model.outputs)
+    return Observer(
+        name=f"{model.name}_diagnostic", kind="diagnostic", time=model.time,
+        states=design.observer_states, signals=_signals(model, l), parameters={},
+        update=design.equations, outputs=(("r", dict(design.outputs)["r"]),),
+        initial=_mapped_initial(model, design), conditions=design.conditions,
+        assumptions=design.assumptions, design=design,
+        description="residual generator r = R* y − H* x*")
+
+
+def interval_observer(model: PlantModel, design: Design, **options) -> Observer:
+    """Interval observer for z = M x (METHOD §3): see
+    :func:`observer_cad.interval.interval_observer_nonlinear`, which handles linear and
+    nonlinear, continuous and discrete designs, the faults' and disturbances' bounds
+    through Φ [L D], the H_z sign split and the noise through Q y.
+
+    Canonical designs of seed 001 method 1 are used in their diagonal (Metzler) form.
+    """
+    if "F_diag" in design.matrices:  # 001 method 1: the diagonalised, stabilised model
+        if design.nonlinear:
+            raise UsageError("the diagonal form of a canonical design is built for linear"
+                             " models; use --form jordan for nonlinear interval observers")
+        m = design.matrices
+        mats = {"Phi": m["Phi_diag"], "F_star": m["F_diag"], "J_star": m["J_diag"],
+                "G_star": m["G_diag"], "Hz": m["Hz_diag"], "Q": m["Q"]}
+        design = dataclasses.replace(design, matrices=mats, form="jordan",
+                                     lambdas=tuple(sp.Matrix(m["F_diag"]).diagonal()))
+    elif "K" in design.matrices:
+        raise UsageError("interval observers need a diagonal (Metzler) model: use a Jordan"
+                         " design or real distinct --eigenvalues (seed 001 method 1)")
+    return interval_observer_nonlinear(model, design, **options)
+
+
+def _interval_initial(model, d, xl, xu, margin=1):
+    """Default initial bounds Φ x(0) ∓ margin (expressions in the plant's initial state;
+    a scenario's ``observer_initial`` overrides them)."""
+    Phi = sp.Matrix(d.matrices["Phi"])
+    xs0 = Phi * sp.Matrix(model.states)
+    init = {}
+    for i in range(Phi.rows):
+        init[xl[i]] = xs0[i] - margin
+        init[xu[i]] = xs0[i] + margin
+    return init
+
+
+
+def build_observer(model: PlantModel, design: Design, **options) -> Observer:
+    """The observer for a design; ``options`` go to the kind's builder (gains, bounds)."""
+    if isinstance(design, DremDesign):  # DREM designs carry their observer
+        return design.observer
+    kind = design.observer
+    if kind == "virtual-sensor":
+        return virtual_sensor_observer(model, design)
+    if kind == "diagnostic":
+        return diagnostic_observer(model, design)
+    if kind == "interval":
+        return interval_observer(model, design, **options)
+    if kind == "unknown-input":
+        return unknown_input_observer(model, design, **options)
+    if kind == "sliding-mode":
+        return sliding_observer(model, design)
+    raise UsageError(f"no observer builder for kind {kind!r}")

@@ -1,0 +1,142 @@
+"""Human-readable and JSON renderings of models, structures and designs."""
+from __future__ import annotations
+
+import sympy as sp
+
+from ..synthesis import Design
+from ..model import Structure
+
+__all__ = ["format_matrix", "format_structure", "format_design", "structure_to_json",
+           "format_observer"]
+
+
+def format_matrix(name: str, M, indent: str = "  ") -> str:
+    """A matrix as aligned rows: ``name = [ a  b ]`` with later rows under the first."""
+    M = sp.Matrix(M)
+    head = f"{indent}{name} = "
+    if M.rows == 0 or M.cols == 0:
+        return f"{head}(empty, {M.rows}x{M.cols})"
+    cells = [[str(M[i, j]) for j in range(M.cols)] for i in range(M.rows)]
+    widths = [max(len(cells[i][j]) for i in range(M.rows)) for j in range(M.cols)]
+    lines = []
+    for i in range(M.rows):
+        body = "  ".join(cells[i][j].rjust(widths[j]) for j in range(M.cols))
+        lines.append((head if i == 0 else " " * len(head)) + f"[ {body} ]")
+    return "\n".join(lines)
+
+
+def _mark(holds: bool, required: bool = True) -> str:
+    if holds:
+        return "[ ok ]"
+    return "[FAIL]" if required else "[ -- ]"
+
+
+def structure_to_json(st: Structure) -> dict:
+    m = st.model
+
+    def rows(M):
+        M = sp.Matrix(M)
+        return [[str(M[i, j]) for j in range(M.cols)] for i in range(M.rows)]
+    return {
+        "model": m.name, "time": m.time, "source": m.source,
+        "states": [s.name for s in m.states], "inputs": [s.name for s in m.inputs],
+        "outputs": {f"y{i + 1}": str(h) for i, h in enumerate(m.outputs)},
+        "faults": [s.name for s in m.faults], "disturbances": [s.name for s in m.disturbances],
+        "noise": [s.name for s in m.noise],
+        "parameters": {p.name: (None if v is None else str(v)) for p, v in m.parameters.items()},
+        "bounds": {s.name: [str(lo), str(hi)] for s, (lo, hi) in m.bounds.items()},
+        "domain": [str(r) for r in m.domain],
+        "matrices": {name: rows(getattr(st, name)) for name in ("F", "G", "H", "C", "D", "L", "W")},
+        "nonlinear": [{"function": str(t.function.xreplace({t.argument: sp.Symbol("s")})),
+                       "argument": str((t.row * sp.Matrix(m.states))[0, 0]),
+                       "row": [str(e) for e in t.row]} for t in st.terms],
+    }
+
+
+def format_structure(st: Structure) -> str:
+    m = st.model
+    names = lambda seq: ", ".join(s.name for s in seq) or "-"  # noqa: E731
+    out = [f"Model {m.name} ({m.time} time{', from ' + m.source if m.source else ''})",
+           f"  states       x = ({names(m.states)})",
+           f"  inputs       u = ({names(m.inputs)})",
+           "  outputs      " + ", ".join(f"y{i + 1} = {h}" for i, h in enumerate(m.outputs)),
+           f"  faults       d = ({names(m.faults)})",
+           f"  disturbances rho = ({names(m.disturbances)})",
+           f"  noise        w = ({names(m.noise)})"]
+    if m.parameters:
+        out.append("  parameters   " + ", ".join(
+            f"{p} = {'(no value)' if v is None else v}" for p, v in m.parameters.items()))
+    if m.bounds:
+        out.append("  bounds       " + ", ".join(f"{s} in [{lo}, {hi}]" for s, (lo, hi) in m.bounds.items()))
+    if m.domain:
+        out.append("  domain       " + ", ".join(str(r) for r in m.domain))
+    lhs = "x(t+1)" if m.time == "discrete" else "dx/dt"
+    out.append(f"\n  {lhs} = F x + G u + C Psi(x, u) + D d + L rho,   y = H x + W w\n")
+    for name in ("F", "G", "H", "C", "D", "L", "W"):
+        out.append(format_matrix(name, getattr(st, name)))
+    if st.terms:
+        out.append("\n  nonlinear terms Psi_j = phi_j(A_j x, u):")
+        for j, t in enumerate(st.terms, 1):
+            ax = (t.row * sp.Matrix(m.states))[0, 0]
+            out.append(f"    Psi_{j} = {t.of_state(m.states)}    (A_{j} = {list(t.row)}, argument {ax})")
+    return "\n".join(out)
+
+
+def _title(d: Design) -> str:
+    what = {
+        "unknown-input": f"estimate {d.unknown_input}",
+        "diagnostic": f"diagnostic observer (residual) for fault(s) {d.unknown_input}",
+        "virtual-sensor": f"virtual sensor for z = {d.estimate}",
+        "interval": f"interval observer for z = {d.estimate}",
+    }.get(d.observer, d.observer)
+    dec = f", decoupled from {', '.join(d.decoupled)}" if d.decoupled else ""
+    kind = "APPROXIMATE (robust) " if d.approximate else ""
+    return (f"Design for {d.model_name}: {what}{dec} — {kind}{d.form} form, k = {d.k},"
+            f" {'symbolic' if d.symbolic else 'numeric'} ({d.method} arithmetic)")
+
+
+def format_design(d: Design) -> str:
+    """A design as a control engineer reads it: matrices, equations, conditions."""
+    out = [_title(d), ""]
+    if d.lambdas:
+        out.append(f"  λ = ({', '.join(str(v) for v in d.lambdas)})")
+    if d.closed_loop_eigenvalues:
+        out.append(f"  closed-loop eigenvalues: {', '.join(str(v) for v in d.closed_loop_eigenvalues)}")
+    for name, M in d.ordered_matrices:
+        out.append(format_matrix(name, M))
+    if d.nonlinear:
+        out.append("\n  nonlinear terms after argument substitution (METHOD §2c):")
+        for ns in d.nonlinear:
+            out.append(f"    Psi*_{ns.index} = {ns.function}    (argument {ns.argument})")
+    if d.equations:
+        dot = "(t+1)" if d.time == "discrete" else "'"
+        out.append("\n  observer equations:")
+        for x, e in zip(d.observer_states, d.equations):
+            out.append(f"    {x}{dot} = {e}")
+        for name, e in d.outputs:
+            out.append(f"    {name} = {e}")
+    if d.approximate:
+        out.append(f"\n  APPROXIMATE: the decoupling is not exact; achieved residual norm {d.residual_norm:.6g}")
+    out.append("\nConditions")
+    for c in d.conditions:
+        out.append(f"  {_mark(c.holds, c.required)} {c.name}: {c.detail}"
+                   + (f"  [{c.reference}]" if c.reference else ""))
+    none = (": none (numeric design; the decoupling is APPROXIMATE, see the residual norm)"
+            if d.approximate else ": none (exact for all parameter values)")
+    out.append("\nAssumptions" + ("" if d.assumptions else none))
+    for a in d.assumptions:
+        out.append(f"  {a}")
+    out.append(f"\nChoice\n  {d.choice}")
+    return "\n".join(out)
+
+
+def format_observer(ob) -> str:
+    """The observer's equations, parameters and outputs."""
+    out = [f"\nObserver ({ob.kind}, {ob.time} time): {ob.description}"]
+    if ob.parameters:
+        out.append("  parameters: " + ", ".join(f"{p} = {v}" for p, v in ob.parameters.items()))
+    for line in ob.equations_text():
+        out.append(f"    {line}")
+    if ob.delays:
+        out.append("  delayed outputs: " + ", ".join(f"{k} (estimate of t − {v})" for k, v in ob.delays.items()))
+    return "\n".join(out)

@@ -1,0 +1,177 @@
+"""Certificates: a design's defining identities re-checked independently.
+
+The synthesis code works on DomainMatrix elements and null-space members; this
+module knows nothing of that. It takes the plant's matrices and the design's
+matrices as plain sympy matrices, multiplies them out with ``sympy.Matrix``
+arithmetic, and simplifies every residual entry (``cancel``, then ``simplify`` if
+needed) to exactly zero — or, for float designs, measures the residual norms against
+a stated tolerance. A design whose certificate fails is never returned.
+
+Identities (METHOD §2)::
+
+    Φ F − F* Φ − J* H = 0,   H* Φ − R* H = 0,   Φ G − G* = 0,
+    Φ D − D* = 0,            Φ L = 0,           Φ C − C* = 0 (nonlinear)
+"""
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import sympy as sp
+
+from ..errors import CertificateError
+
+__all__ = ["Identity", "Certificate", "certify_reduced_model", "certify_design"]
+
+
+@dataclasses.dataclass(frozen=True)
+class Identity:
+    """One identity: its name, whether it holds, and the evidence."""
+
+    name: str
+    holds: bool
+    residual: str  # "0" (exact) or the residual norm (float)
+
+
+@dataclasses.dataclass(frozen=True)
+class Certificate:
+    identities: tuple
+    exact: bool
+    tolerance: float | None = None
+
+    @property
+    def passed(self) -> bool:
+        return all(i.holds for i in self.identities)
+
+    def summary(self) -> str:
+        mark = "exactly zero" if self.exact else f"below tolerance {self.tolerance:.1e}"
+        return "; ".join(i.name for i in self.identities) + f": {mark}" if self.passed else \
+            "FAILED: " + "; ".join(f"{i.name} (residual {i.residual})"
+                                   for i in self.identities if not i.holds)
+
+
+def _is_zero(e) -> bool:
+    if e == 0:
+        return True
+    e = sp.cancel(sp.together(e))
+    if e == 0:
+        return True
+    return sp.simplify(e) == 0
+
+
+def _exact_identity(name: str, residual: sp.Matrix) -> Identity:
+    bad = [e for e in residual if not _is_zero(e)]
+    if not bad:
+        return Identity(name, True, "0")
+    return Identity(name, False, str(sp.simplify(bad[0])))
+
+
+def certify_reduced_model(*, F, G, H, C, D, L, Phi, F_star, J_star, R_star, H_star,
+                          G_star, D_star, C_star=None, exact: bool = True,
+                          tolerance: float = 1e-9, raise_on_failure: bool = True) -> Certificate:
+    """Re-check Φ F = F*Φ + J*H, H*Φ = R*H, ΦG = G*, ΦD = D*, ΦL = 0 (and ΦC = C*).
+
+    Exact mode: every residual entry simplifies to 0. Float mode: each residual's
+    Frobenius norm is below ``tolerance`` times the norm of the terms it compares.
+    Raises :class:`CertificateError` on failure unless ``raise_on_failure`` is False.
+    """
+    pairs = [
+        ("Phi F - F* Phi - J* H", lambda M: M["Phi"] * M["F"] - M["F_star"] * M["Phi"] - M["J_star"] * M["H"],
+         lambda M: [M["Phi"] * M["F"], M["F_star"] * M["Phi"], M["J_star"] * M["H"]]),
+        ("H* Phi - R* H", lambda M: M["H_star"] * M["Phi"] - M["R_star"] * M["H"],
+         lambda M: [M["H_star"] * M["Phi"], M["R_star"] * M["H"]]),
+        ("Phi G - G*", lambda M: M["Phi"] * M["G"] - M["G_star"], lambda M: [M["Phi"] * M["G"], M["G_star"]]),
+        ("Phi D - D*", lambda M: M["Phi"] * M["D"] - M["D_star"], lambda M: [M["Phi"] * M["D"], M["D_star"]]),
+        ("Phi L", lambda M: M["Phi"] * M["L"], lambda M: [M["Phi"], M["L"]]),
+    ]
+    if C_star is not None:
+        pairs.append(("Phi C - C*", lambda M: M["Phi"] * M["C"] - M["C_star"],
+                      lambda M: [M["Phi"] * M["C"], M["C_star"]]))
+    mats = dict(F=F, G=G, H=H, C=C, D=D, L=L, Phi=Phi, F_star=F_star, J_star=J_star,
+                R_star=R_star, H_star=H_star, G_star=G_star, D_star=D_star, C_star=C_star)
+    ids = []
+    if exact:
+        M = {k: sp.Matrix(v) for k, v in mats.items() if v is not None}
+        for name, res, _ in pairs:
+            ids.append(_exact_identity(name, res(M)))
+        cert = Certificate(tuple(ids), True, None)
+    else:
+        M = {k: np.asarray(sp.Matrix(v).evalf() if isinstance(v, sp.MatrixBase) else v, dtype=float)
+             for k, v in mats.items() if v is not None}
+        M = {k: np.atleast_2d(v) for k, v in M.items()}
+        Mw = {k: _Arr(v) for k, v in M.items()}
+        for name, res, terms in pairs:
+            r = res(Mw).a
+            scale = max([np.linalg.norm(t.a) for t in terms(Mw)] + [1.0])
+            rel = float(np.linalg.norm(r) / scale) if r.size else 0.0
+            ids.append(Identity(name, rel <= tolerance, f"{rel:.2e} (relative)"))
+        cert = Certificate(tuple(ids), False, tolerance)
+    if raise_on_failure and not cert.passed:
+        raise CertificateError(f"design failed its certificate: {cert.summary()}")
+    return cert
+
+
+class _Arr:
+    """numpy matrix wrapper so that ``*`` is the matrix product, as in sympy."""
+
+    def __init__(self, a):
+        self.a = np.asarray(a, dtype=float)
+
+    def __mul__(self, o):
+        return _Arr(self.a @ o.a)
+
+    def __sub__(self, o):
+        return _Arr(self.a - o.a)
+
+
+def certify_design(plant: dict, mats: dict, *, M=None, substitutions=(), decoupled: bool = True,
+                   exact: bool = True, tolerance: float = 1e-9,
+                   raise_on_failure: bool = True) -> Certificate:
+    """Re-check every identity that applies to a design, from its matrices alone.
+
+    ``plant``: F, G, H, C, D, L (sympy). ``mats``: the design's matrices; which identities
+    are checked depends on which are present:
+
+    - always ``Φ F − F* Φ − J* H`` (Jordan form: row i reads Φ_i F = λ_i Φ_i + J*_i H);
+    - ``H* Φ − R* H`` when R*, H* are present; ``Φ G − G*``; ``Φ D − D*`` when D* is;
+    - ``Φ L`` (decoupled) or ``Φ L − L*`` (interval observers, not decoupled);
+    - ``Φ C − C*`` for nonlinear models;
+    - ``M − H_z Φ − Q H`` for an estimated z = M x;
+    - ``A_j − A*_1j Φ − A*_2j H`` for each argument substitution (A_j, A*_1j, A*_2j).
+    """
+    P = {k: sp.Matrix(v) for k, v in plant.items()}
+    X = {k: sp.Matrix(v) for k, v in mats.items()}
+    Phi = X["Phi"]
+    checks = [("Phi F - F* Phi - J* H", Phi * P["F"] - X["F_star"] * Phi - X["J_star"] * P["H"])]
+    if "R_star" in X and "H_star" in X:
+        checks.append(("H* Phi - R* H", X["H_star"] * Phi - X["R_star"] * P["H"]))
+    if "G_star" in X and P["G"].cols:
+        checks.append(("Phi G - G*", Phi * P["G"] - X["G_star"]))
+    if "D_star" in X and P["D"].cols:
+        checks.append(("Phi D - D*", Phi * P["D"] - X["D_star"]))
+    if P["L"].cols:
+        if decoupled:
+            checks.append(("Phi L", Phi * P["L"]))
+        elif "L_star" in X:
+            checks.append(("Phi L - L*", Phi * P["L"] - X["L_star"]))
+    if "C_star" in X and P["C"].cols:
+        checks.append(("Phi C - C*", Phi * P["C"] - X["C_star"]))
+    if M is not None:
+        checks.append(("M - Hz Phi - Q H", sp.Matrix(M) - X["Hz"] * Phi - X["Q"] * P["H"]))
+    for j, A, A1, A2 in substitutions:
+        checks.append((f"A_{j} - A*_1,{j} Phi - A*_2,{j} H",
+                       sp.Matrix(A) - sp.Matrix(A1) * Phi - sp.Matrix(A2) * P["H"]))
+    ids = []
+    if exact:
+        for name, res in checks:
+            ids.append(_exact_identity(name, res))
+        cert = Certificate(tuple(ids), True, None)
+    else:
+        for name, res in checks:
+            r = np.array(res.evalf(), dtype=float) if res.shape[0] and res.shape[1] else np.zeros(1)
+            rel = float(np.linalg.norm(r))
+            ids.append(Identity(name, rel <= tolerance, f"{rel:.2e}"))
+        cert = Certificate(tuple(ids), False, tolerance)
+    if raise_on_failure and not cert.passed:
+        raise CertificateError(f"design failed its certificate: {cert.summary()}")
+    return cert

@@ -1,0 +1,510 @@
+"""Jordan-form synthesis (METHOD §2b, §2c): diagnostic observers, virtual sensors,
+interval observers.
+
+F* = diag(λ_1, …, λ_k), real and stable, so the defining equation splits by rows::
+
+    (S_i, −J*_i) [L0 (F − λ_i I); H] = 0,     Φ_i = S_i L0
+
+(seed 002 eq. (2.5); seed 000 eq. (8.2)). A λ is *admissible* when that stacked
+matrix P(λ) loses row rank: for every λ (generic solvability, e.g. when it has more
+rows than columns) or on the finite set of roots of the greatest common divisor of its
+maximal minors, computed exactly here. Rows are then chosen — fewest first — so that
+
+- diagnostic observer: every fault column is seen by some row (Φ_j D⁽ⁱ⁾ ≠ 0, seed 002
+  Remark 1) and (R*, −H*) [H; Φ] = 0 is solvable: rank [Φ; H] < rank Φ + rank H (2.7);
+- virtual sensor / interval observer for z = M x: rank [Φ; H] = rank [Φ; H; M] (3.2),
+  then M = H_z Φ + Q H;
+- nonlinear models: for every nonzero column j of C* = Φ C,
+  rank [Φ; H] = rank [Φ; H; A_j], then A_j = A*_1j Φ + A*_2j H and
+  Ψ*_j = φ_j(A*_1j x* + A*_2j y, u) (§2c).
+
+Interval observers are not decoupled (L0 = I) and report L* = Φ L.
+Stability is by construction (stable λ); no feedback is needed.
+
+References: seed 002 §2-4, §6, §8; seed 001 §5; seed 000 §8.
+"""
+from __future__ import annotations
+
+import dataclasses
+import itertools
+from typing import Sequence
+
+import sympy as sp
+
+from ._certificate import certify_design
+from ._design import Condition, Design
+from ..errors import InfeasibleDesignError, ModelError, UsageError
+from ..model import PlantModel
+from ._nonlinear import substitute_arguments
+from ._reduced import is_stable, jordan_equations, observer_symbols, output_symbols, parse_estimate
+from ._task import resolve_jordan_task
+from ._jordan_float import design_jordan_float
+from ._canonical import FLOAT_AUTO_N
+from ..model import Structure, extract_structure
+from ..numerics import denominator_conditions, echelon_rows, exact_rank, left_null_space, nonzero_conditions, solve_left
+
+__all__ = ["Admissible", "admissible_lambdas", "design_jordan", "design_jordan_unknown_input"]
+
+LAMBDA = sp.Symbol("lambda")
+
+
+
+@dataclasses.dataclass(frozen=True)
+class Admissible:
+    """Which λ make [L0 (F − λI); H] lose row rank."""
+
+    generic: bool
+    values: tuple  # real roots (exact) when not generic
+    other_roots: tuple  # complex roots, reported, not usable (F* must be real)
+    evidence: str
+
+    def contains(self, lam) -> bool:
+        if self.generic:
+            return True
+        return any(sp.simplify(sp.sympify(lam) - v) == 0 for v in self.values)
+
+    def describe(self) -> str:
+        if self.generic:
+            return "every λ (generic solvability)"
+        vals = ", ".join(str(v) for v in self.values) or "none real"
+        return f"λ ∈ {{{vals}}}"
+
+
+def _pencil(F, H, L0, lam):
+    n = F.rows
+    return sp.Matrix.vstack(L0 * (F - lam * sp.eye(n)), H)
+
+
+def _det(M):
+    """Determinant over the polynomial ring (fast, exact), as an expression."""
+    from sympy.polys.matrices import DomainMatrix
+    dm = DomainMatrix.from_Matrix(sp.Matrix(M))
+    return dm.domain.to_sympy(dm.det()) if hasattr(dm.domain, "to_sympy") else dm.to_Matrix().det()
+
+
+def admissible_lambdas(F, H, L0) -> Admissible:
+    """Exactly: generic solvability, or the real roots where P(λ) drops row rank."""
+    F, H, L0 = sp.Matrix(F), sp.Matrix(H), sp.Matrix(L0)
+    n = F.rows
+    P = _pencil(F, H, L0, LAMBDA)
+    r = P.rows
+    if r > n:
+        return Admissible(True, (), (), f"[L0(F − λI); H] has {r} rows > {n} columns:"
+                                        " a left null vector exists for every λ")
+    gr = exact_rank(P)
+    if gr.rank < r:
+        return Admissible(True, (), (), f"rank [L0(F − λI); H] = {gr.rank} < {r} rows"
+                                        " for λ as a free symbol")
+    minors = []
+    for cols in itertools.combinations(range(n), r):
+        m = sp.expand(_det(P[:, list(cols)]))
+        if m != 0:
+            minors.append(m)
+    g = minors[0]
+    for m in minors[1:]:
+        g = sp.gcd(g, m)
+    g = sp.factor(g)
+    if not g.has(LAMBDA):
+        return Admissible(False, (), (), f"gcd of the maximal minors of [L0(F − λI); H] is"
+                                         f" {g}, free of λ: no admissible λ")
+    real, other = [], []
+    _, factors = sp.factor_list(g, LAMBDA)
+    for f, _mult in factors:
+        deg = sp.degree(f, LAMBDA)
+        if deg == 0:
+            continue
+        if deg <= 2:  # rational or quadratic roots: exact arithmetic stays cheap
+            rts = list(sp.roots(sp.Poly(f, LAMBDA)).keys())
+        elif not f.free_symbols - {LAMBDA}:
+            rts = list(sp.Poly(f, LAMBDA).all_roots())  # CRootOf: reported, not used
+        else:
+            rts = []
+        for rt in rts:
+            real_ = rt.is_real
+            if real_ or (real_ is None and rt.free_symbols):
+                real.append(rt)
+            else:
+                other.append(rt)
+    real.sort(key=lambda v: (bool(v.free_symbols), sp.re(v) if v.is_number else 0, str(v)))
+    return Admissible(False, tuple(real), tuple(other),
+                      f"gcd of the maximal minors of [L0(F − λI); H] = {g}")
+
+
+def _default_lambdas(time: str, count: int):
+    if time == "continuous":
+        return [sp.Integer(-i) for i in range(1, count + 1)]
+    return [sp.Rational(1, 2 ** i) for i in range(1, count + 1)]
+
+
+def _rank(M) -> int:
+    M = sp.Matrix(M)
+    if M.rows == 0 or M.cols == 0:
+        return 0
+    return exact_rank(M).rank
+
+
+def design_jordan(model: PlantModel, *, observer: str, estimate=None,
+                  faults: Sequence[str] | None = None, decouple: Sequence[str] = (),
+                  lambdas: Sequence | None = None, symbolic: bool = False,
+                  structure: Structure | None = None, method: str = "auto",
+                  rtol: float | None = None) -> Design:
+    """Jordan-form design of a diagnostic observer, virtual sensor or interval observer.
+
+    Parameters
+    ----------
+    model : PlantModel
+    observer : {"diagnostic", "virtual-sensor", "interval"}
+    estimate : str or sympy expression or Matrix, for virtual sensors / interval observers
+        z = M x, an expression in the state names (e.g. ``"x1"``).
+    faults : names, optional (diagnostic)
+        Faults the residual must detect (default: all the model's faults).
+    decouple : names, optional
+        Further inputs to decouple from (besides the model's disturbances). Interval
+        observers are not decoupled: L0 = I and L* = Φ L is reported.
+    lambdas : values, optional
+        Requested eigenvalues; each is checked (admissible? stable?). Default: the
+        admissible stable λ, or −1, −2, … (continuous) / 1/2, 1/4, … (discrete) when
+        every λ is admissible.
+    symbolic : bool
+        Keep parameters as symbols (default: substitute their defaults).
+    """
+    if observer not in ("diagnostic", "virtual-sensor", "interval"):
+        raise UsageError(f"Jordan form supports diagnostic, virtual-sensor and interval, not {observer!r}")
+    if method not in ("auto", "exact", "float"):
+        raise UsageError(f"method must be 'auto', 'exact' or 'float', got {method!r}")
+    if method == "auto":  # large numeric linear models: the pencil numerically (with evidence)
+        big = len(model.states) > FLOAT_AUTO_N and not (symbolic and model.parameters)
+        method = "float" if big and extract_structure(
+            model.substitute_parameters() if model.parameters else model).is_linear else "exact"
+    if method == "float":
+        if symbolic and model.parameters:
+            raise UsageError("the float path needs numeric parameters: design without --symbolic")
+        return design_jordan_float(model, observer=observer, estimate=estimate, faults=faults,
+                                   decouple=decouple, lambdas=lambdas, rtol=rtol)
+    work = model if symbolic else model.substitute_parameters()
+    st = structure if (structure is not None and symbolic) else extract_structure(work)
+    where = model.where
+    F, G, H, C = (sp.Matrix(M) for M in (st.F, st.G, st.H, st.C))
+    n, l = st.n, st.l
+
+    # Step 1: the task
+    M, fault_syms, dec, D, L = resolve_jordan_task(work, st, observer, estimate, faults, decouple)
+    decoupled = observer != "interval"
+
+    if M is not None:  # z already measured: say so rather than build a trivial observer
+        X0 = solve_left(H, M)
+        if X0 is not None:
+            raise UsageError(f"{where}: z = {estimate} is measured directly: z = "
+                             f"{sp.expand((X0 * sp.Matrix(output_symbols(l)))[0, 0])}; no observer is needed")
+
+    # Step 2: L0 (maximal rank, L0 L = 0) and the admissible λ
+    if decoupled and L.cols:
+        basis, _ = left_null_space(L)
+        L0 = sp.Matrix.vstack(*basis) if basis else sp.zeros(0, n)
+    else:
+        L0 = sp.eye(n)
+    if L0.rows == 0:
+        raise InfeasibleDesignError(f"{where}: the disturbances span the whole state space;"
+                                    " no decoupled observer exists")
+    adm = admissible_lambdas(F, H, L0)
+    conds = [Condition("admissible λ", adm.generic or bool(adm.values),
+                       f"{adm.describe()}; {adm.evidence}"
+                       + (f"; complex roots {', '.join(map(str, adm.other_roots))} are not usable"
+                          if adm.other_roots else ""), "METHOD §2b; seed 002 eq. (2.5)")]
+    if lambdas:
+        lam_list = []
+        for v in lambdas:
+            try:
+                lam = sp.sympify(v) if not isinstance(v, sp.Basic) else v
+            except (sp.SympifyError, SyntaxError, TypeError):
+                raise UsageError(f"λ = {v!r} is not a number") from None
+            if not isinstance(lam, sp.Expr) or lam.free_symbols - set(work.parameters):
+                raise UsageError(f"λ = {v} is not a number (or a declared parameter with --symbolic)")
+            if lam.is_number:
+                if lam.is_real is False:
+                    raise UsageError(f"λ = {v} is not real: the Jordan form needs real λ")
+                lam = sp.nsimplify(lam, rational=True) if lam.is_Float else lam
+            if not adm.contains(lam):
+                raise InfeasibleDesignError(
+                    f"{where}: λ = {lam} is not admissible: [L0(F − λI); H] has full row rank"
+                    f" there (admissible: {adm.describe()})")
+            stab = is_stable(lam, work.time)
+            if stab is False:
+                need = "λ < 0" if work.time == "continuous" else "|λ| < 1"
+                raise InfeasibleDesignError(
+                    f"{where}: λ = {lam} is not stable in {work.time} time (needs {need})")
+            lam_list.append(lam)
+    elif adm.generic:
+        lam_list = _default_lambdas(work.time, n)
+    else:
+        lam_list = [v for v in adm.values if is_stable(v, work.time) is not False
+                    and not v.has(sp.CRootOf)]  # roots of cubic and higher factors: not used
+        lam_list.sort(key=lambda v: (not v.is_rational, str(v)))
+        if not lam_list:
+            unusable = [v for v in adm.values if v.has(sp.CRootOf)]
+            why = (" (the stable ones are roots of an irreducible factor of degree ≥ 3, which"
+                   " exact synthesis does not use)" if unusable else "")
+            raise InfeasibleDesignError(
+                f"{where}: no stable admissible λ{why}: {adm.describe()} ({adm.evidence})",
+                (adm.evidence,))
+
+    # Step 3: for every λ the whole family of rows: Φ = c N_λ L0, J* = c J_λ
+    fam = {}
+    pool = []
+    for lam in lam_list:
+        P = _pencil(F, H, L0, lam)
+        basis, _ = left_null_space(P)
+        rows_phi, rows_j = [], []
+        for v in echelon_rows(basis):
+            S, J = v[:, :L0.rows], -v[:, L0.rows:]
+            Phi_i = (S * L0).applyfunc(sp.cancel)
+            if Phi_i != sp.zeros(1, n):
+                rows_phi.append(Phi_i)
+                rows_j.append(J.applyfunc(sp.cancel))
+                pool.append((lam, Phi_i, J.applyfunc(sp.cancel)))
+        if rows_phi:
+            fam[lam] = (sp.Matrix.vstack(*rows_phi), sp.Matrix.vstack(*rows_j))
+            if observer == "diagnostic":  # rows inside rowspace(H): a residual with k = 1
+                for extra in _rows_in_rowspace(fam[lam], H):
+                    pool.append((lam,) + extra)
+    if not pool:
+        raise InfeasibleDesignError(f"{where}: no nonzero row Φ_i for λ in {lam_list}")
+
+    # Step 4: fewest rows satisfying the task, one row per λ first
+    CA = [(j, sp.Matrix(t.row)) for j, t in enumerate(st.terms)]
+    tried = []
+    chosen = None
+    if M is not None:  # directed: M ∈ rowspace(H) + Σ_λ rowspace(N_λ L0), one row per λ
+        chosen = _directed_rows(fam, lam_list, H, M, n, observer, D, st, tried)
+    if chosen is None:
+        chosen = _combination_rows(pool, n, observer, H, D, M, st, tried)
+    if chosen is None:
+        raise InfeasibleDesignError(
+            f"{where}: no Jordan-form {observer} with fewer than n = {n} rows for λ in"
+            f" {{{', '.join(map(str, lam_list))}}}: " + "; ".join(tried), tuple(tried))
+
+    # Step 5: the matrices
+    k = len(chosen)
+    lams = tuple(r[0] for r in chosen)
+    Phi = sp.Matrix.vstack(*[r[1] for r in chosen])
+    J = sp.Matrix.vstack(*[r[2] for r in chosen])
+    mats = {"Phi": Phi, "F_star": sp.diag(*lams), "J_star": J, "G_star": Phi * G}
+    if observer == "diagnostic":
+        nb, _ = left_null_space(sp.Matrix.vstack(H, Phi))
+        nb = [v for v in echelon_rows(nb) if v[:, l:] != sp.zeros(1, k)]
+        if not nb:  # pragma: no cover - excluded by the rank test
+            raise InfeasibleDesignError(f"{where}: (R*, -H*)[H; Phi] = 0 has no solution")
+        v = nb[0]
+        mats["R_star"] = v[:, :l]
+        mats["H_star"] = -v[:, l:]
+        mats["D_star"] = Phi * D
+    if decoupled:
+        if L.cols:
+            mats["L_star"] = Phi * L
+    else:
+        mats["L_star"] = Phi * L
+    if M is not None:
+        X = solve_left(sp.Matrix.vstack(Phi, H), M)
+        mats["Hz"], mats["Q"] = X[:, :k], X[:, k:]
+    xs, ys = observer_symbols(k), output_symbols(l)
+    _, _, subs, nonlinear = substitute_arguments(st, Phi, xs, ys)
+    if C.cols:
+        mats["C_star"] = Phi * C
+    mats = {name: Mx.applyfunc(sp.cancel) for name, Mx in mats.items()}
+
+    # Step 6: certificate, independent of the above
+    plant = dict(F=F, G=G, H=H, C=C, D=D, L=L)
+    cert = certify_design(plant, mats, M=M, substitutions=subs, decoupled=decoupled)
+
+    # Step 7: equations and reported conditions
+    equations, outputs = jordan_equations(mats, work.inputs, xs, ys, observer, M, nonlinear,
+                                          C.cols)
+
+    conds += _report_conditions(observer, work.time, lams, mats, Phi, H, D, M, fault_syms, CA,
+                                 nonlinear, k, decoupled)
+    conds.append(Condition("certificate", cert.passed, cert.summary(), "METHOD §2"))
+    choice = (f"k = {k}: rows with λ = ({', '.join(map(str, lams))}) chosen from"
+              f" {len(pool)} candidate row(s) for λ in {{{', '.join(map(str, lam_list))}}};"
+              f" the fewest rows that satisfy the {observer} conditions"
+              + (f" (smaller sets rejected: {'; '.join(tried[:4])})" if tried else ""))
+    assumptions = set()
+    for Mx in mats.values():
+        for e in Mx:
+            assumptions |= denominator_conditions(e)
+    if observer == "diagnostic" and work.parameters:  # each fault seen: not all entries 0
+        PD = (Phi * D).applyfunc(sp.cancel)
+        for c in range(PD.cols):
+            nums = [sp.fraction(sp.together(e))[0] for e in PD[:, c] if e != 0]
+            if nums:
+                g = sp.gcd_list(nums) if len(nums) > 1 else nums[0]
+                assumptions |= nonzero_conditions(g)
+    return Design(
+        model_name=work.name, form="jordan", k=k, matrices=mats, conditions=tuple(conds),
+        assumptions=tuple(sorted(assumptions, key=str)), certificate=cert,
+        unknown_input=", ".join(f.name for f in fault_syms) or None,
+        decoupled=tuple(s.name for s in dec), symbolic=bool(work.parameters), method="exact",
+        choice=choice, attempts=tuple(tried), observer=observer, time=work.time,
+        estimate=None if M is None else str((M * sp.Matrix(work.states))[0, 0]) if M.rows == 1
+        else str(list(M * sp.Matrix(work.states))),
+        lambdas=lams, nonlinear=tuple(nonlinear), equations=equations,
+        observer_states=tuple(xs), outputs=tuple(outputs))
+
+
+def _check_rows(rows, size, observer, H, D, M, st, tried):
+    """True when the rows are independent and satisfy the task; records why not."""
+    Phi = sp.Matrix.vstack(*[r[1] for r in rows])
+    if _rank(Phi) < size:
+        return False
+    ok, why = _task_ok(observer, Phi, H, D, M, st)
+    if not ok and len(tried) < 12:
+        tried.append(f"k={size}, λ = ({', '.join(str(r[0]) for r in rows)}): {why}")
+    return ok
+
+
+def _rows_in_rowspace(family, H):
+    """Rows c N_λ L0 that lie in rowspace(H) (their residual needs only this row)."""
+    PhiB, JB = family
+    basis, _ = left_null_space(sp.Matrix.vstack(PhiB, H))
+    out = []
+    vecs = [b[:, :PhiB.rows] for b in basis]
+    vecs = [c for c in vecs if c != sp.zeros(1, PhiB.rows)]
+    if len(vecs) > 1:
+        vecs.append(sum(vecs[1:], vecs[0]))
+    for c in vecs:
+        Phi_i = (c * PhiB).applyfunc(sp.cancel)
+        if Phi_i != sp.zeros(1, PhiB.cols):
+            out.append((Phi_i, (c * JB).applyfunc(sp.cancel)))
+    return out
+
+
+def _directed_rows(fam, lam_list, H, M, n, observer, D, st, tried):
+    """Sets of distinct λ, smallest first: solve M = Σ c_λ N_λ L0 + Q H for one row per λ."""
+    lams = [lam for lam in lam_list if lam in fam]
+    for size in range(1, n):
+        for combo in itertools.combinations(lams, size):
+            B = sp.Matrix.vstack(*[fam[lam][0] for lam in combo])
+            X = solve_left(sp.Matrix.vstack(B, H), M)
+            if X is None:
+                continue
+            rows, off = [], 0
+            for lam in combo:
+                PhiB, JB = fam[lam]
+                c = X[:, off:off + PhiB.rows]
+                off += PhiB.rows
+                Phi_i = (c * PhiB).applyfunc(sp.cancel)
+                if Phi_i != sp.zeros(1, n):
+                    rows.append((lam, Phi_i, (c * JB).applyfunc(sp.cancel)))
+            if len(rows) != size:
+                continue  # a smaller set does it (found earlier unless the task failed)
+            if _check_rows(rows, size, observer, H, D, M, st, tried):
+                return rows
+    return None
+
+
+def _combination_rows(pool, n, observer, H, D, M, st, tried):
+    """Fewest rows from the pool; sets with distinct λ before sets that repeat one."""
+    for size in range(1, n):
+        for distinct in (True, False):
+            for combo in itertools.combinations(range(len(pool)), size):
+                rows = [pool[i] for i in combo]
+                lams = [r[0] for r in rows]
+                if (len(set(lams)) == len(lams)) != distinct:
+                    continue
+                if _check_rows(rows, size, observer, H, D, M, st, tried):
+                    return rows
+    return None
+
+
+def _task_ok(observer, Phi, H, D, M, st):
+    PH = sp.Matrix.vstack(Phi, H)
+    rPH = _rank(PH)
+    if observer == "diagnostic":
+        for c in range(D.cols):
+            if (Phi * D[:, c]).applyfunc(sp.cancel) == sp.zeros(Phi.rows, 1):
+                return False, f"fault column {c + 1} is not seen (Φ D = 0)"
+        if not rPH < _rank(Phi) + _rank(H):
+            return False, f"rank [Φ; H] = {rPH} is not < rank Φ + rank H (no residual)"
+    if M is not None:
+        r = _rank(sp.Matrix.vstack(PH, M))
+        if r != rPH:
+            return False, f"rank [Φ; H] = {rPH} < rank [Φ; H; M] = {r} (z not reachable)"
+    if st.terms:
+        ok, why, _, _ = substitute_arguments(st, Phi, observer_symbols(Phi.rows),
+                                             output_symbols(H.rows))
+        if not ok:
+            return False, why
+    return True, ""
+
+
+def _report_conditions(observer, time, lams, mats, Phi, H, D, M, fault_syms, CA, nonlinear,
+                       k, decoupled):
+    conds = []
+    for i, lam in enumerate(lams):
+        stab = is_stable(lam, time)
+        need = "λ < 0" if time == "continuous" else "|λ| < 1"
+        conds.append(Condition(f"λ_{i + 1} = {lam} stable", bool(stab) if stab is not None else False,
+                               f"{need} ({time} time)" + (" — depends on parameters" if stab is None else ""),
+                               "METHOD §2b", required=stab is not None))
+    PH = sp.Matrix.vstack(Phi, H)
+    rPH, rP, rH = _rank(PH), _rank(Phi), _rank(H)
+    if observer == "diagnostic":
+        conds.append(Condition("residual condition rank [Φ; H] < rank Φ + rank H", rPH < rP + rH,
+                               f"rank [Φ; H] = {rPH}, rank Φ + rank H = {rP} + {rH} = {rP + rH}",
+                               "seed 002 eq. (2.7)"))
+        for c, f in enumerate(fault_syms):
+            col = (Phi * D[:, c]).applyfunc(sp.cancel)
+            rows = [i + 1 for i in range(k) if col[i] != 0]
+            conds.append(Condition(f"fault sensitivity ({f.name})", bool(rows),
+                                   f"Φ D = {list(col)}; seen by row(s) {rows}",
+                                   "seed 002 §2, Remark 1"))
+        Hs, Fs = mats["H_star"], mats["F_star"]
+        O = sp.Matrix.vstack(*[Hs * Fs ** i for i in range(k)])
+        ro = _rank(O)
+        conds.append(Condition("observability of (F*, H*)", ro == k,
+                               f"rank of the observability matrix = {ro} (k = {k})", "METHOD §4",
+                               required=False))
+    if M is not None:
+        rPHM = _rank(sp.Matrix.vstack(PH, M))
+        conds.append(Condition("z = M x reachable: rank [Φ; H] = rank [Φ; H; M]", rPH == rPHM,
+                               f"rank [Φ; H] = {rPH}, rank [Φ; H; M] = {rPHM}", "seed 002 eq. (3.2)"))
+        Hz = mats["Hz"]
+        nonneg = all((e.is_nonnegative is True) for e in Hz)
+        conds.append(Condition("H_z ≥ 0", nonneg, f"H_z = {list(Hz)}"
+                               + ("" if nonneg else " (the interval bounds use the split H_z⁺, H_z⁻)"),
+                               "METHOD §3", required=False))
+    for ns in nonlinear:
+        A = CA[ns.index - 1][1]
+        r2 = _rank(sp.Matrix.vstack(PH, A))
+        conds.append(Condition(f"argument substitution for Ψ_{ns.index}: rank [Φ; H] = rank [Φ; H; A_{ns.index}]",
+                               rPH == r2, f"{rPH} = {r2}; Ψ*_{ns.index} = {ns.function}",
+                               "METHOD §2c; seed 002 eq. (6.3)"))
+    Fs = mats["F_star"]
+    if time == "continuous":
+        conds.append(Condition("F* Metzler", True, "F* is diagonal", "METHOD §3", required=False))
+    else:
+        nonneg = all((e.is_nonnegative is True) for e in Fs)
+        conds.append(Condition("F* nonnegative", nonneg,
+                               f"diag(F*) = {list(Fs.diagonal())}"
+                               + ("" if nonneg else " (interval bounds then use the ⁺/⁻ split)"),
+                               "METHOD §3", required=False))
+    if not decoupled:
+        conds.append(Condition("decoupling", True, "not required (interval observer): L* = Φ L"
+                               f" = {mats.get('L_star', sp.zeros(0, 0)).tolist()}", "METHOD §2b"))
+    return conds
+
+
+def design_jordan_unknown_input(model: PlantModel, unknown_input: str, lam, *,
+                                decouple: Sequence[str] = (), symbolic: bool = False) -> Design:
+    """The one-row λ-model x*(t+1) = λ x* + J* y + G* u + D* d, x* = R* y (seed 000 §8).
+
+    Built by :func:`~observer_cad.jordan.design_jordan` (``observer="diagnostic"``) with
+    the single requested λ; the design must have k = 1 (Φ = R* H: x* measured).
+    Note: such a row exists iff the canonical k = 1 model does, for every λ — λ R* H
+    lies in the row space of H and is absorbed into J* (J*_λ = J*_0 − λ R*).
+    """
+    d = design_jordan(model, observer="diagnostic", faults=[unknown_input],
+                      decouple=decouple, lambdas=[lam], symbolic=symbolic)
+    if d.k != 1:
+        raise UsageError(f"no one-row λ-model with x* = R* y for '{unknown_input}'"
+                         f" (the Jordan design needs k = {d.k})")
+    return d

@@ -1,0 +1,254 @@
+"""Virtual sensors z = M x in the identification canonical form, with a stabilising
+feedback computed for the *actual* F* (METHOD §2a, §3; seeds 001 and 004).
+
+Plain form (seed 001 §2, method 1): the reduced model is built from the measured
+outputs; the minimal k is the first whose null space has a member with
+rank [Φ; H] = rank [Φ; H; M]; then M = H_z Φ + Q H.
+
+Seed-004 variant: the model is driven by y0 = (y; y_v) with y_v = z = M x itself
+(H0 = [H; M]); its output y* = H* x* = R* y stays a measured combination, so R* acts on
+y and J* on y0. The rank test uses that stacked matrix; a member must still satisfy
+the virtual-sensor condition, and substituting y_v = H_z x* + Q y moves F* away from
+the shift form: F*_act = F_shift + J*_v H_z, J*_act = J*_y + J*_v Q.
+
+Feedback: x*' = F* x* + J* y + G* u + K r, so the error obeys F* − K H*. K is solved
+exactly from det(sI − F* + K H*) = Π (s − μ_i) for the requested μ_i (complex pairs
+allowed), and the closed-loop characteristic polynomial is re-checked exactly.
+With real distinct μ_i, 001 method 1 then moves F* − K H* to diagonal form by its
+eigenvector matrix T (ξ = T⁻¹ x*), which is Metzler.
+"""
+from __future__ import annotations
+
+from typing import Sequence
+
+import sympy as sp
+
+from ._canonical import shift_matrix
+from ._poles import default_eigenvalues, parse_eigenvalues, place_poles, require_stable
+from ._certificate import certify_design
+from ._design import Condition, Design
+from ..errors import InfeasibleDesignError, ModelError, UsageError
+from ._reduced import observer_symbols, output_symbols, parse_estimate
+from ..model import PlantModel
+from ._nonlinear import substitute_arguments
+from ..model import extract_structure
+from ..numerics import echelon_rows, exact_rank, left_null_space, solve_left
+
+__all__ = ["design_virtual_sensor_canonical"]
+
+S = sp.Symbol("s")
+
+
+def _blocks(F, H1, H0, L, k):
+    """(W L) for (R*, −J*_1, …, −J*_k) when R* acts on H1 and J* on H0.
+
+    Row by row Φ_1 = R* H1, Φ_{i+1} = Φ_i F − J*_i H0, Φ_k F = J*_k H0, Φ L = 0; the plain
+    form has H1 = H0 = H (METHOD §2a), the seed-004 variant H1 = H, H0 = [H; M].
+    """
+    p = L.cols
+    blocks_W = [H1 * F ** k] + [H0 * F ** (k - i) for i in range(1, k + 1)]
+    W = sp.Matrix.vstack(*blocks_W)
+    rows = []
+    for i, Hb in enumerate([H1] + [H0] * k):
+        cols = []
+        for j in range(k):
+            cols.append(Hb * F ** (j - i) * L if (j >= i and i < k) else sp.zeros(Hb.rows, p))
+        rows.append(sp.Matrix.hstack(*cols) if cols and p else sp.zeros(Hb.rows, k * p))
+    Lk = sp.Matrix.vstack(*rows)
+    return W, Lk
+
+
+def _member(v, F, H1, H0, k):
+    v = sp.Matrix(v)
+    l1, l0 = H1.rows, H0.rows
+    R = v[:, :l1]
+    J = sp.Matrix.vstack(*[-v[:, l1 + i * l0:l1 + (i + 1) * l0] for i in range(k)])
+    rows = [R * H1]
+    for i in range(k - 1):
+        rows.append(rows[-1] * F - J[i, :] * H0)
+    return R, J, sp.Matrix.vstack(*rows).applyfunc(sp.cancel)
+
+
+def design_virtual_sensor_canonical(model: PlantModel, *, estimate, variant: str = "plain",
+                                    eigenvalues: Sequence | None = None,
+                                    decouple: Sequence[str] = (), symbolic: bool = False,
+                                    diagonalize: bool = True) -> Design:
+    """Canonical-form virtual sensor for z = M x (plain, or the seed-004 variant).
+
+    Parameters
+    ----------
+    estimate : expression in the state names (e.g. ``"x1"``), one row.
+    variant : {"plain", "004"}
+    eigenvalues : requested closed-loop eigenvalues of F* − K H* (default −1, −2, … in
+        continuous time, 1/2, 1/4, … in discrete time).
+    diagonalize : with real distinct eigenvalues, also report 001 method 1's diagonal
+        (Metzler) form: matrices ``T``, ``F_diag``, ``J_diag``, ``Phi_diag``, ``Hz_diag``.
+    """
+    if variant not in ("plain", "004"):
+        raise UsageError(f"variant must be 'plain' or '004', got {variant!r}")
+    work = model if symbolic else model.substitute_parameters()
+    st = extract_structure(work)
+    where = model.where
+    M = parse_estimate(work, estimate)
+    if M.rows != 1:
+        raise UsageError("a canonical-form virtual sensor estimates one signal z = M x")
+    F, G, H = sp.Matrix(st.F), sp.Matrix(st.G), sp.Matrix(st.H)
+    n, l = st.n, st.l
+    dec = list(work.disturbances)
+    for nm in decouple or ():
+        s = work.symbol(str(nm))
+        if s is None or (s not in work.faults and s not in work.disturbances):
+            raise ModelError(f"{where}: unknown disturbance '{nm}'")
+        if s not in dec:
+            dec.append(s)
+    L = sp.Matrix(st.unknown_input_columns(dec)) if dec else sp.zeros(n, 0)
+    H0 = sp.Matrix.vstack(H, M) if variant == "004" else H
+
+    attempts = []
+    chosen = None
+    for k in range(1, n):
+        W, Lk = _blocks(F, H, H0, L, k)
+        basis, rk = left_null_space(sp.Matrix.hstack(W, Lk))
+        need = W.rows
+        if not basis:
+            attempts.append(f"k={k}: rank condition (3.3) fails: rank (W L) = {rk.rank} = {need} rows")
+            continue
+        members = echelon_rows(basis)
+        cands = list(members) + [a + b for i, a in enumerate(members) for b in members[i + 1:]]
+        why = "no member"
+        for v in cands:
+            R0, J0, Phi = _member(v, F, H, H0, k)
+            if exact_rank(Phi).rank < k:
+                why = "every member is degenerate (rank Φ < k)"
+                continue
+            PH = sp.Matrix.vstack(Phi, H)
+            if exact_rank(PH).rank != exact_rank(sp.Matrix.vstack(PH, M)).rank:
+                why = "no member satisfies the virtual-sensor condition rank [Φ; H] = rank [Φ; H; M]"
+                continue
+            ok, why_nl, idents, subs = substitute_arguments(st, Phi, observer_symbols(k),
+                                                            output_symbols(l))
+            if not ok:
+                why = why_nl
+                continue
+            chosen = (k, v, R0, J0, Phi, idents, subs)
+            chosen_rank = (rk.rank, need, len(members))
+            break
+        if chosen:
+            break
+        attempts.append(f"k={k}: rank condition (3.3) holds (rank (W L) = {rk.rank} < {need} rows),"
+                        f" but {why}")
+    if chosen is None:
+        raise InfeasibleDesignError(
+            f"{where}: z = {estimate} is not reachable by a canonical-form virtual sensor for any"
+            f" k < n = {n}: " + "; ".join(attempts), tuple(attempts))
+    k, v, R0, J0, Phi, idents, subs = chosen
+    X = solve_left(sp.Matrix.vstack(Phi, H), M)
+    Hz, Q = X[:, :k], X[:, k:]
+    Fs = shift_matrix(k)
+    Hs = sp.Matrix([[1] + [0] * (k - 1)])
+    if variant == "004":
+        Jy, Jv = J0[:, :l], J0[:, l:]
+        Fs = Fs + Jv * Hz
+        J = Jy + Jv * Q
+        R = R0
+    else:
+        J, R = J0, R0
+    mats = {"Phi": Phi, "F_star": Fs, "J_star": J, "R_star": R, "H_star": Hs, "G_star": Phi * G,
+            "Hz": Hz, "Q": Q}
+    if L.cols:
+        mats["L_star"] = Phi * L
+    if st.terms:
+        mats["C_star"] = Phi * sp.Matrix(st.C)
+    eigs = parse_eigenvalues(eigenvalues) if eigenvalues else default_eigenvalues(work.time, k)
+    K = place_poles(Fs, Hs, eigs)
+    mats["K"] = K
+    mats = {name: Mx.applyfunc(sp.cancel) for name, Mx in mats.items()}
+    plant = dict(F=F, G=G, H=H, C=sp.Matrix(st.C), D=sp.zeros(n, 0), L=L)
+    cert = certify_design(plant, mats, M=M, substitutions=idents)
+    Fcl = (mats["F_star"] - K * mats["H_star"]).applyfunc(sp.cancel)
+    cl = sp.roots(sp.Poly(Fcl.charpoly(S).as_expr(), S))
+    cl_list = []
+    for root, mult in cl.items():
+        cl_list += [root] * mult
+    cl_list = tuple(sorted(cl_list, key=lambda z: (float(sp.re(z)), float(sp.im(z)))))
+
+    conds = [
+        Condition(f"rank condition (3.3) at k = {k}" + (" (outputs y and y_v = z)" if variant == "004" else ""),
+                  True, f"rank (W L) = {chosen_rank[0]} < {chosen_rank[1]} rows; left null space"
+                  f" of dimension {chosen_rank[2]}", "seed 001 §2; seed 004"),
+        Condition("k is minimal", True, "; ".join(attempts) if attempts else "k = 1", "seed 001 §2"),
+        Condition("virtual-sensor condition rank [Φ; H] = rank [Φ; H; M]", True,
+                  f"M = H_z Φ + Q H with H_z = {list(Hz)}, Q = {list(Q)}", "seed 002 eq. (3.2)"),
+        Condition("closed-loop eigenvalues of F* − K H*", True,
+                  f"requested {[str(e) for e in eigs]}, obtained exactly {[str(e) for e in cl_list]}",
+                  "METHOD §3"),
+    ]
+    require_stable(cl_list, work.time, eigs)
+    stable = all((sp.re(e) < 0) if work.time == "continuous" else (sp.Abs(e) < 1) for e in cl_list)
+    conds.append(Condition("observer stable", bool(stable),
+                           "all closed-loop eigenvalues " + ("have Re < 0" if work.time == "continuous"
+                                                             else "inside the unit circle"),
+                           "METHOD §3"))
+    O = sp.Matrix.vstack(*[mats["H_star"] * mats["F_star"] ** i for i in range(k)])
+    ro = exact_rank(O).rank
+    conds.append(Condition("observability of (F*, H*)", ro == k,
+                           f"rank of the observability matrix = {ro} (k = {k})", "METHOD §4"))
+    hz_ok = all(e.is_nonnegative is True for e in Hz)
+    conds.append(Condition("H_z ≥ 0", hz_ok, f"H_z = {list(Hz)}" + (
+        "" if hz_ok else " (interval bounds need the split H_z⁺, H_z⁻)"), "METHOD §3",
+        required=False))
+    if work.time == "continuous":
+        metz = all(Fcl[i, j].is_nonnegative is True for i in range(k) for j in range(k) if i != j)
+        conds.append(Condition("F* − K H* Metzler", metz, f"F* − K H* = {Fcl.tolist()}",
+                               "METHOD §3", required=False))
+    else:
+        nonneg = all(e.is_nonnegative is True for e in Fcl)
+        conds.append(Condition("F* − K H* nonnegative", nonneg, f"F* − K H* = {Fcl.tolist()}",
+                               "METHOD §3", required=False))
+    xs, ys = observer_symbols(k), output_symbols(l)
+    us = sp.Matrix(work.inputs) if work.inputs else sp.zeros(0, 1)
+    r_expr = (mats["R_star"] * sp.Matrix(ys) - mats["H_star"] * sp.Matrix(xs))[0, 0]
+    rhs = mats["F_star"] * sp.Matrix(xs) + mats["J_star"] * sp.Matrix(ys) + K * r_expr
+    if us.rows:
+        rhs += mats["G_star"] * us
+    if subs:
+        psi = sp.zeros(len(st.terms), 1)
+        for ns in subs:
+            psi[ns.index - 1, 0] = ns.function
+        rhs += mats["C_star"] * psi
+    equations = tuple(sp.expand(e, deep=False) for e in rhs)
+    z = sp.expand((Hz * sp.Matrix(xs) + Q * sp.Matrix(ys))[0, 0])
+
+    if diagonalize and all(sp.im(e) == 0 for e in cl_list) and len(set(cl_list)) == k:
+        T_cols = []
+        for lam in cl_list:
+            ns = (Fcl - lam * sp.eye(k)).nullspace()
+            T_cols.append(ns[0])
+        T = sp.Matrix.hstack(*T_cols)
+        Ti = T.inv()
+        Lam = (Ti * Fcl * T).applyfunc(sp.cancel)
+        Jd = (Ti * (mats["J_star"] + K * mats["R_star"])).applyfunc(sp.cancel)
+        Phid = (Ti * Phi).applyfunc(sp.cancel)
+        mats.update({"T": T, "F_diag": Lam, "J_diag": Jd, "Phi_diag": Phid,
+                     "G_diag": (Ti * mats["G_star"]).applyfunc(sp.cancel),
+                     "Hz_diag": (Hz * T).applyfunc(sp.cancel)})
+        dcert = certify_design(plant, {"Phi": Phid, "F_star": Lam, "J_star": Jd,
+                                       "G_star": mats["G_diag"], "Hz": mats["Hz_diag"], "Q": Q},
+                               M=M)
+        metz = all(Lam[i, j] == 0 for i in range(k) for j in range(k) if i != j)
+        conds.append(Condition("diagonal form (001 method 1) Metzler", metz and dcert.passed,
+                               f"T⁻¹(F* − K H*)T = diag{tuple(Lam.diagonal())}; its identities: "
+                               + dcert.summary(), "seed 001 §3", required=False))
+    conds.append(Condition("certificate", cert.passed, cert.summary(), "METHOD §2"))
+    chosen_txt = (f"k = {k}: the first member (reduced-echelon order) that is nondegenerate and"
+                  f" satisfies the virtual-sensor condition; R* = {list(mats['R_star'])}")
+    return Design(
+        model_name=work.name, form="canonical", k=k, matrices=mats, conditions=tuple(conds),
+        assumptions=(), certificate=cert, unknown_input=None,
+        decoupled=tuple(s.name for s in dec), symbolic=bool(work.parameters), method="exact",
+        choice=chosen_txt + (" (seed-004 variant: driven by y and y_v = z)" if variant == "004" else ""),
+        attempts=tuple(attempts), observer="virtual-sensor", time=work.time,
+        estimate=str((M * sp.Matrix(work.states))[0, 0]),
+        closed_loop_eigenvalues=cl_list, equations=equations, observer_states=tuple(xs),
+        nonlinear=tuple(subs),
+        outputs=(("z", z),))
