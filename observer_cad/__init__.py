@@ -13,15 +13,17 @@ The everyday API is re-exported here::
 """
 from .errors import (CertificateError, DimensionError, InfeasibleDesignError, ModelError,
                      ObserverCadError, UsageError)
-from .model import NonlinearTerm, PlantModel, Structure, extract_structure, load_model
-from .synthesis import (Certificate, Condition, Design, certify_reduced_model, design,
-                        design_canonical)
+from .model import (NonlinearTerm, ObserverKind, PlantModel, Structure, Task, extract_structure,
+                    load_model, resolve_task)
+from .synthesis import (Certificate, Condition, Design, DesignMatrices, DesignRequest,
+                        certify_reduced_model, design, design_canonical)
 from .observers import DremSpec, Observer, build_observer
 from .simulation import Scenario, SimulationResult, load_scenario, simulate
 
 __all__ = [
     "PlantModel", "load_model", "Structure", "NonlinearTerm", "extract_structure",
-    "design", "design_canonical", "Design", "Condition", "Certificate", "certify_reduced_model",
+    "Task", "ObserverKind", "resolve_task",
+    "design", "design_canonical", "Design", "DesignMatrices", "DesignRequest", "Condition", "Certificate", "certify_reduced_model",
     "Observer", "build_observer", "DremSpec", "Scenario", "SimulationResult", "load_scenario", "simulate",
     "CompiledSimulator",
     "ObserverCadError", "ModelError", "DimensionError", "InfeasibleDesignError",

@@ -34,7 +34,7 @@ def _k_and_rows(model, st, **kw):
         d = _design(model, st, **kw)
     except InfeasibleDesignError:
         return "infeasible"
-    Ds = d.matrices["D_star"]
+    Ds = d.matrices.D_star
     return d.k, tuple(i for i in range(d.k) if Ds[i, 0] != 0)
 
 
@@ -95,7 +95,7 @@ def test_plain_float_call_extracts_and_agrees():
     given = _design(model, st, method="float")
     assert plain.method == given.method == "float"
     assert plain.k == given.k == generic_k(24, 4, 1)
-    assert plain.matrices["Phi"] == given.matrices["Phi"]
+    assert plain.matrices.Phi == given.matrices.Phi
     assert plain.certificate.passed
 
 
@@ -124,7 +124,7 @@ def test_bench_design_identities_recomputed(bench_design):
     d = bench_design
     mats = random_matrices(60, 8, 1, seed=BENCH["seed"], integer=False)
     F, H, D, L = (np.array(mats[k].evalf(20), dtype=float) for k in "FHDL")
-    X = {k: np.array(d.matrices[k].evalf(), dtype=float) for k in
+    X = {k: np.array(getattr(d.matrices, k).evalf(), dtype=float) for k in
          ("Phi", "F_star", "J_star", "R_star", "H_star", "D_star")}
     Phi = X["Phi"]
     assert np.linalg.matrix_rank(Phi) == d.k

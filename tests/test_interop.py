@@ -138,7 +138,7 @@ def test_latex_contains_every_entry(drive):
     k1, k2, k4 = sp.symbols("k1 k2 k4")
     d = design(drive, observer="unknown-input", faults=["rho"], symbolic=True)
     tex = design_latex(d)
-    assert set(tex) == set(d.matrices)
+    assert set(tex) == set(d.matrices.as_dict())
     assert tex["Phi"].startswith(r"\Phi = ") and tex["F_star"].startswith("F^{*} = ")
     for name, M in d.matrices.items():
         for e in sp.Matrix(M):
@@ -176,7 +176,7 @@ def test_json_file_round_trip(tmp_path, drive):
     data = read_design_json(p)
     assert data == json.loads(json.dumps(d.to_json()))
     back = matrices_from_json(data)
-    assert set(back) == set(d.matrices)
+    assert set(back) == set(d.matrices.as_dict())
     for name, M in d.matrices.items():
         assert sp.simplify(back[name] - sp.Matrix(M)) == sp.zeros(*sp.Matrix(M).shape), name
     with pytest.raises(UsageError, match="no such design file"):

@@ -26,7 +26,7 @@ def test_nonlinear_tank_virtual_sensor_x1(tank):
     # seed 002 §8: Jordan form, lambda = -1, Phi ∝ (1, 0, 0), x*' = u1 - sqrt(x* - y1)
     d = design_jordan(tank, observer="virtual-sensor", estimate="x1", lambdas=[-1])
     assert d.k == 1 and d.lambdas == (-1,)
-    Phi = sp.Matrix(d.matrices["Phi"])
+    Phi = sp.Matrix(d.matrices.Phi)
     assert Phi[1] == 0 and Phi[2] == 0 and Phi[0] != 0
     xs1, y1, u1 = sp.symbols("xs1 y1 u1")
     assert sp.simplify(d.equations[0] - (u1 - sp.sqrt(xs1 - y1))) == 0
@@ -77,8 +77,8 @@ def test_unstable_lambda_rejected(tank_lin):
 def test_interval_observer_reports_L_star(tank):
     d = design_jordan(tank, observer="interval", estimate="x1")
     assert d.decoupled == ()
-    Lstar = sp.Matrix(d.matrices["L_star"])
-    assert Lstar == sp.Matrix(d.matrices["Phi"]) * sp.Matrix([[0, 0], [1, 0], [0, 1]])
+    Lstar = sp.Matrix(d.matrices.L_star)
+    assert Lstar == sp.Matrix(d.matrices.Phi) * sp.Matrix([[0, 0], [1, 0], [0, 1]])
 
 
 def test_linear_tank_virtual_sensor_canonical_plain_and_004(tank_lin):
@@ -89,7 +89,7 @@ def test_linear_tank_virtual_sensor_canonical_plain_and_004(tank_lin):
         assert sorted(d.closed_loop_eigenvalues) == [-2, -1]
         # exact: the closed-loop characteristic polynomial
         s = sp.Symbol("s")
-        Fcl = sp.Matrix(d.matrices["F_star"]) - sp.Matrix(d.matrices["K"]) * sp.Matrix(d.matrices["H_star"])
+        Fcl = sp.Matrix(d.matrices.F_star) - sp.Matrix(d.matrices.K) * sp.Matrix(d.matrices.H_star)
         assert sp.expand(Fcl.charpoly(s).as_expr() - (s + 1) * (s + 2)) == 0
         assert d.certificate.passed
     d004 = design_virtual_sensor_canonical(tank_lin, estimate="x1", variant="004", eigenvalues=[-1, -2])
@@ -98,26 +98,26 @@ def test_linear_tank_virtual_sensor_canonical_plain_and_004(tank_lin):
     plain = design_virtual_sensor_canonical(tank_lin, estimate="x1", variant="plain", eigenvalues=[-1, -2])
     assert "fails" in plain.attempts[0]
     # the 004 variant's F* is no longer the shift matrix
-    assert sp.Matrix(d004.matrices["F_star"]) != sp.Matrix([[0, 1], [0, 0]])
+    assert sp.Matrix(d004.matrices.F_star) != sp.Matrix([[0, 1], [0, 0]])
 
 
 def test_complex_pair_placement_exact(tank_lin):
     d = design_virtual_sensor_canonical(tank_lin, estimate="x1", eigenvalues=["-1+2*I", "-1-2*I"])
     assert set(d.closed_loop_eigenvalues) == {-1 + 2 * sp.I, -1 - 2 * sp.I}
-    assert all(e.is_real for e in sp.Matrix(d.matrices["K"]))
-    assert "T" not in d.matrices  # no real diagonal form for a complex pair
+    assert all(e.is_real for e in sp.Matrix(d.matrices.K))
+    assert d.matrices.T is None  # no real diagonal form for a complex pair
 
 
 def test_001_method1_diagonal_form_is_metzler_and_certified(tank_lin):
     d = design_virtual_sensor_canonical(tank_lin, estimate="x1", eigenvalues=[-1, -3])
-    Lam = sp.Matrix(d.matrices["F_diag"])
+    Lam = sp.Matrix(d.matrices.F_diag)
     assert Lam.is_diagonal() and sorted(Lam.diagonal()) == [-3, -1]
     # independent identity: Phi_d F = Lam Phi_d + J_d H, M = Hz_d Phi_d + Q H
     F = sp.Matrix([[-1, 1, 0], [1, -2, 1], [0, 1, -2]])
     H = sp.Matrix([[0, 1, 0], [0, 0, 1]])
-    Pd, Jd = sp.Matrix(d.matrices["Phi_diag"]), sp.Matrix(d.matrices["J_diag"])
+    Pd, Jd = sp.Matrix(d.matrices.Phi_diag), sp.Matrix(d.matrices.J_diag)
     assert Pd * F - Lam * Pd - Jd * H == sp.zeros(2, 3)
-    assert sp.Matrix(d.matrices["Hz_diag"]) * Pd + sp.Matrix(d.matrices["Q"]) * H == sp.Matrix([[1, 0, 0]])
+    assert sp.Matrix(d.matrices.Hz_diag) * Pd + sp.Matrix(d.matrices.Q) * H == sp.Matrix([[1, 0, 0]])
 
 
 def test_place_poles_rejects_unobservable():
@@ -167,14 +167,14 @@ def test_random_jordan_designs_pass_certificates(seed):
         assert sp.Matrix.vstack(H, sp.Matrix([[1] + [0] * (n - 1)])).rank() == H.rank()
         return
     st = extract_structure(model)
-    Phi, J = sp.Matrix(d.matrices["Phi"]), sp.Matrix(d.matrices["J_star"])
+    Phi, J = sp.Matrix(d.matrices.Phi), sp.Matrix(d.matrices.J_star)
     F, H = sp.Matrix(st.F), sp.Matrix(st.H)
     for i, lam in enumerate(d.lambdas):
         assert (Phi[i, :] * F - lam * Phi[i, :] - J[i, :] * H).applyfunc(sp.cancel) == sp.zeros(1, n)
     if st.L.cols:
         assert (Phi * st.L).applyfunc(sp.cancel) == sp.zeros(d.k, st.L.cols)
     M = sp.Matrix([[1] + [0] * (n - 1)])
-    assert (sp.Matrix(d.matrices["Hz"]) * Phi + sp.Matrix(d.matrices["Q"]) * H - M).applyfunc(sp.cancel) == sp.zeros(1, n)
+    assert (sp.Matrix(d.matrices.Hz) * Phi + sp.Matrix(d.matrices.Q) * H - M).applyfunc(sp.cancel) == sp.zeros(1, n)
     for ns in d.nonlinear:
         A = st.terms[ns.index - 1].row
         assert (ns.A1 * Phi + ns.A2 * H - A).applyfunc(sp.cancel) == sp.zeros(1, n)
@@ -187,7 +187,7 @@ def test_multiple_faults_each_seen_by_some_row():
                    faults=[d1, d2], outputs=[x1, x3],
                    dynamics=[-x1 + x2 + u, -2 * x2 + x3 + d1, x1 - 3 * x3 + d2])
     d = design_jordan(m, observer="diagnostic")
-    Phi = sp.Matrix(d.matrices["Phi"])
+    Phi = sp.Matrix(d.matrices.Phi)
     D = sp.Matrix([[0, 0], [1, 0], [0, 1]])
     PD = Phi * D
     for c in range(2):
@@ -195,8 +195,8 @@ def test_multiple_faults_each_seen_by_some_row():
     sens = [c for c in d.conditions if c.name.startswith("fault sensitivity")]
     assert len(sens) == 2 and all(c.holds for c in sens)
     # the residual vanishes on the nominal system: R* H = H* Φ
-    assert sp.Matrix(d.matrices["R_star"]) * sp.Matrix([[1, 0, 0], [0, 0, 1]]) == \
-        sp.Matrix(d.matrices["H_star"]) * Phi
+    assert sp.Matrix(d.matrices.R_star) * sp.Matrix([[1, 0, 0], [0, 0, 1]]) == \
+        sp.Matrix(d.matrices.H_star) * Phi
 
 
 def test_cli_design_jordan_json_keys(models_dir, capsys):
@@ -272,10 +272,10 @@ def test_jordan_takes_a_combination_of_one_lambdas_rows():
     # independently: the identities of the single row
     F = sp.Matrix([[-2, 1, 2, 0], [-2, -1, 2, 2], [0, 0, -1, -2], [0, -1, -2, 0]])
     H = sp.Matrix([[-1, 0, -2, 1], [1, -1, -2, -2]])
-    Phi, J = sp.Matrix(d.matrices["Phi"]), sp.Matrix(d.matrices["J_star"])
+    Phi, J = sp.Matrix(d.matrices.Phi), sp.Matrix(d.matrices.J_star)
     lam = d.lambdas[0]
     assert Phi * F - lam * Phi - J * H == sp.zeros(1, 4)
-    assert sp.Matrix(d.matrices["Hz"]) * Phi + sp.Matrix(d.matrices["Q"]) * H == sp.Matrix([[1, 0, 0, 0]])
+    assert sp.Matrix(d.matrices.Hz) * Phi + sp.Matrix(d.matrices.Q) * H == sp.Matrix([[1, 0, 0, 0]])
 
 
 def test_multi_fault_diagnostic_single_row_in_rowspace_of_H():
@@ -287,7 +287,7 @@ def test_multi_fault_diagnostic_single_row_in_rowspace_of_H():
     assert d.k == 1
     obs = next(c for c in d.conditions if c.name == "observability of (F*, H*)")
     assert obs.holds
-    PD = sp.Matrix(d.matrices["Phi"]) * sp.Matrix([[1, 0], [0, 0], [0, 0], [0, 1]])
+    PD = sp.Matrix(d.matrices.Phi) * sp.Matrix([[1, 0], [0, 0], [0, 0], [0, 1]])
     assert all(PD[0, c] != 0 for c in range(2))
 
 

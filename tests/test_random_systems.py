@@ -65,7 +65,7 @@ def phi_rows(v, F, H, k):
 def check_design(F, G, H, D, L, design, minimal=True):
     n, l = len(F), len(H)
     Fr = lambda M: [[Fraction(str(e)) for e in row] for row in sp.Matrix(M).tolist()]  # noqa: E731
-    Phi, Fs, Js, Rs, Hs = (Fr(design.matrices[k]) for k in ("Phi", "F_star", "J_star", "R_star", "H_star"))
+    Phi, Fs, Js, Rs, Hs = (Fr(getattr(design.matrices, k)) for k in ("Phi", "F_star", "J_star", "R_star", "H_star"))
     k = design.k
     # certificate, re-evaluated with Fractions
     lhs = matmul(Phi, F)
@@ -143,7 +143,7 @@ def test_single_row_designs_put_the_fault_in_one_row(seed, shape):
     F, G, H, D, L = random_system(rng, *shape)
     model = make_model(F, G, H, D, L)
     design = design_canonical(model, unknown_input="d", symbolic=False)
-    Ds = sp.Matrix(design.matrices["D_star"])
+    Ds = sp.Matrix(design.matrices.D_star)
     assert sum(1 for e in Ds if e != 0) == 1
     check_design(F, G, H, D, L, design, minimal=False)
     # every smaller k was tried and its failure stated

@@ -116,9 +116,9 @@ def test_exact_canonical_impossible_robust_is_approximate(nodec, nodec_design):
 def test_residual_is_the_reported_phi_L(nodec, nodec_design):
     d = nodec_design
     st = extract_structure(nodec)
-    Phi, L = _np(d.matrices["Phi"]), _np(st.L)
+    Phi, L = _np(d.matrices.Phi), _np(st.L)
     assert np.linalg.norm(Phi @ L) == pytest.approx(d.residual_norm, rel=1e-12)
-    assert np.linalg.norm(_np(d.matrices["L_star"])) == pytest.approx(d.residual_norm, rel=1e-12)
+    assert np.linalg.norm(_np(d.matrices.L_star)) == pytest.approx(d.residual_norm, rel=1e-12)
     assert np.linalg.norm(Phi @ L) > 1e-3  # not decoupled, and not presented as such
 
 
@@ -134,7 +134,7 @@ def test_random_unit_combinations_never_beat_it(nodec, nodec_design):
     np.testing.assert_allclose(N @ N.T, np.eye(N.shape[0]), atol=1e-12)  # orthonormal
     assert np.linalg.norm(N @ W) < 1e-12  # every member solves (R*, −J*) W = 0
     # the design's member v = (R*, −J*_1, …) is a unit combination of N
-    v = np.concatenate([_np(d.matrices["R_star"]).ravel(), -_np(d.matrices["J_star"]).ravel()])
+    v = np.concatenate([_np(d.matrices.R_star).ravel(), -_np(d.matrices.J_star).ravel()])
     assert np.linalg.norm(v) == pytest.approx(1.0, abs=1e-12)
     w = v @ N.T
     np.testing.assert_allclose(w @ N, v, atol=1e-12)  # v lies in the span of N
@@ -217,7 +217,7 @@ def test_jordan_picks_rows_of_least_phi_L(nojordan, jordan_design):
         if np.linalg.matrix_rank(np.vstack([cands[i][1] for i in combo]), tol=1e-9) == k
         and _reaches(np.vstack([cands[i][1] for i in combo]), H, M))
     assert d.residual_norm == pytest.approx(best, rel=1e-12)
-    Phi = _np(d.matrices["Phi"])
+    Phi = _np(d.matrices.Phi)
     assert np.linalg.norm(Phi @ L) == pytest.approx(d.residual_norm, rel=1e-12)
     for row in Phi:  # the chosen rows are candidates
         assert min(np.linalg.norm(row - c[1]) for c in cands) < 1e-12
@@ -260,7 +260,7 @@ def test_optimum_blind_to_the_fault_uses_the_sensitive_subspace():
     detail = next(c.detail for c in d.conditions if c.name.startswith("achieved residual"))
     assert "fails the task" in detail and "range of N D" in detail  # ... but it is blind
     st = extract_structure(model)
-    Phi = _np(d.matrices["Phi"])
+    Phi = _np(d.matrices.Phi)
     assert np.linalg.norm(Phi @ _np(st.D)) > 1e-3
     assert d.residual_norm > 1e-3
     # the best member of the sensitive subspace: range of N D⁽ᵏ⁾, recomputed here

@@ -63,23 +63,23 @@ def test_fault_estimation_design_reproduces_paper(drive):
     paper = {"R_star": sp.Matrix([[-k4, k1]]), "J_star": sp.Matrix([[-k4, k1 * k5]]),
              "Phi": sp.Matrix([[-k4, 0, k1]]), "G_star": sp.Matrix([[k1 * k6]]),
              "D_star": sp.Matrix([[k1]])}
-    c = _proportional(d.matrices, paper)
+    c = _proportional(d.matrices.as_dict(), paper)
     assert not c.free_symbols  # a constant factor: no hidden parameter condition
     assert d.decoupled == ("rho",)
-    assert d.matrices["L_star"] == sp.zeros(1, 1)
+    assert d.matrices.L_star == sp.zeros(1, 1)
 
 
 def test_fault_design_assumptions_are_exactly_what_it_needs(drive):
     d = design_canonical(drive, unknown_input="d", symbolic=True)
     assert set(d.assumptions) == {sp.Ne(k1, 0)}
     # necessity: with k1 = 0 the fault no longer reaches the model
-    assert sp.Matrix(d.matrices["D_star"]).subs(k1, 0) == sp.zeros(1, 1)
+    assert sp.Matrix(d.matrices.D_star).subs(k1, 0) == sp.zeros(1, 1)
 
 
 def test_rho_estimation_k2_rho_in_last_row_only(drive):
     d = design_canonical(drive, unknown_input="rho", symbolic=True)
     assert d.k == 2
-    Ds = sp.Matrix(d.matrices["D_star"])
+    Ds = sp.Matrix(d.matrices.D_star)
     assert Ds[0] == 0 and sp.cancel(Ds[1]) != 0
     assert d.decoupled == ()
     assert d.certificate.passed
@@ -108,18 +108,18 @@ def test_paper_rho_member_lies_in_the_family(drive, drive_structure):
         assert frac_rank(both.tolist()) == frac_rank(F_.tolist()) == len(d.null_space)
     # (c) the paper's member is exactly the chosen one (reduced-echelon member 1)
     R, J, Phi = member_to_phi(v_paper, sp.Matrix(st.F), sp.Matrix(st.H), 2)
-    assert (Phi - sp.Matrix(d.matrices["Phi"])).applyfunc(sp.cancel) == sp.zeros(2, 3)
-    assert (J - sp.Matrix(d.matrices["J_star"])).applyfunc(sp.cancel) == sp.zeros(2, 2)
+    assert (Phi - sp.Matrix(d.matrices.Phi)).applyfunc(sp.cancel) == sp.zeros(2, 3)
+    assert (J - sp.Matrix(d.matrices.J_star)).applyfunc(sp.cancel) == sp.zeros(2, 2)
 
 
 def test_rho_design_assumptions_exact_and_each_necessary(drive):
     d = design_canonical(drive, unknown_input="rho", symbolic=True)
     assert set(d.assumptions) == {sp.Ne(k1, 0), sp.Ne(k4, 0)}
     # k4 = 0: the chosen member is undefined (J*_1 = (0, k1(1+k2)/k4))
-    dens = [sp.fraction(sp.together(e))[1] for e in sp.Matrix(d.matrices["J_star"])]
+    dens = [sp.fraction(sp.together(e))[1] for e in sp.Matrix(d.matrices.J_star)]
     assert any(den.subs(k4, 0) == 0 for den in dens)
     # k1 = 0: rho no longer reaches the model
-    assert sp.Matrix(d.matrices["D_star"]).subs(k1, 0) == sp.zeros(2, 1)
+    assert sp.Matrix(d.matrices.D_star).subs(k1, 0) == sp.zeros(2, 1)
 
 
 @pytest.mark.parametrize("target", ["d", "rho"])
@@ -130,7 +130,7 @@ def test_numeric_design_equals_symbolic_design_at_defaults(drive, target):
     assert dn.assumptions == ()
     vals = dict(drive.parameters)
     sub = {n: sp.Matrix(M).subs(vals) for n, M in ds.matrices.items()}
-    _proportional(dn.matrices, {n: sub[n] for n in ("Phi", "R_star", "J_star", "G_star", "D_star")})
+    _proportional(dn.matrices.as_dict(), {n: sub[n] for n in ("Phi", "R_star", "J_star", "G_star", "D_star")})
 
 
 def test_symbolic_design_certificate_holds_at_random_parameters(drive):
@@ -159,5 +159,5 @@ def test_json_of_design_roundtrips_through_sympify(drive):
         M = sp.Matrix(j["matrices"][name]) if j["matrices"][name] and j["matrices"][name][0] else None
         if M is not None:
             parsed = M.applyfunc(lambda s: sp.sympify(s, locals={str(k): k for k in (k1, k2, k3, k4, k5, k6)}))
-            assert (parsed - sp.Matrix(d.matrices[name])).applyfunc(sp.cancel) == sp.zeros(*parsed.shape)
+            assert (parsed - sp.Matrix(getattr(d.matrices, name))).applyfunc(sp.cancel) == sp.zeros(*parsed.shape)
     assert {str(sp.sympify(a)) for a in j["assumptions"]} == {"Ne(k1, 0)", "Ne(k4, 0)"}

@@ -54,13 +54,13 @@ def test_design_identities_recomputed(model, nominal):
     st = extract_structure(model)
     F, G, H, D, L = (sp.Matrix(M) for M in (st.F, st.G, st.H, st.D, st.L))
     M = design.matrices
-    Phi, lam, J, R = M["Phi"], M["F_star"][0, 0], M["J_star"], M["R_star"]
+    Phi, lam, J, R = M.Phi, M.F_star[0, 0], M.J_star, M.R_star
     assert lam < 0 and design.k == 1 and design.observer == "sliding-mode"
     assert Phi == R * H                                # x* is measured: y* = R* y
     assert Phi * F - lam * Phi - J * H == sp.zeros(1, 3)
     assert Phi * L == sp.zeros(1, 1)                   # decoupled from rho
-    assert (Phi * D)[0, 0] == M["D_star"][0, 0] != 0   # sensitive to d
-    assert Phi * G == M["G_star"]
+    assert (Phi * D)[0, 0] == M.D_star[0, 0] != 0   # sensitive to d
+    assert Phi * G == M.G_star
     assert design.certificate.passed and design.certificate.exact
     # the pencil member: (R*, −J*) Q(λ) = 0
     v = sp.Matrix.hstack(R, -J)
@@ -76,7 +76,7 @@ def test_admissible_lambda_generic_and_finite(model):
     # any λ < 0 works here; the noise coefficient J* + λR* = Φ_1 F H⁺ does not depend on λ
     for lam in (-1, -4):
         d = design_sliding(model, lam=lam)
-        J, R = d.matrices["J_star"], d.matrices["R_star"]
+        J, R = d.matrices.J_star, d.matrices.R_star
         assert J + lam * R == sp.Matrix([[-3, 4]])
     with pytest.raises(InfeasibleDesignError, match="not stable"):
         design_sliding(model, lam=1)
@@ -175,7 +175,7 @@ def test_noise_enters_with_j_plus_lambda_r(model, scenario):
     differences; measured residuals 2.4e-3 (derived) vs 0.078 (printed)."""
     design = design_sliding(model, lam=-4, eps=0.01)
     obs = sliding_observer(model, design)
-    assert design.matrices["J_star"] == sp.Matrix([[1, 0]])
+    assert design.matrices.J_star == sp.Matrix([[1, 0]])
     sc = dataclasses.replace(scenario, t_end=7, signals={
         **scenario.signals, "w1": "0.01*sin(2*t)", "w2": "0.01*cos(1.5*t)"})
     res = simulate(model, obs, sc)

@@ -126,7 +126,7 @@ def test_cas_identity_k1(drive, d_designs):
     xl_next = upd[st["xl1"]].xreplace(lag)  # x̲(t+1) in values at t
     xu_next = upd[st["xu1"]].xreplace(lag)
     ystar_next = -k4 * y1 + k1 * y2  # the paper's R* (any nonzero multiple works)
-    ystar_next_ours = (des.matrices["R_star"] * sp.Matrix([y1, y2]))[0, 0]
+    ystar_next_ours = (des.matrices.R_star * sp.Matrix([y1, y2]))[0, 0]
     alpha = (ystar_next_ours - xl_next) / (xu_next - xl_next)
     est = der.formula.xreplace(der.bound_terms).xreplace({ALPHA: alpha}).xreplace(
         {sp.Symbol("u"): sp.Symbol("u_lag1")})
@@ -144,8 +144,8 @@ def test_printed_formula_4_6_has_swapped_weights(drive, d_designs, scen):
     xl1, xu1 = sp.symbols("xl1 xu1")
     obs2 = dataclasses.replace(obs, outputs=obs.outputs + (("xl", xl1), ("xu", xu1)))
     res = simulate(drive, obs2, scen("electric_drive_fig1"))
-    Dn = float(des.matrices["D_star"][0, 0])
-    Rn = np.array(des.matrices["R_star"], dtype=float)[0]
+    Dn = float(des.matrices.D_star[0, 0])
+    Rn = np.array(des.matrices.R_star, dtype=float)[0]
     ys = Rn[0] * res["y1"] + Rn[1] * res["y2"]
     xl, xu = res["xl"], res["xu"]
     a = (ys[1:] - xl[1:]) / (xu[1:] - xl[1:])
@@ -160,10 +160,10 @@ def test_printed_formula_4_6_has_swapped_weights(drive, d_designs, scen):
 def test_rho_design_is_mismatched(drive, rho_design):
     des = rho_design
     assert des.k == 2
-    assert des.matrices["D_star"][0, 0] == 0 and des.matrices["D_star"][1, 0] != 0
+    assert des.matrices.D_star[0, 0] == 0 and des.matrices.D_star[1, 0] != 0
     # seed 000 §9: y* = y1, J*_1 = (0, K), K = k1 (1 + k2) / k4
-    assert list(des.matrices["R_star"]) == [1, 0]
-    assert sp.cancel(des.matrices["J_star"][0, 1] - k1 * (1 + k2) / k4) == 0
+    assert list(des.matrices.R_star) == [1, 0]
+    assert sp.cancel(des.matrices.J_star[0, 1] - k1 * (1 + k2) / k4) == 0
     der = derive_estimate(drive, des)
     assert der.delay == 2 and der.row == 2 and der.exact and der.residual == 0
 
@@ -190,8 +190,8 @@ def test_rho_estimate_fig4_noise_bounded(drive, rho_design, scen):
     # D2⁻¹ (R* w(t+2) − J*_1 w(t+1) − J*_2 w(t)) — computed here from the design's matrices
     p = {s: v for s, v in drive.parameters.items()}
     num = lambda M: np.array(sp.Matrix(M).xreplace(p), dtype=float)  # noqa: E731
-    Rn, Jn, Dn = num(rho_design.matrices["R_star"])[0], num(rho_design.matrices["J_star"]), \
-        num(rho_design.matrices["D_star"])[1, 0]
+    Rn, Jn, Dn = num(rho_design.matrices.R_star)[0], num(rho_design.matrices.J_star), \
+        num(rho_design.matrices.D_star)[1, 0]
     W = np.stack([res["w1"], res["w2"]])
     pred = (Rn @ W[:, 2:] - Jn[0] @ W[:, 1:-1] - Jn[1] @ W[:, :-2]) / Dn
     assert np.max(np.abs(err - pred)) < 1e-6 * max(1.0, np.max(np.abs(pred)))
@@ -220,7 +220,7 @@ _M2_SCEN = {"steps": 60, "seed": 3, "initial": {"x1": 0.5, "x2": -1, "x3": 2},
 def test_matched_k2_linear_exact_after_k_minus_1_steps():
     m = _matched2()
     des = design_canonical(m, unknown_input="d")
-    assert des.k == 2 and des.matrices["D_star"][1, 0] == 0 and des.matrices["D_star"][0, 0] != 0
+    assert des.k == 2 and des.matrices.D_star[1, 0] == 0 and des.matrices.D_star[0, 0] != 0
     der = derive_estimate(m, des)
     assert not der.exact and der.delay == 1 and len(der.unknown_states) == 1
     obs = unknown_input_observer(m, des)
@@ -276,13 +276,13 @@ _NL_SCEN = {"steps": 80, "seed": 5, "initial": {"x1": 0.5, "x2": -1, "x3": 2},
 def test_jordan_variant_electric_drive(drive, scen, symbolic):
     lam = R(1, 2)
     des = design_jordan_unknown_input(drive, "d", lam, symbolic=symbolic)
-    assert des.form == "jordan" and des.k == 1 and des.matrices["F_star"][0, 0] == lam
+    assert des.form == "jordan" and des.k == 1 and des.matrices.F_star[0, 0] == lam
     der = derive_estimate(drive, des)
     assert der.formula.has(ALPHA) and der.formula.has(ALPHA_PREV)
     assert der.lambda_term_verified and der.residual == 0
     # the λ term: D*⁻¹ λ (x̄(t) − x̲(t)) (α(t+1) − α(t))
     xl, xu = sp.Symbol("xl1_lag1"), sp.Symbol("xu1_lag1")
-    Ds = des.matrices["D_star"][0, 0]
+    Ds = des.matrices.D_star[0, 0]
     assert sp.cancel(der.lambda_term - lam * (xu - xl) * (ALPHA - ALPHA_PREV) / Ds) == 0
     obs = unknown_input_observer(drive, des)
     assert obs.parameters[sp.Symbol("g")] == lam - R(7, 10)
@@ -409,6 +409,6 @@ def test_approximate_design_error_bounded_by_residual():
         "u": "sin(t/3)", "d": "0.5*sin(t/2)", "rho": {"uniform": [-0.1, 0.1]}}})
     res = simulate(m, obs, sc)
     err = _valid(res["d_hat"], 1) - res["d"][:-1]
-    ratio = float(des.matrices["L_star"][0, 0]) / float(des.matrices["D_star"][0, 0])
+    ratio = float(des.matrices.L_star[0, 0]) / float(des.matrices.D_star[0, 0])
     assert np.max(np.abs(err - ratio * res["rho"][:-1])) < TOL
     assert np.max(np.abs(err)) <= abs(ratio) * 0.1 + TOL

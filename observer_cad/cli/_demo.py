@@ -502,14 +502,14 @@ def fig_drive_residual(outs, path):
     after = float(np.min(np.abs(r[t >= 52])))
     _box(b, f"no fault (t < 50): max|r| = {_sci(before)} despite ρ\nfault (t ≥ 52): |r| ≥ {after:.3g}",
          "lower right")
-    R_ = o.design.matrices["R_star"]
+    R_ = o.design.matrices.R_star
     return fig, (f"Residual r = R* y − x* (R* = {list(R_)}) of the electric drive: zero to rounding"
                  f" ({before:.1e}) while only the disturbance ρ acts, nonzero once the fault d = 0.2"
                  f" appears at t = 50.")
 
 
 def _rstar_text(o) -> str:
-    R_ = list(o.design.matrices["R_star"])
+    R_ = list(o.design.matrices.R_star)
     terms = []
     for i, c in enumerate(R_, 1):
         if c == 0:

@@ -4,5 +4,6 @@ the structure extracted from it (F, G, H, C, D, L, W, Ψ) and random test system
 from ._plant import (PlantModel, load_model, to_rational)
 from ._random import (random_matrices, random_model, random_structure, generic_k)
 from ._structure import (NonlinearTerm, Structure, extract_structure)
+from ._task import (ObserverKind, Task, resolve_task, parse_estimate)
 
-__all__ = ["PlantModel", "load_model", "to_rational", "random_matrices", "random_model", "random_structure", "generic_k", "NonlinearTerm", "Structure", "extract_structure"]
+__all__ = ["PlantModel", "load_model", "to_rational", "random_matrices", "random_model", "random_structure", "generic_k", "NonlinearTerm", "Structure", "extract_structure", "ObserverKind", "Task", "resolve_task", "parse_estimate"]

@@ -10,7 +10,7 @@ import dataclasses
 
 import sympy as sp
 
-from ..synthesis import Design
+from ..synthesis import Design, DesignMatrices
 from ..errors import UsageError
 from ..model import PlantModel
 from ._drem import DremDesign
@@ -30,7 +30,7 @@ def _mapped_initial(model: PlantModel, design: Design) -> dict:
     """Default initial state x*(0) = Φ x(0), an expression in the plant's initial state
     (the simulator substitutes it; a scenario's ``observer_initial`` overrides it to
     study the transient from a wrong start)."""
-    Phi = sp.Matrix(design.matrices["Phi"])
+    Phi = sp.Matrix(design.matrices.Phi)
     xs0 = Phi * sp.Matrix(model.states)
     return {x: xs0[i] for i, x in enumerate(design.observer_states)}
 
@@ -73,16 +73,16 @@ def interval_observer(model: PlantModel, design: Design, **options) -> Observer:
 
     Canonical designs of seed 001 method 1 are used in their diagonal (Metzler) form.
     """
-    if "F_diag" in design.matrices:  # 001 method 1: the diagonalised, stabilised model
+    if design.matrices.F_diag is not None:  # 001 method 1: the diagonalised, stabilised model
         if design.nonlinear:
             raise UsageError("the diagonal form of a canonical design is built for linear"
                              " models; use --form jordan for nonlinear interval observers")
         m = design.matrices
-        mats = {"Phi": m["Phi_diag"], "F_star": m["F_diag"], "J_star": m["J_diag"],
-                "G_star": m["G_diag"], "Hz": m["Hz_diag"], "Q": m["Q"]}
-        design = dataclasses.replace(design, matrices=mats, form="jordan",
-                                     lambdas=tuple(sp.Matrix(m["F_diag"]).diagonal()))
-    elif "K" in design.matrices:
+        diag = DesignMatrices(Phi=m.Phi_diag, F_star=m.F_diag, J_star=m.J_diag,
+                              G_star=m.G_diag, Hz=m.Hz_diag, Q=m.Q)
+        design = dataclasses.replace(design, matrices=diag, form="jordan",
+                                     lambdas=tuple(sp.Matrix(m.F_diag).diagonal()))
+    elif design.matrices.K is not None:
         raise UsageError("interval observers need a diagonal (Metzler) model: use a Jordan"
                          " design or real distinct --eigenvalues (seed 001 method 1)")
     return interval_observer_nonlinear(model, design, **options)
@@ -91,7 +91,7 @@ def interval_observer(model: PlantModel, design: Design, **options) -> Observer:
 def _interval_initial(model, d, xl, xu, margin=1):
     """Default initial bounds Φ x(0) ∓ margin (expressions in the plant's initial state;
     a scenario's ``observer_initial`` overrides them)."""
-    Phi = sp.Matrix(d.matrices["Phi"])
+    Phi = sp.Matrix(d.matrices.Phi)
     xs0 = Phi * sp.Matrix(model.states)
     init = {}
     for i in range(Phi.rows):

@@ -116,13 +116,13 @@ def interval_observer_nonlinear(model: PlantModel, design: Design, *, margin=Non
     domain : relations, optional
         Override the model's state domain (for the clipping ranges and the checks).
     """
-    if "Hz" not in design.matrices or "Phi" not in design.matrices:
+    if design.matrices.Hz is None or design.matrices.Phi is None:
         raise UsageError("interval_observer_nonlinear needs a design with z = H_z x* + Q y"
                          " (design_jordan(..., observer='interval', estimate=...))")
     if design.symbolic:
         raise UsageError("interval_observer_nonlinear needs a numeric design (the signs of"
                          " its matrices decide the bounds); design without --symbolic")
-    if "K" in design.matrices:
+    if design.matrices.K is not None:
         raise UsageError("interval_observer_nonlinear takes the reduced model without output"
                          " feedback (a Jordan design); this design has a gain K")
     work = _work(model)
@@ -131,8 +131,9 @@ def interval_observer_nonlinear(model: PlantModel, design: Design, *, margin=Non
     dom = tuple(work.domain if domain is None else domain)
     d = design
     k, l = d.k, len(work.outputs)
-    Fs, Js, Gs = (sp.Matrix(d.matrices[n]) for n in ("F_star", "J_star", "G_star"))
-    Phi, Hz, Q = (sp.Matrix(d.matrices[n]) for n in ("Phi", "Hz", "Q"))
+    m = d.matrices
+    Fs, Js, Gs = sp.Matrix(m.F_star), sp.Matrix(m.J_star), sp.Matrix(m.G_star)
+    Phi, Hz, Q = sp.Matrix(m.Phi), sp.Matrix(m.Hz), sp.Matrix(m.Q)
     H, W = sp.Matrix(st.H), sp.Matrix(st.W)
     xs = list(d.observer_states) or list(sp.symbols(f"xs1:{k + 1}"))
     ys = list(output_symbols(l))
@@ -167,7 +168,7 @@ def interval_observer_nonlinear(model: PlantModel, design: Design, *, margin=Non
     terms = []  # (j, C*_col, arg (in xs, yt), clipped arg, phi(s), s, P range (lo, hi, kind))
     args_info = []
     if d.nonlinear:
-        Cs = sp.Matrix(d.matrices["C_star"])
+        Cs = sp.Matrix(d.matrices.C_star)
         in_ranges = {u: work.bounds[u] for u in us if u in work.bounds}
         for ns in d.nonlinear:
             t = st.terms[ns.index - 1]

@@ -25,7 +25,7 @@ def sliding_observer(model: PlantModel, design: Design) -> Observer:
     vtext = "sign(e)" if sign else "e/(|e| + ε)"
     est = "v_f, v_f' = (sign(e) − v_f)/τ" if sign else "e/(|e| + ε)"
     fault = design.unknown_input
-    ystar = (sp.Matrix(design.matrices["R_star"]) * sp.Matrix(ys))[0, 0]
+    ystar = (sp.Matrix(design.matrices.R_star) * sp.Matrix(ys))[0, 0]
     return Observer(
         name=f"{model.name}_sliding", kind="sliding-mode", time="continuous", states=states,
         signals=tuple(ys) + tuple(model.inputs), parameters=params, update=design.equations,

@@ -146,28 +146,28 @@ def _reduced(model: PlantModel, design: Design) -> _Reduced:
     if target is None or (target not in model.faults and target not in model.disturbances):
         raise ModelError(f"{model.where}: '{name}' is not a fault or disturbance of the model")
     mats = design.matrices
-    if "D_star" not in mats:
+    if mats.D_star is None:
         raise UsageError("unknown_input_observer needs a design with D* (a canonical"
                          " unknown-input design, or a Jordan diagnostic design)")
     k = design.k
-    Fs = sp.Matrix(mats["F_star"])
-    Ds = sp.Matrix(mats["D_star"])
+    Fs = sp.Matrix(mats.F_star)
+    Ds = sp.Matrix(mats.D_star)
     if Ds.cols != 1:
         raise UsageError("unknown_input_observer: D* must have one column")
     if design.form == "canonical":
-        Hs = sp.Matrix(mats["H_star"])
+        Hs = sp.Matrix(mats.H_star)
         if Hs != sp.Matrix([[1] + [0] * (k - 1)]):
             raise UsageError("unknown_input_observer: canonical design without H* = (1 0 … 0)")
-        R = sp.Matrix(mats["R_star"])
+        R = sp.Matrix(mats.R_star)
         form = "canonical"
     elif design.form == "jordan":
         if k != 1:
             raise UsageError(f"the Jordan variant (seed 000 §8) needs a one-row λ-model; the design"
                              f" has k = {k} (use design_jordan_unknown_input)")
-        if "R_star" not in mats or "H_star" not in mats:
+        if mats.R_star is None or mats.H_star is None:
             raise UsageError("the Jordan variant needs y* = R* y = H* x* (a diagnostic design)")
-        h = sp.Matrix(mats["H_star"])[0, 0]
-        R = (sp.Matrix(mats["R_star"]) / h).applyfunc(sp.cancel)
+        h = sp.Matrix(mats.H_star)[0, 0]
+        R = (sp.Matrix(mats.R_star) / h).applyfunc(sp.cancel)
         form = "jordan"
     else:
         raise UsageError(f"unknown_input_observer: unsupported design form {design.form!r}")
@@ -178,10 +178,10 @@ def _reduced(model: PlantModel, design: Design) -> _Reduced:
             f"unknown_input_observer: D* = {list(Ds)} must enter exactly one row of the reduced"
             " model (design with single_row=True, or use a Jordan design)")
     Ds = sp.Matrix([Ds[i, 0] if i == rows[0] else 0 for i in range(k)])
-    Gs = sp.Matrix(mats["G_star"]) if "G_star" in mats else sp.zeros(k, len(model.inputs))
-    Js = sp.Matrix(mats["J_star"])
-    Cs = sp.Matrix(mats["C_star"]) if "C_star" in mats else sp.zeros(k, 0)
-    Ls = sp.Matrix(mats["L_star"]) if "L_star" in mats else sp.zeros(k, 0)
+    Gs = sp.Matrix(mats.G_star) if mats.G_star is not None else sp.zeros(k, len(model.inputs))
+    Js = sp.Matrix(mats.J_star)
+    Cs = sp.Matrix(mats.C_star) if mats.C_star is not None else sp.zeros(k, 0)
+    Ls = sp.Matrix(mats.L_star) if mats.L_star is not None else sp.zeros(k, 0)
     rho = ()
     if Ls.cols and any(not _is_zero(e, 1.0) for e in Ls):
         rho = tuple(model.symbol(n) for n in design.decoupled)
@@ -588,7 +588,7 @@ def unknown_input_observer(model: PlantModel, design: Design, *, g=None, bounds=
             lag_states.append(_lag(base, j))
             lag_upd.append(_lag(base, j - 1))
     states = tuple(xl) + tuple(xu) + tuple(lag_states)
-    Phi = sp.Matrix(design.matrices["Phi"])
+    Phi = sp.Matrix(design.matrices.Phi)
     xs0 = Phi * sp.Matrix(model.states)
     initial = {}
     for i in range(k):

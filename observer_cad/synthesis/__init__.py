@@ -2,20 +2,21 @@
 Jordan exact and float, robust, pole placement, virtual sensors, residual generators,
 sliding-mode design, nonlinear checks).
 """
-from ._canonical import (design_canonical, resolve_task, krylov_blocks, member_to_phi, FLOAT_AUTO_N)
+from ._canonical import (design_canonical, krylov_blocks, member_to_phi, FLOAT_AUTO_N)
 from ._certificate import (Identity, Certificate, certify_reduced_model, certify_design)
 from ._checks import (interval_scale, range_sign, format_number, Domain, RangeAnalyzer, LipschitzResult, MonotoneResult, StabilityResult, lipschitz, is_monotone, is_cooperative, stability_condition, argument_range, derivative_range, model_nonlinearity, reduced_nonlinearity, nonlinear_conditions)
-from ._design import (Condition, Design, NonlinearSubstitution, MATRIX_ORDER)
+from ._design import (Condition, Design, DesignMatrices, DesignRequest, Form, Method, NonlinearSubstitution, MATRIX_ORDER)
 from ._diagnostic import (design_diagnostic_canonical, observer_equations)
 from ._dispatch import (design, OBSERVERS)
+from ._expr import (parse_json_expression)
 from ._jordan import (Admissible, admissible_lambdas, design_jordan, design_jordan_unknown_input)
 from ._jordan_float import (admissible_lambdas_float, design_jordan_float, DEFAULT_RTOL)
 from ._nonlinear import (substitute_arguments)
 from ._poles import (default_eigenvalues, parse_eigenvalues, place_poles, require_stable)
-from ._reduced import (observer_symbols, output_symbols, parse_estimate, is_stable, jordan_equations)
+from ._reduced import (observer_symbols, output_symbols, is_stable, jordan_equations, reduced_equations, residual_outputs, estimate_outputs, named_outputs)
 from ._robust import (design_robust_canonical, design_robust_jordan, robust_basis, jordan_candidates, TASK_RTOL)
 from ._sliding import (K1, EPS, TAU, design_sliding, sliding_pencil, admissible_sliding_lambdas, GainBound, GainTerm, gain_bound, reaching_time, RK4_STABILITY)
-from ._task import (resolve_jordan_task)
+from ._task import (task_for, task_parts)
 from ._virtual import (design_virtual_sensor_canonical)
 
-__all__ = ["design_canonical", "resolve_task", "krylov_blocks", "member_to_phi", "FLOAT_AUTO_N", "Identity", "Certificate", "certify_reduced_model", "certify_design", "interval_scale", "range_sign", "format_number", "Domain", "RangeAnalyzer", "LipschitzResult", "MonotoneResult", "StabilityResult", "lipschitz", "is_monotone", "is_cooperative", "stability_condition", "argument_range", "derivative_range", "model_nonlinearity", "reduced_nonlinearity", "nonlinear_conditions", "Condition", "Design", "NonlinearSubstitution", "MATRIX_ORDER", "design_diagnostic_canonical", "observer_equations", "design", "OBSERVERS", "Admissible", "admissible_lambdas", "design_jordan", "design_jordan_unknown_input", "admissible_lambdas_float", "design_jordan_float", "DEFAULT_RTOL", "substitute_arguments", "default_eigenvalues", "parse_eigenvalues", "place_poles", "require_stable", "observer_symbols", "output_symbols", "parse_estimate", "is_stable", "jordan_equations", "design_robust_canonical", "design_robust_jordan", "robust_basis", "jordan_candidates", "TASK_RTOL", "K1", "EPS", "TAU", "design_sliding", "sliding_pencil", "admissible_sliding_lambdas", "GainBound", "GainTerm", "gain_bound", "reaching_time", "RK4_STABILITY", "resolve_jordan_task", "design_virtual_sensor_canonical"]
+__all__ = ["design_canonical", "krylov_blocks", "member_to_phi", "FLOAT_AUTO_N", "Identity", "Certificate", "certify_reduced_model", "certify_design", "interval_scale", "range_sign", "format_number", "Domain", "RangeAnalyzer", "LipschitzResult", "MonotoneResult", "StabilityResult", "lipschitz", "is_monotone", "is_cooperative", "stability_condition", "argument_range", "derivative_range", "model_nonlinearity", "reduced_nonlinearity", "nonlinear_conditions", "Condition", "Design", "DesignMatrices", "DesignRequest", "Form", "Method", "NonlinearSubstitution", "MATRIX_ORDER", "design_diagnostic_canonical", "observer_equations", "design", "OBSERVERS", "parse_json_expression", "Admissible", "admissible_lambdas", "design_jordan", "design_jordan_unknown_input", "admissible_lambdas_float", "design_jordan_float", "DEFAULT_RTOL", "substitute_arguments", "default_eigenvalues", "parse_eigenvalues", "place_poles", "require_stable", "observer_symbols", "output_symbols", "is_stable", "jordan_equations", "reduced_equations", "residual_outputs", "estimate_outputs", "named_outputs", "design_robust_canonical", "design_robust_jordan", "robust_basis", "jordan_candidates", "TASK_RTOL", "K1", "EPS", "TAU", "design_sliding", "sliding_pencil", "admissible_sliding_lambdas", "GainBound", "GainTerm", "gain_bound", "reaching_time", "RK4_STABILITY", "task_for", "task_parts", "design_virtual_sensor_canonical"]

@@ -48,43 +48,18 @@ from ..numerics import SingleThreadBLAS, np_exact, to_sympy_float
 from ._certificate import certify_design, certify_reduced_model
 from ._design import Condition, Design
 from ..errors import InfeasibleDesignError, ModelError, UsageError
-from ._reduced import observer_symbols, output_symbols
-from ..model import PlantModel
+from ._reduced import observer_symbols, output_symbols, reduced_equations, residual_outputs
+from ._task import task_for
+from ..model import PlantModel, Task
 from ._nonlinear import substitute_arguments
 from ..model import Structure, extract_structure
 from ..numerics import default_rtol, denominator_conditions, echelon_rows, exact_rank, float_left_null_space, float_rank, left_null_space, nonzero_conditions
 
-__all__ = ["design_canonical", "resolve_task", "krylov_blocks", "member_to_phi",
+__all__ = ["design_canonical", "krylov_blocks", "member_to_phi",
            "FLOAT_AUTO_N"]
 
 #: Above this state dimension a numeric design uses the float (SVD) path by default.
 FLOAT_AUTO_N = 20
-
-
-# ---------------------------------------------------------------- task
-def resolve_task(model: PlantModel, unknown_input: str, decouple: Sequence[str] = ()):
-    """Symbols of the unknown input to estimate and of the inputs to decouple from."""
-    where = model.where
-    declared = ", ".join(s.name for s in model.faults + model.disturbances) or "none"
-
-    def lookup(name, what):
-        sym = model.symbol(str(name))
-        if sym is None or (sym not in model.faults and sym not in model.disturbances):
-            raise ModelError(
-                f"{where}: unknown {what} '{name}'; declared faults and disturbances: {declared}")
-        return sym
-
-    if unknown_input is None:
-        raise UsageError("an unknown-input design needs --fault NAME (the input to estimate)")
-    target = lookup(unknown_input, "fault or disturbance")
-    dec = [r for r in model.disturbances if r != target]
-    for name in decouple or ():
-        sym = lookup(name, "disturbance")
-        if sym == target:
-            raise UsageError(f"'{name}' cannot be both estimated (--fault) and decoupled (--disturbance)")
-        if sym not in dec:
-            dec.append(sym)
-    return target, tuple(dec)
 
 
 # ---------------------------------------------------------------- blocks
@@ -187,7 +162,8 @@ def _pretty(e):
 # ---------------------------------------------------------------- main entry
 def design_canonical(model: PlantModel, *, unknown_input: str, decouple: Sequence[str] = (),
                      symbolic: bool = True, single_row: bool = True, method: str = "auto",
-                     rtol: float | None = None, structure: Structure | None = None) -> Design:
+                     rtol: float | None = None, structure: Structure | None = None,
+                     task: Task | None = None) -> Design:
     """Reduced, disturbance-decoupled model in identification canonical form.
 
     Parameters
@@ -221,9 +197,12 @@ def design_canonical(model: PlantModel, *, unknown_input: str, decouple: Sequenc
     """
     if method not in ("auto", "exact", "float"):
         raise UsageError(f"method must be 'auto', 'exact' or 'float', got {method!r}")
-    target, dec = resolve_task(model, unknown_input, decouple)
+    task = task_for(model, task, observer="unknown-input",
+                    faults=[] if unknown_input is None else [unknown_input], disturbances=decouple)
     work = model if symbolic else model.substitute_parameters()
     st = structure if structure is not None and symbolic else extract_structure(work)
+    target = work.symbol(task.targets[0])
+    dec = tuple(work.symbol(n) for n in task.decoupled)
     has_params = bool(work.parameters)
     if method == "auto":
         method = "float" if (not has_params and st.n > FLOAT_AUTO_N) else "exact"
@@ -232,8 +211,9 @@ def design_canonical(model: PlantModel, *, unknown_input: str, decouple: Sequenc
     D = sp.Matrix(st.unknown_input_columns([target]))
     L = sp.Matrix(st.unknown_input_columns(dec))
     if method == "float":
-        return _design_float(work, st, target, dec, D, L, single_row=single_row, rtol=rtol)
-    return _design_exact(work, st, target, dec, D, L, symbolic=has_params, single_row=single_row)
+        return _design_float(work, st, task, target, dec, D, L, single_row=single_row, rtol=rtol)
+    return _design_exact(work, st, task, target, dec, D, L, symbolic=has_params,
+                         single_row=single_row)
 
 
 def _common_conditions(st, D, L, rank_fn):
@@ -272,7 +252,7 @@ def _exact_rank_value(M) -> int:
     return exact_rank(M).rank
 
 
-def _design_exact(model, st, target, dec, D, L, *, symbolic, single_row) -> Design:
+def _design_exact(model, st, task, target, dec, D, L, *, symbolic, single_row) -> Design:
     F, G, H, C = (sp.Matrix(M) for M in (st.F, st.G, st.H, st.C))
     n, l = st.n, st.l
     tname = target.name
@@ -377,25 +357,15 @@ def _design_exact(model, st, target, dec, D, L, *, symbolic, single_row) -> Desi
     return Design(
         model_name=model.name, form="canonical", k=k, matrices=mats,
         conditions=tuple(conds), assumptions=assumptions, certificate=cert,
-        unknown_input=tname, decoupled=tuple(s.name for s in dec), symbolic=symbolic,
-        method="exact", choice=choice, attempts=tuple(attempts),
+        task=task, structure=st, symbolic=symbolic, method="exact", choice=choice, attempts=tuple(attempts),
         null_space=tuple(members), time=model.time, nonlinear=tuple(subs),
         equations=eqs, observer_states=tuple(xs), outputs=(("r", r_out),))
 
 
 def _observer_equations(mats, inputs, xs, ys, subs, q):
-    """The reduced model's right-hand sides F* x* + J* y + G* u + C* Ψ*(x*, y, u) (the
-    unknown input omitted) and r = R* y − H* x*."""
-    rhs = mats["F_star"] * sp.Matrix(xs) + mats["J_star"] * sp.Matrix(ys)
-    if inputs:
-        rhs += mats["G_star"] * sp.Matrix(inputs)
-    if subs:
-        psi = sp.zeros(q, 1)
-        for ns in subs:
-            psi[ns.index - 1, 0] = ns.function
-        rhs += mats["C_star"] * psi
-    r = (mats["R_star"] * sp.Matrix(ys) - mats["H_star"] * sp.Matrix(xs))[0, 0]
-    return tuple(sp.expand(e, deep=False) for e in rhs), sp.expand(r), xs
+    """The reduced model's right-hand sides (the unknown input omitted) and r = R* y − H* x*."""
+    eqs = reduced_equations(mats, inputs, xs, ys, nonlinear=subs, q=q)
+    return eqs, sp.expand(residual_outputs(mats, xs, ys)[0, 0]), xs
 
 
 def _ystar(R) -> str:
@@ -601,13 +571,14 @@ def _float_common_conditions(H, D, L, rtol):
     return conds
 
 
-def _design_float(model, st, target, dec, D, L, *, single_row, rtol) -> Design:
+def _design_float(model, st, task, target, dec, D, L, *, single_row, rtol) -> Design:
     """The canonical-form design by SVD (METHOD §2a); see :func:`_design_float_core`."""
     with SingleThreadBLAS():
-        return _design_float_core(model, st, target, dec, D, L, single_row=single_row, rtol=rtol)
+        return _design_float_core(model, st, task, target, dec, D, L, single_row=single_row,
+                                  rtol=rtol)
 
 
-def _design_float_core(model, st, target, dec, D, L, *, single_row, rtol) -> Design:
+def _design_float_core(model, st, task, target, dec, D, L, *, single_row, rtol) -> Design:
     """The canonical-form design by SVD (METHOD §2a), certified on the original matrices.
 
     Numerics.
@@ -754,8 +725,8 @@ def _design_float_core(model, st, target, dec, D, L, *, single_row, rtol) -> Des
               " combination near it, scaled so that the largest entry of R* is 1")
     return Design(
         model_name=model.name, form="canonical", k=k, matrices=mats, conditions=tuple(conds),
-        assumptions=(), certificate=cert, unknown_input=tname,
-        decoupled=tuple(s.name for s in dec), symbolic=False, method="float",
+        assumptions=(), certificate=cert, task=task, structure=st, symbolic=False,
+        method="float", time=model.time,
         choice=choice, attempts=tuple(attempts), null_space=())
 
 

@@ -1021,14 +1021,14 @@ def reduced_nonlinearity(model, design):
     k = design.k
     xs = list(design.observer_states) or list(sp.symbols(f"xs1:{k + 1}"))
     ys = list(sp.symbols(f"y1:{len(m.outputs) + 1}"))
-    Phi = sp.Matrix(design.matrices["Phi"])
+    Phi = sp.Matrix(design.matrices.Phi)
     H = sp.Matrix(st.H)
     xv = sp.Matrix(m.states)
     defs = {x: (Phi[i, :] * xv)[0, 0] for i, x in enumerate(xs)}
     defs.update({y: (H[j, :] * xv)[0, 0] for j, y in enumerate(ys)})
     if not design.nonlinear:
         return sp.zeros(k, 1), xs, ys, defs
-    Cs = sp.Matrix(design.matrices["C_star"])
+    Cs = sp.Matrix(design.matrices.C_star)
     psi = sp.zeros(Cs.cols, 1)
     for ns in design.nonlinear:
         psi[ns.index - 1, 0] = ns.function
@@ -1068,5 +1068,5 @@ def nonlinear_conditions(model, design, domain=None) -> tuple:
     mono = is_monotone(list(expr), xs, dom, definitions=defs)
     out = [lip.condition("C*Ψ* (in x*)"), mono.condition("C*Ψ*")]
     if design.time == "continuous":
-        out.append(stability_condition(design.matrices["F_star"], lip).condition())
+        out.append(stability_condition(design.matrices.F_star, lip).condition())
     return tuple(out)

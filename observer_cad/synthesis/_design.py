@@ -1,19 +1,53 @@
-"""Design results: immutable values carrying matrices, conditions, assumptions and
-the certificate that re-checked them."""
+"""Design results: immutable values carrying the task, the structure, the matrices, the
+conditions, the assumptions and the certificate that re-checked them.
+
+A :class:`Design` serialises with :meth:`Design.to_json` and comes back with
+:meth:`Design.from_json`, which parses every expression with a whitelist reader (data
+never executes) and re-certifies the matrices against the model before trusting them.
+Its :attr:`Design.request` records the options that, passed back to
+:func:`observer_cad.design`, reproduce it.
+"""
 from __future__ import annotations
 
 import dataclasses
+import enum
+from types import MappingProxyType
 from typing import Mapping
 
 import sympy as sp
 
-from ._certificate import Certificate
+from ..errors import UsageError
+from ..model import ObserverKind, PlantModel, Structure, Task, extract_structure
+from ._certificate import Certificate, Identity, certify_design
+from ._expr import parse_json_expression
 
-__all__ = ["Condition", "Design", "NonlinearSubstitution", "MATRIX_ORDER"]
+__all__ = ["Condition", "Design", "DesignMatrices", "DesignRequest", "Form", "Method",
+           "NonlinearSubstitution", "MATRIX_ORDER"]
 
 #: Order in which a design's matrices are printed and serialised.
 MATRIX_ORDER = ("Phi", "F_star", "J_star", "R_star", "H_star", "G_star", "D_star", "L_star",
-                "C_star", "Hz", "Q", "K")
+                "C_star", "Hz", "Q", "K", "T", "F_diag", "J_diag", "Phi_diag", "G_diag",
+                "Hz_diag")
+
+
+class Form(str, enum.Enum):
+    """The reduced model's form: identification canonical (METHOD §2a) or Jordan (§2b)."""
+
+    CANONICAL = "canonical"
+    JORDAN = "jordan"
+
+    def __str__(self) -> str:
+        return self.value
+
+
+class Method(str, enum.Enum):
+    """Exact (rational / rational-function) or float (SVD with evidence) synthesis."""
+
+    EXACT = "exact"
+    FLOAT = "float"
+
+    def __str__(self) -> str:
+        return self.value
 
 
 @dataclasses.dataclass(frozen=True)
@@ -29,6 +63,14 @@ class Condition:
     def to_json(self) -> dict:
         return {"name": self.name, "holds": bool(self.holds), "detail": self.detail,
                 "reference": self.reference, "required": self.required}
+
+    @classmethod
+    def from_json(cls, data) -> "Condition":
+        if not isinstance(data, dict) or not isinstance(data.get("name"), str) \
+                or not isinstance(data.get("holds"), bool):
+            raise UsageError("a design condition must be an object with 'name' and 'holds'")
+        return cls(data["name"], data["holds"], str(data.get("detail", "")),
+                   str(data.get("reference", "")), bool(data.get("required", True)))
 
 
 @dataclasses.dataclass(frozen=True)
@@ -48,32 +90,156 @@ class NonlinearSubstitution:
 
 
 @dataclasses.dataclass(frozen=True)
+class DesignMatrices:
+    """The matrices of a reduced model (METHOD §2). Φ, F*, J*, G* every design has; the
+    others are ``None`` where the design has none: R*, H* (measured combination
+    y* = R* y = H* x*), D* (the estimated or detected inputs), L* (interval designs: the
+    bounded disturbances), C* (nonlinear terms), H_z, Q (z = H_z x* + Q y), K (output
+    injection), and the diagonal (Metzler) form T, F_diag, J_diag, Phi_diag, G_diag,
+    Hz_diag of seed 001 method 1."""
+
+    Phi: sp.ImmutableMatrix
+    F_star: sp.ImmutableMatrix
+    J_star: sp.ImmutableMatrix
+    G_star: sp.ImmutableMatrix
+    R_star: sp.ImmutableMatrix | None = None
+    H_star: sp.ImmutableMatrix | None = None
+    D_star: sp.ImmutableMatrix | None = None
+    L_star: sp.ImmutableMatrix | None = None
+    C_star: sp.ImmutableMatrix | None = None
+    Hz: sp.ImmutableMatrix | None = None
+    Q: sp.ImmutableMatrix | None = None
+    K: sp.ImmutableMatrix | None = None
+    T: sp.ImmutableMatrix | None = None
+    F_diag: sp.ImmutableMatrix | None = None
+    J_diag: sp.ImmutableMatrix | None = None
+    Phi_diag: sp.ImmutableMatrix | None = None
+    G_diag: sp.ImmutableMatrix | None = None
+    Hz_diag: sp.ImmutableMatrix | None = None
+
+    def __post_init__(self):
+        for f in dataclasses.fields(self):
+            v = getattr(self, f.name)
+            if v is not None and not isinstance(v, sp.ImmutableMatrix):
+                object.__setattr__(self, f.name, sp.ImmutableMatrix(v))
+
+    @classmethod
+    def from_mapping(cls, mats: Mapping) -> "DesignMatrices":
+        """From a name → matrix mapping (the designers' working dicts); unknown names are
+        an error, so a typo cannot silently drop a matrix."""
+        unknown = set(mats) - set(MATRIX_ORDER)
+        if unknown:
+            raise ValueError(f"unknown design matrices: {', '.join(sorted(unknown))}")
+        return cls(**dict(mats))
+
+    def items(self):
+        """(name, matrix) of the matrices present, in :data:`MATRIX_ORDER`."""
+        return [(n, getattr(self, n)) for n in MATRIX_ORDER if getattr(self, n) is not None]
+
+    def as_dict(self) -> dict:
+        return dict(self.items())
+
+    def replace(self, **changes) -> "DesignMatrices":
+        return dataclasses.replace(self, **changes)
+
+    @property
+    def diagonal(self) -> bool:
+        """True for canonical designs that carry seed 001's diagonal (Metzler) form."""
+        return self.F_diag is not None
+
+
+@dataclasses.dataclass(frozen=True)
+class DesignRequest:
+    """The options of :func:`observer_cad.design` that reproduce a design, with every
+    choice the synthesis made filled in (the λ and closed-loop eigenvalues it used, the
+    method it took)."""
+
+    observer: str
+    faults: tuple = ()
+    disturbances: tuple = ()
+    estimate: str | None = None
+    form: str | None = None
+    lambdas: tuple | None = None
+    eigenvalues: tuple | None = None
+    variant: str = "plain"
+    robust: bool = False
+    symbolic: bool = False
+    method: str = "auto"
+    rtol: float | None = None
+
+    def options(self) -> dict:
+        """Keyword arguments for :func:`observer_cad.design`."""
+        out = dataclasses.asdict(self)
+        out["faults"] = list(self.faults)
+        out["disturbances"] = list(self.disturbances)
+        for key in ("lambdas", "eigenvalues"):
+            if out[key] is not None:
+                out[key] = list(out[key])
+        return out
+
+    def to_json(self) -> dict:
+        out = self.options()
+        for key in ("lambdas", "eigenvalues"):
+            if out[key] is not None:
+                out[key] = [str(v) for v in out[key]]
+        return out
+
+    @classmethod
+    def from_json(cls, data, names: Mapping) -> "DesignRequest":
+        if not isinstance(data, dict):
+            raise UsageError("a design's 'request' must be a JSON object")
+        allowed = {f.name for f in dataclasses.fields(cls)}
+        extra = set(data) - allowed
+        if extra:
+            raise UsageError(f"a design's request has unknown keys: {', '.join(sorted(extra))}")
+        kw = dict(data)
+        for key in ("faults", "disturbances"):
+            v = kw.get(key, [])
+            if not isinstance(v, list) or not all(isinstance(x, str) for x in v):
+                raise UsageError(f"request.{key} must be a list of names")
+            kw[key] = tuple(v)
+        for key in ("lambdas", "eigenvalues"):
+            v = kw.get(key)
+            if v is not None:
+                if not isinstance(v, list):
+                    raise UsageError(f"request.{key} must be a list")
+                kw[key] = tuple(parse_json_expression(x, names, f"request.{key}") for x in v)
+        for key, typ in (("observer", str), ("variant", str), ("method", str),
+                         ("robust", bool), ("symbolic", bool)):
+            if key in kw and not isinstance(kw[key], typ):
+                raise UsageError(f"request.{key} must be a {typ.__name__}")
+        if kw.get("rtol") is not None and not isinstance(kw["rtol"], (int, float)):
+            raise UsageError("request.rtol must be a number")
+        return cls(**kw)
+
+
+@dataclasses.dataclass(frozen=True)
 class Design:
     """A certified reduced-order model (METHOD §2) and the decisions behind it.
 
-    ``matrices`` maps names (``Phi``, ``F_star``, ``J_star``, ``R_star``, ``H_star``,
-    ``G_star``, ``D_star``, ``L_star``, ...) to sympy matrices. ``assumptions`` are the
-    relations (``Ne(k4, 0)``) under which a symbolic result holds. ``choice`` explains
-    which null-space member was taken and why; ``attempts`` records every k tried.
+    ``task`` says what it is for (observer kind, inputs estimated/detected, decoupled,
+    bounded, assumed zero, z = M x); ``structure`` is the plant structure it was derived
+    from (parameters substituted unless symbolic); ``matrices`` the typed
+    :class:`DesignMatrices`. ``assumptions`` are the relations (``Ne(k4, 0)``) under which
+    a symbolic result holds. ``choice`` explains which null-space member was taken and why;
+    ``attempts`` records every k tried; ``request`` reproduces the design.
     """
 
     model_name: str
-    form: str
+    task: Task
+    structure: Structure
+    form: Form
     k: int
-    matrices: dict
+    matrices: DesignMatrices
     conditions: tuple
     assumptions: tuple
     certificate: Certificate
-    unknown_input: str | None
-    decoupled: tuple
     symbolic: bool
-    method: str  # "exact" or "float"
+    method: Method
     choice: str
     attempts: tuple
     null_space: tuple = ()  # reduced-echelon basis of the members at k (exact designs)
-    observer: str = "unknown-input"
     time: str = "continuous"  # of the plant, hence of the observer
-    estimate: str | None = None  # z = M x for virtual sensors / interval observers
     lambdas: tuple = ()  # Jordan form: the eigenvalue of each row
     closed_loop_eigenvalues: tuple = ()
     nonlinear: tuple = ()  # of NonlinearSubstitution
@@ -83,15 +249,45 @@ class Design:
     approximate: bool = False
     residual_norm: float | None = None
     parameters: Mapping = dataclasses.field(default_factory=dict)  # observer gains: symbol → value
+    request: DesignRequest | None = None
 
-    def matrix(self, name: str) -> sp.Matrix:
-        return self.matrices[name]
+    def __post_init__(self):
+        if isinstance(self.matrices, Mapping):
+            object.__setattr__(self, "matrices", DesignMatrices.from_mapping(self.matrices))
+        object.__setattr__(self, "form", Form(self.form))
+        object.__setattr__(self, "method", Method(self.method))
+        object.__setattr__(self, "parameters", MappingProxyType(dict(self.parameters)))
+
+    # -- what the task says, for convenience
+    @property
+    def observer(self) -> ObserverKind:
+        return self.task.observer
+
+    @property
+    def unknown_input(self) -> str | None:
+        return self.task.unknown_input
+
+    @property
+    def decoupled(self) -> tuple:
+        return self.task.decoupled
+
+    @property
+    def estimate(self) -> str | None:
+        return self.task.estimate
 
     @property
     def ordered_matrices(self):
-        names = [n for n in MATRIX_ORDER if n in self.matrices]
-        names += [n for n in self.matrices if n not in names]
-        return [(n, self.matrices[n]) for n in names]
+        return self.matrices.items()
+
+    def with_task(self, **changes) -> "Design":
+        """The same design with its task changed (e.g. the observer kind it serves)."""
+        return dataclasses.replace(self, task=dataclasses.replace(self.task, **changes))
+
+    def __repr__(self) -> str:
+        cert = "certified" if self.certificate.passed else "NOT certified"
+        approx = ", APPROXIMATE" if self.approximate else ""
+        return (f"<Design {self.observer.value} for {self.model_name}: {self.task.describe()};"
+                f" {self.form.value} form, k = {self.k}, {self.method.value}{approx}, {cert}>")
 
     def to_json(self) -> dict:
         """The JSON object the CLI prints with ``--json``."""
@@ -101,8 +297,8 @@ class Design:
         return {
             "model": self.model_name,
             "k": self.k,
-            "form": self.form,
-            "method": self.method,
+            "form": self.form.value,
+            "method": self.method.value,
             "unknown_input": self.unknown_input,
             "decoupled": list(self.decoupled),
             "matrices": {n: rows(M) for n, M in self.ordered_matrices},
@@ -111,7 +307,7 @@ class Design:
             "choice": self.choice,
             "attempts": list(self.attempts),
             "null_space": [[str(e) for e in v] for v in self.null_space],
-            "observer": self.observer,
+            "observer": self.observer.value,
             "time": self.time,
             "estimate": self.estimate,
             "lambdas": [str(v) for v in self.lambdas],
@@ -128,4 +324,126 @@ class Design:
                             "identities": [{"name": i.name, "holds": i.holds,
                                             "residual": i.residual}
                                            for i in self.certificate.identities]},
+            "symbolic": bool(self.symbolic),
+            "task": self.task.to_json(),
+            "parameters": {str(p): str(v) for p, v in self.parameters.items()},
+            "request": self.request.to_json() if self.request is not None else None,
         }
+
+    @classmethod
+    def from_json(cls, data, model: PlantModel) -> "Design":
+        """A design from its JSON (:meth:`to_json`) for ``model``.
+
+        Every expression is read by a whitelist parser (numbers, the model's and the
+        design's own names, arithmetic and a fixed list of functions); the task is
+        re-resolved against the model; the matrices are re-certified against the model's
+        structure (exactly, or within the recorded tolerance for float designs). A design
+        that does not fit the model or fails its certificate raises; nothing is trusted
+        because it was on disk.
+        """
+        if not isinstance(data, dict) or not isinstance(data.get("matrices"), dict):
+            raise UsageError("not a design: a JSON object with 'matrices' is expected")
+        for key in ("k", "form", "method", "observer", "time", "states", "equations", "outputs"):
+            if key not in data:
+                raise UsageError(f"not a design: the key '{key}' is missing")
+        task_data = data.get("task") or {
+            "observer": data["observer"],
+            "targets": [data["unknown_input"]] if data.get("unknown_input") else [],
+            "decoupled": list(data.get("decoupled", [])), "estimate": data.get("estimate")}
+        task = Task.from_json(task_data, model)
+        symbolic = bool(data.get("symbolic", False))
+        work = model if (symbolic or not model.parameters) else model.substitute_parameters()
+        if data["time"] != work.time:
+            raise UsageError(f"{model.where}: the design is {data['time']}-time, the model"
+                             f" {work.time}-time")
+        st = extract_structure(work)
+        k = data["k"]
+        if not isinstance(k, int) or isinstance(k, bool) or k < 1:
+            raise UsageError("a design's k must be a positive integer")
+        if not isinstance(data["states"], list):
+            raise UsageError("a design's 'states' must list the observer's states")
+        names = {s.name: s for s in model.symbols}
+        names.update({s.name: s for s in work.symbols})
+        xs = []
+        for s in data["states"]:
+            if not isinstance(s, str) or not s.isidentifier():
+                raise UsageError(f"a design state name must be an identifier, got {s!r}")
+            xs.append(names.setdefault(s, sp.Symbol(s)))
+        for j in range(1, len(work.outputs) + 1):
+            names.setdefault(f"y{j}", sp.Symbol(f"y{j}"))
+        params = {}
+        for p, v in (data.get("parameters") or {}).items():
+            if not isinstance(p, str) or not p.isidentifier():
+                raise UsageError(f"a design parameter name must be an identifier, got {p!r}")
+            sym = names.setdefault(p, sp.Symbol(p))
+            params[sym] = parse_json_expression(v, names, f"parameters.{p}")
+
+        def expr(text, where):
+            return parse_json_expression(text, names, where)
+
+        mats = {}
+        for name, rows_ in data["matrices"].items():
+            if name not in MATRIX_ORDER:
+                raise UsageError(f"a design has an unknown matrix {name!r}")
+            if not isinstance(rows_, list) or not all(isinstance(r, list) for r in rows_):
+                raise UsageError(f"matrix {name} must be a list of rows")
+            widths = {len(r) for r in rows_}
+            if len(widths) > 1:
+                raise UsageError(f"matrix {name}: rows of different lengths")
+            mats[name] = sp.Matrix(len(rows_), widths.pop() if widths else 0,
+                                   [expr(e, f"matrices.{name}") for r in rows_ for e in r])
+        for name in ("Phi", "F_star", "J_star", "G_star"):
+            if name not in mats:
+                raise UsageError(f"not a design: matrix {name} is missing")
+        nonlinear = []
+        for item in data.get("nonlinear", []):
+            try:
+                nonlinear.append(NonlinearSubstitution(
+                    int(item["index"]), expr(item["function"], "nonlinear.function"),
+                    expr(item["argument"], "nonlinear.argument"),
+                    sp.Matrix([[expr(e, "nonlinear.A1") for e in item["A1"]]]),
+                    sp.Matrix([[expr(e, "nonlinear.A2") for e in item["A2"]]])))
+            except (KeyError, TypeError, ValueError):
+                raise UsageError("a design's nonlinear substitution is malformed") from None
+        outputs = data["outputs"]
+        if not isinstance(outputs, dict):
+            raise UsageError("a design's 'outputs' must be an object")
+        approximate = bool(data.get("approximate", False))
+        cert_data = data.get("certificate") or {}
+        exact = bool(cert_data.get("exact", True)) and not approximate
+        tol = cert_data.get("tolerance")
+        if not exact and not isinstance(tol, (int, float)):
+            raise UsageError("a float design must record its certificate tolerance")
+        # re-certify: the loaded matrices against the model's structure
+        plant = dict(F=st.F, G=st.G, H=st.H, C=st.C, D=task.D(st), L=task.L(st))
+        subs = [(ns.index, sp.Matrix(st.A[ns.index - 1, :]), ns.A1, ns.A2) for ns in nonlinear]
+        if approximate:
+            cert = Certificate(tuple(Identity(i["name"], bool(i["holds"]), str(i["residual"]))
+                                     for i in cert_data.get("identities", [])), False, tol)
+        else:
+            cert = certify_design(plant, mats, M=task.M if "Hz" in mats else None,
+                                  substitutions=subs,
+                                  decoupled=task.observer != ObserverKind.INTERVAL,
+                                  exact=exact, tolerance=float(tol) if tol is not None else 1e-9)
+        conditions = tuple(Condition.from_json(c) for c in data.get("conditions", []))
+        request = None
+        if data.get("request") is not None:
+            request = DesignRequest.from_json(data["request"], names)
+        return cls(
+            model_name=work.name, task=task, structure=st, form=data["form"], k=k,
+            matrices=mats, conditions=conditions,
+            assumptions=tuple(expr(a, "assumptions") for a in data.get("assumptions", [])),
+            certificate=cert, symbolic=symbolic, method=data["method"],
+            choice=str(data.get("choice", "")), attempts=tuple(map(str, data.get("attempts", []))),
+            null_space=tuple(sp.Matrix([[expr(e, "null_space") for e in v]])
+                             for v in data.get("null_space", [])),
+            time=work.time, lambdas=tuple(expr(v, "lambdas") for v in data.get("lambdas", [])),
+            closed_loop_eigenvalues=tuple(expr(v, "closed_loop_eigenvalues")
+                                          for v in data.get("closed_loop_eigenvalues", [])),
+            nonlinear=tuple(nonlinear),
+            equations=tuple(expr(e, "equations") for e in data["equations"]),
+            observer_states=tuple(xs),
+            outputs=tuple((str(n), expr(e, f"outputs.{n}")) for n, e in outputs.items()),
+            approximate=approximate,
+            residual_norm=data.get("residual_norm") if approximate else None,
+            parameters=params, request=request)

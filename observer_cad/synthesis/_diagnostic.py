@@ -14,9 +14,11 @@ from typing import Sequence
 import sympy as sp
 
 from ._canonical import design_canonical
+from ..errors import UsageError
 from ._design import Condition, Design
-from ._reduced import observer_symbols, output_symbols
-from ..model import PlantModel
+from ._task import task_for
+from ._reduced import observer_symbols, output_symbols, reduced_equations, residual_outputs
+from ..model import PlantModel, Task
 from ._poles import default_eigenvalues, parse_eigenvalues, place_poles, require_stable
 
 __all__ = ["design_diagnostic_canonical", "observer_equations"]
@@ -24,33 +26,27 @@ __all__ = ["design_diagnostic_canonical", "observer_equations"]
 S = sp.Symbol("s")
 
 
-def observer_equations(mats: dict, inputs, k: int, l: int, with_feedback: bool = True,
+def observer_equations(mats, inputs, k: int, l: int, with_feedback: bool = True,
                        nonlinear=()):
     """Right-hand sides F* x* + J* y + G* u + C* Ψ*(x*, y, u) (+ K r) and the residual r."""
     xs, ys = observer_symbols(k), output_symbols(l)
-    r = (sp.Matrix(mats["R_star"]) * sp.Matrix(ys) - sp.Matrix(mats["H_star"]) * sp.Matrix(xs))[0, 0]
-    rhs = sp.Matrix(mats["F_star"]) * sp.Matrix(xs) + sp.Matrix(mats["J_star"]) * sp.Matrix(ys)
-    if inputs:
-        rhs += sp.Matrix(mats["G_star"]) * sp.Matrix(inputs)
-    if nonlinear:
-        Cs = sp.Matrix(mats["C_star"])
-        psi = sp.zeros(Cs.cols, 1)
-        for ns in nonlinear:
-            psi[ns.index - 1, 0] = ns.function
-        rhs += Cs * psi
-    if with_feedback and "K" in mats:
-        rhs += sp.Matrix(mats["K"]) * r
-    return tuple(sp.expand(e) for e in rhs), sp.expand(r), xs
+    rhs = reduced_equations(mats, inputs, xs, ys, nonlinear=nonlinear, feedback=with_feedback,
+                            deep=True)
+    return rhs, sp.expand(residual_outputs(mats, xs, ys)[0, 0]), xs
 
 
 def design_diagnostic_canonical(model: PlantModel, *, fault: str, decouple: Sequence[str] = (),
                                 eigenvalues: Sequence | None = None,
-                                symbolic: bool = False) -> Design:
+                                symbolic: bool = False, task: Task | None = None) -> Design:
     """Canonical-form residual generator for one fault, with exact pole placement."""
-    base = design_canonical(model, unknown_input=fault, decouple=decouple, symbolic=symbolic,
-                            single_row=False)
+    task = task_for(model, task, observer="diagnostic", faults=[fault], disturbances=decouple)
+    if len(task.targets) != 1:
+        raise UsageError("canonical-form diagnostic observers take one --fault; use --form"
+                         " jordan for several (seed 002 Remark 1)")
+    base = design_canonical(model, unknown_input=task.targets[0], symbolic=symbolic,
+                            single_row=False, task=task)
     k = base.k
-    mats = dict(base.matrices)
+    mats = base.matrices.as_dict()
     eigs = parse_eigenvalues(eigenvalues) if eigenvalues else default_eigenvalues(model.time, k)
     K = place_poles(mats["F_star"], mats["H_star"], eigs)
     mats["K"] = K
@@ -68,6 +64,6 @@ def design_diagnostic_canonical(model: PlantModel, *, fault: str, decouple: Sequ
                                f"requested {[str(e) for e in eigs]}, obtained exactly"
                                f" {[str(e) for e in cl]}", "METHOD §3"))
     return dataclasses.replace(
-        base, observer="diagnostic", matrices=mats, conditions=tuple(conds),
+        base, matrices=mats, conditions=tuple(conds),
         closed_loop_eigenvalues=cl, equations=eqs, observer_states=tuple(xs),
         outputs=(("r", r),))

@@ -34,10 +34,10 @@ import sympy as sp
 from ._certificate import certify_design
 from ._design import Condition, Design
 from ..errors import InfeasibleDesignError, ModelError, UsageError
-from ..model import PlantModel
+from ..model import ObserverKind, PlantModel, Task
 from ._nonlinear import substitute_arguments
-from ._reduced import is_stable, jordan_equations, observer_symbols, output_symbols, parse_estimate
-from ._task import resolve_jordan_task
+from ._reduced import is_stable, jordan_equations, observer_symbols, output_symbols
+from ._task import task_for, task_parts
 from ._jordan_float import design_jordan_float
 from ._canonical import FLOAT_AUTO_N
 from ..model import Structure, extract_structure
@@ -147,7 +147,7 @@ def design_jordan(model: PlantModel, *, observer: str, estimate=None,
                   faults: Sequence[str] | None = None, decouple: Sequence[str] = (),
                   lambdas: Sequence | None = None, symbolic: bool = False,
                   structure: Structure | None = None, method: str = "auto",
-                  rtol: float | None = None) -> Design:
+                  rtol: float | None = None, task: Task | None = None) -> Design:
     """Jordan-form design of a diagnostic observer, virtual sensor or interval observer.
 
     Parameters
@@ -170,6 +170,8 @@ def design_jordan(model: PlantModel, *, observer: str, estimate=None,
     """
     if observer not in ("diagnostic", "virtual-sensor", "interval"):
         raise UsageError(f"Jordan form supports diagnostic, virtual-sensor and interval, not {observer!r}")
+    task = task_for(model, task, observer=observer, faults=faults, disturbances=decouple,
+                    estimate=estimate)
     if method not in ("auto", "exact", "float"):
         raise UsageError(f"method must be 'auto', 'exact' or 'float', got {method!r}")
     if method == "auto":  # large numeric linear models: the pencil numerically (with evidence)
@@ -180,7 +182,7 @@ def design_jordan(model: PlantModel, *, observer: str, estimate=None,
         if symbolic and model.parameters:
             raise UsageError("the float path needs numeric parameters: design without --symbolic")
         return design_jordan_float(model, observer=observer, estimate=estimate, faults=faults,
-                                   decouple=decouple, lambdas=lambdas, rtol=rtol)
+                                   decouple=decouple, lambdas=lambdas, rtol=rtol, task=task)
     work = model if symbolic else model.substitute_parameters()
     st = structure if (structure is not None and symbolic) else extract_structure(work)
     where = model.where
@@ -188,7 +190,7 @@ def design_jordan(model: PlantModel, *, observer: str, estimate=None,
     n, l = st.n, st.l
 
     # Step 1: the task
-    M, fault_syms, dec, D, L = resolve_jordan_task(work, st, observer, estimate, faults, decouple)
+    M, fault_syms, dec, D, L = task_parts(work, st, task)
     decoupled = observer != "interval"
 
     if M is not None:  # z already measured: say so rather than build a trivial observer
@@ -341,11 +343,8 @@ def design_jordan(model: PlantModel, *, observer: str, estimate=None,
     return Design(
         model_name=work.name, form="jordan", k=k, matrices=mats, conditions=tuple(conds),
         assumptions=tuple(sorted(assumptions, key=str)), certificate=cert,
-        unknown_input=", ".join(f.name for f in fault_syms) or None,
-        decoupled=tuple(s.name for s in dec), symbolic=bool(work.parameters), method="exact",
-        choice=choice, attempts=tuple(tried), observer=observer, time=work.time,
-        estimate=None if M is None else str((M * sp.Matrix(work.states))[0, 0]) if M.rows == 1
-        else str(list(M * sp.Matrix(work.states))),
+        task=task, structure=st, symbolic=bool(work.parameters), method="exact",
+        choice=choice, attempts=tuple(tried), time=work.time,
         lambdas=lams, nonlinear=tuple(nonlinear), equations=equations,
         observer_states=tuple(xs), outputs=tuple(outputs))
 
@@ -507,4 +506,4 @@ def design_jordan_unknown_input(model: PlantModel, unknown_input: str, lam, *,
     if d.k != 1:
         raise UsageError(f"no one-row λ-model with x* = R* y for '{unknown_input}'"
                          f" (the Jordan design needs k = {d.k})")
-    return d
+    return d.with_task(observer=ObserverKind.UNKNOWN_INPUT)

@@ -40,8 +40,8 @@ from ._certificate import certify_design
 from ._design import Condition, Design
 from ..errors import InfeasibleDesignError, UsageError
 from ._reduced import jordan_equations, observer_symbols, output_symbols
-from ._task import resolve_jordan_task
-from ..model import PlantModel
+from ._task import task_for, task_parts
+from ..model import PlantModel, Task
 from ..model import extract_structure
 from ..numerics import default_rtol, float_left_null_space, float_rank
 
@@ -286,7 +286,8 @@ def _fmt(v: float) -> str:
 # ---------------------------------------------------------------- design
 def design_jordan_float(model: PlantModel, *, observer: str, estimate=None,
                         faults: Sequence[str] | None = None, decouple: Sequence[str] = (),
-                        lambdas: Sequence | None = None, rtol: float | None = None) -> Design:
+                        lambdas: Sequence | None = None, rtol: float | None = None,
+                        task: Task | None = None) -> Design:
     """Jordan-form design in floating point (numeric linear models).
 
     Same semantics as :func:`observer_cad.jordan.design_jordan` for ``"virtual-sensor"``,
@@ -297,11 +298,13 @@ def design_jordan_float(model: PlantModel, *, observer: str, estimate=None,
     """
     if observer not in ("diagnostic", "virtual-sensor", "interval"):
         raise UsageError(f"Jordan form supports diagnostic, virtual-sensor and interval, not {observer!r}")
+    task = task_for(model, task, observer=observer, faults=faults, disturbances=decouple,
+                    estimate=estimate)
     with SingleThreadBLAS():
-        return _design(model, observer, estimate, faults, decouple, lambdas, rtol)
+        return _design(model, observer, task, lambdas, rtol)
 
 
-def _design(model, observer, estimate, faults, decouple, lambdas, rtol):
+def _design(model, observer, task, lambdas, rtol):
     work = model.substitute_parameters()
     where = model.where
     if work.parameters:
@@ -315,7 +318,7 @@ def _design(model, observer, estimate, faults, decouple, lambdas, rtol):
     res_tol = max(1e-7, 100.0 * tol)
 
     # Step 1: the task (shared with design_jordan)
-    M, fault_syms, dec, Ds, Ls = resolve_jordan_task(work, st, observer, estimate, faults, decouple)
+    M, fault_syms, dec, Ds, Ls = task_parts(work, st, task)
     decoupled = observer != "interval"
     F, G, H = (np_exact(sp.Matrix(X)) for X in (st.F, st.G, st.H))
     D, L = np_exact(Ds), np_exact(Ls)
@@ -494,16 +497,10 @@ def _design(model, observer, estimate, faults, decouple, lambdas, rtol):
               f" rows that satisfy the {observer} conditions (float path, rtol {tol:.0e},"
               f" residual tolerance {res_tol:.0e})"
               + (f" (smaller sets rejected: {'; '.join(tried[:4])})" if tried else ""))
-    est = None
-    if M is not None:
-        zx = M * sp.Matrix(work.states)
-        est = str(zx[0, 0]) if M.rows == 1 else str(list(zx))
     return Design(
         model_name=work.name, form="jordan", k=k, matrices=mats, conditions=tuple(conds),
-        assumptions=(), certificate=cert,
-        unknown_input=", ".join(f.name for f in fault_syms) or None,
-        decoupled=tuple(s.name for s in dec), symbolic=False, method="float",
-        choice=choice, attempts=tuple(tried), observer=observer, time=work.time, estimate=est,
+        assumptions=(), certificate=cert, task=task, structure=st, symbolic=False,
+        method="float", choice=choice, attempts=tuple(tried), time=work.time,
         lambdas=tuple(sp.Float(v) for v in lams), nonlinear=(), equations=equations,
         observer_states=tuple(xs), outputs=tuple(outputs))
 

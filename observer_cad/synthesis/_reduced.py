@@ -3,12 +3,13 @@ x* and y, the estimate z = M x, stability of a λ, and the observer equations
 F* x* + J* y + G* u + C* Ψ*(x*, y, u) with their outputs."""
 from __future__ import annotations
 
+from typing import Mapping
+
 import sympy as sp
 
-from ..errors import ModelError
-from ..model import PlantModel
 
-__all__ = ["observer_symbols", "output_symbols", "parse_estimate", "is_stable", "jordan_equations"]
+__all__ = ["observer_symbols", "output_symbols", "is_stable", "jordan_equations",
+           "reduced_equations", "residual_outputs", "estimate_outputs", "named_outputs"]
 
 
 def observer_symbols(k: int):
@@ -18,41 +19,6 @@ def observer_symbols(k: int):
 
 def output_symbols(l: int):
     return sp.symbols(f"y1:{l + 1}")
-
-
-def parse_estimate(model: PlantModel, expr) -> sp.Matrix:
-    """z = M x from an expression in the state names (``"x1"``, ``"x1 - x2"``)."""
-    where = model.where
-    if isinstance(expr, sp.MatrixBase):
-        M = sp.Matrix(expr)
-        if M.cols != len(model.states):
-            raise ModelError(f"{where}: M must have {len(model.states)} columns")
-        return M
-    exprs = expr if isinstance(expr, (list, tuple)) else [expr]
-    rows = []
-    loc = {s.name: s for s in model.states}
-    loc.update({p.name: p for p in model.parameters})
-    for e in exprs:
-        try:
-            e = sp.sympify(e, locals=loc) if isinstance(e, str) else sp.sympify(e)
-        except (sp.SympifyError, SyntaxError, TypeError) as exc:
-            raise ModelError(f"{where}: cannot parse --estimate {e!r}: not a valid expression"
-                             f" ({type(exc).__name__})") from None
-        if not isinstance(e, sp.Expr):
-            raise ModelError(f"{where}: --estimate {expr!r} must be one expression in the"
-                             " states, e.g. x1 or 'x1 - x2'")
-        if e == 0:
-            raise ModelError(f"{where}: --estimate is identically zero")
-        extra = e.free_symbols - set(model.states) - set(model.parameters)
-        if extra:
-            raise ModelError(f"{where}: --estimate {e} uses '{sorted(extra, key=str)[0]}',"
-                             " which is not a state of the model")
-        row = [sp.diff(e, x) for x in model.states]
-        if any(c.free_symbols & set(model.states) for c in row) or \
-                sp.expand(e - sum(c * x for c, x in zip(row, model.states))) != 0:
-            raise ModelError(f"{where}: --estimate {e} is not linear in the states")
-        rows.append(row)
-    return sp.Matrix(rows)
 
 
 def is_stable(lam, time: str):
@@ -65,23 +31,62 @@ def is_stable(lam, time: str):
     return bool(lam < 0) if time == "continuous" else bool(abs(lam) < 1)
 
 
-def jordan_equations(mats, inputs, xs, ys, observer, M, nonlinear=(), q=0):
-    """Right-hand sides F* x* + J* y + G* u + C* Ψ* and the outputs (z = H_z x* + Q y, or
-    the residual r = R* y − H* x* for diagnostic observers) of a Jordan design."""
-    rhs = mats["F_star"] * sp.Matrix(xs) + mats["J_star"] * sp.Matrix(ys)
+def _get(mats, name):
+    return mats.get(name) if isinstance(mats, Mapping) else getattr(mats, name)
+
+
+def reduced_equations(mats, inputs, xs, ys, *, nonlinear=(), q: int | None = None,
+                      feedback: bool = True, deep: bool = False) -> tuple:
+    """The one builder of a reduced model's right-hand sides (METHOD §2):
+
+        F* x* + J* y + G* u + C* Ψ*(x*, y, u) + K (R* y − H* x*)
+
+    ``mats`` is a design's matrices (a :class:`DesignMatrices` or the designers' working
+    mapping); the K term is added when K is present and ``feedback``; Ψ*_j is the
+    argument-substituted term of each :class:`NonlinearSubstitution` (``q`` columns of C*).
+    The unknown input is omitted (it is what the observer does not know).
+    """
+    F, J = sp.Matrix(_get(mats, "F_star")), sp.Matrix(_get(mats, "J_star"))
+    rhs = F * sp.Matrix(xs) + J * sp.Matrix(ys)
     if inputs:
-        rhs += mats["G_star"] * sp.Matrix(inputs)
+        rhs += sp.Matrix(_get(mats, "G_star")) * sp.Matrix(inputs)
     if nonlinear:
-        psi = sp.zeros(q, 1)
+        Cs = sp.Matrix(_get(mats, "C_star"))
+        psi = sp.zeros(Cs.cols if q is None else q, 1)
         for ns in nonlinear:
             psi[ns.index - 1, 0] = ns.function
-        rhs += mats["C_star"] * psi
-    equations = tuple(sp.expand(e, deep=False) for e in rhs)
-    outputs = []
+        rhs += Cs * psi
+    K = _get(mats, "K")
+    if feedback and K is not None:
+        rhs += sp.Matrix(K) * residual_outputs(mats, xs, ys)
+    return tuple(sp.expand(e, deep=deep) for e in rhs)
+
+
+def residual_outputs(mats, xs, ys) -> sp.Matrix:
+    """r = R* y − H* x* (one entry per measured combination)."""
+    return sp.Matrix(_get(mats, "R_star")) * sp.Matrix(ys) \
+        - sp.Matrix(_get(mats, "H_star")) * sp.Matrix(xs)
+
+
+def estimate_outputs(mats, xs, ys) -> sp.Matrix:
+    """z = H_z x* + Q y."""
+    return sp.Matrix(_get(mats, "Hz")) * sp.Matrix(xs) + sp.Matrix(_get(mats, "Q")) * sp.Matrix(ys)
+
+
+def named_outputs(prefix: str, values) -> tuple:
+    """(``z``, e) for one output, (``z1``, e1), (``z2``, e2), … for several."""
+    values = list(values)
+    return tuple((prefix if len(values) == 1 else f"{prefix}{i + 1}", sp.expand(e))
+                 for i, e in enumerate(values))
+
+
+def jordan_equations(mats, inputs, xs, ys, observer, M, nonlinear=(), q=0):
+    """Right-hand sides and outputs (z = H_z x* + Q y, or the residual r = R* y − H* x* for
+    diagnostic observers) of a Jordan design."""
+    equations = reduced_equations(mats, inputs, xs, ys, nonlinear=nonlinear, q=q or None)
+    outputs = ()
     if M is not None:
-        z = mats["Hz"] * sp.Matrix(xs) + mats["Q"] * sp.Matrix(ys)
-        outputs = [("z" if z.rows == 1 else f"z{i + 1}", sp.expand(e)) for i, e in enumerate(z)]
+        outputs = named_outputs("z", estimate_outputs(mats, xs, ys))
     if observer == "diagnostic":
-        r = mats["R_star"] * sp.Matrix(ys) - mats["H_star"] * sp.Matrix(xs)
-        outputs = [("r" if r.rows == 1 else f"r{i + 1}", sp.expand(e)) for i, e in enumerate(r)]
-    return equations, tuple(outputs)
+        outputs = named_outputs("r", residual_outputs(mats, xs, ys))
+    return equations, outputs

@@ -76,12 +76,14 @@ from typing import Sequence
 import numpy as np
 import sympy as sp
 
-from ._canonical import krylov_blocks, resolve_task
+from ._canonical import krylov_blocks
+from ._task import task_parts
 from ._certificate import certify_design
 from ._design import Condition, Design
 from ..errors import InfeasibleDesignError, ModelError, ObserverCadError, UsageError
-from ._reduced import is_stable, observer_symbols, output_symbols, parse_estimate
-from ..model import PlantModel
+from ._reduced import (estimate_outputs, is_stable, named_outputs, observer_symbols,
+                       output_symbols, reduced_equations)
+from ..model import PlantModel, resolve_task
 from ..model import extract_structure
 from ..numerics import float_left_null_space, float_rank, rank_from_sv
 
@@ -391,31 +393,23 @@ def _prepare(model, unknown_input, estimate, decouple, symbolic):
     if unknown_input is not None and estimate is not None:
         raise UsageError("a robust canonical design serves one task: give unknown_input or"
                          " estimate, not both")
+    if unknown_input is None and estimate is None:
+        raise UsageError("a robust canonical design needs unknown_input (to estimate) or"
+                         " estimate (z = M x)")
     work = model.substitute_parameters()
     st = extract_structure(work)
-    n = st.n
-    M = None
     if unknown_input is not None:
-        target, dec = resolve_task(work, unknown_input, decouple)
-        D = sp.Matrix(st.unknown_input_columns([target]))
+        task = resolve_task(work, observer="unknown-input", faults=[unknown_input],
+                            disturbances=decouple)
     else:
-        target = None
-        dec = list(work.disturbances)
-        for nm in decouple or ():
-            s = work.symbol(str(nm))
-            if s is None or (s not in work.faults and s not in work.disturbances):
-                raise ModelError(f"{model.where}: unknown disturbance '{nm}'")
-            if s not in dec:
-                dec.append(s)
-        dec = tuple(dec)
-        D = sp.zeros(n, 0)
-        if estimate is not None:
-            M = parse_estimate(work, estimate)
-    L = sp.Matrix(st.unknown_input_columns(dec)) if dec else sp.zeros(n, 0)
+        task = resolve_task(work, observer="virtual-sensor", disturbances=decouple,
+                            estimate=estimate)
+    M, targets, dec, D, L = task_parts(work, st, task)
+    target = targets[0] if targets else None
     if L.cols == 0 or L == sp.zeros(*L.shape):
         raise UsageError(f"{model.where}: nothing to decouple from (no disturbance enters the"
                          " plant): use the exact design")
-    return work, st, target, dec, D, L, M
+    return work, st, task, target, tuple(dec), D, L, M
 
 
 def _search(work, st, D, L, M, rtol):
@@ -474,7 +468,7 @@ def robust_basis(model: PlantModel, *, unknown_input: str | None = None, estimat
     Toeplitz decoupling matrix of :func:`~observer_cad.canonical.krylov_blocks`; the
     robust member is v = w N with ‖w‖ = 1 minimising ‖w N L⁽ᵏ⁾‖ = ‖Φ L‖_F.
     """
-    work, st, _, _, D, L, M = _prepare(model, unknown_input, estimate, decouple, False)
+    work, st, _, _, _, D, L, M = _prepare(model, unknown_input, estimate, decouple, False)
     _, attempts, found = _search(work, st, D, L, M, rtol)
     if found is None:
         raise InfeasibleDesignError(
@@ -525,7 +519,8 @@ def design_robust_canonical(model: PlantModel, *, unknown_input: str | None = No
     See the module docstring: SVD of N L⁽ᵏ⁾ at the minimal k (seed 001 §6, Theorem 3).
     """
     # Step 1: the task and the float matrices
-    work, st, target, dec, D, L, M = _prepare(model, unknown_input, estimate, decouple, symbolic)
+    work, st, task, target, dec, D, L, M = _prepare(model, unknown_input, estimate, decouple,
+                                                    symbolic)
     n, l = st.n, st.l  # noqa: E741
     # Step 2: minimal k without decoupling, the SVD-optimal member for the task
     ctx, attempts, found = _search(work, st, D, L, M, rtol)
@@ -613,28 +608,19 @@ def design_robust_canonical(model: PlantModel, *, unknown_input: str | None = No
                            cert.passed, f"{cert.summary()} ({resid}; absolute tolerance"
                            f" {tol:.1e})", "METHOD §2"))
 
-    task = (f"sensitive to {target.name}" if target is not None else
-            f"reaching z = {estimate}" if ctx.M is not None else "non-degenerate")
+    task_txt = (f"sensitive to {target.name}" if target is not None else
+                f"reaching z = {estimate}" if ctx.M is not None else "non-degenerate")
     choice = (f"APPROXIMATE (robust, METHOD §2d): k = {k}, the smallest dimension at which"
-              f" (R*, −J*) W⁽ᵏ⁾ = 0 has a member {task}; null space basis N of dimension"
+              f" (R*, −J*) W⁽ᵏ⁾ = 0 has a member {task_txt}; null space basis N of dimension"
               f" {found['N'].shape[0]}; v = w N with |w| = 1 minimising |w N L⁽ᵏ⁾|: {found['how']}."
               f" Achieved ‖Φ L‖_F = {residual:.6e}"
               + (" — zero up to rounding: an exact design exists, prefer the exact design"
                  if exact_zero else " — NOT an exact decoupling") + "; v kept at unit norm")
-    observer = "unknown-input" if target is not None else \
-        "virtual-sensor" if ctx.M is not None else "reduced-model"
     return Design(
         model_name=work.name, form="canonical", k=k, matrices=mats, conditions=tuple(conds),
-        assumptions=(), certificate=cert, unknown_input=None if target is None else target.name,
-        decoupled=tuple(s.name for s in dec), symbolic=False, method="float", choice=choice,
-        attempts=tuple(attempts), observer=observer, time=work.time,
-        estimate=None if M is None else _estimate_str(work, M),
+        assumptions=(), certificate=cert, task=task, structure=st, symbolic=False,
+        method="float", choice=choice, attempts=tuple(attempts), time=work.time,
         approximate=True, residual_norm=residual)
-
-
-def _estimate_str(work, M):
-    z = M * sp.Matrix(work.states)
-    return str(z[0, 0]) if z.rows == 1 else str(list(z))
 
 
 def _certify(st, ctx, mats, mats_np, M):
@@ -669,16 +655,9 @@ def _default_lambdas(time, count):
 def _jordan_setup(model, estimate, lambdas, decouple):
     work = model.substitute_parameters()
     st = extract_structure(work)
+    task = resolve_task(work, observer="virtual-sensor", disturbances=decouple, estimate=estimate)
+    M, _, dec, _, L = task_parts(work, st, task)
     n = st.n
-    M = parse_estimate(work, estimate)
-    dec = list(work.disturbances)
-    for nm in decouple or ():
-        s = work.symbol(str(nm))
-        if s is None or (s not in work.faults and s not in work.disturbances):
-            raise ModelError(f"{model.where}: unknown disturbance '{nm}'")
-        if s not in dec:
-            dec.append(s)
-    L = sp.Matrix(st.unknown_input_columns(dec)) if dec else sp.zeros(n, 0)
     if L.cols == 0 or L == sp.zeros(*L.shape):
         raise UsageError(f"{model.where}: nothing to decouple from (no disturbance enters the"
                          " plant): use the exact Jordan design")
@@ -696,7 +675,7 @@ def _jordan_setup(model, estimate, lambdas, decouple):
             lams.append(lam)
     else:
         lams = _default_lambdas(work.time, n)
-    return work, st, M, dec, L, lams
+    return work, st, task, M, dec, L, lams
 
 
 def _candidates(st, L, lams, rtol):
@@ -727,7 +706,7 @@ def jordan_candidates(model: PlantModel, *, estimate, lambdas=None, decouple: Se
                       rtol: float | None = None):
     """The candidate rows of :func:`design_robust_jordan`: a list of (λ, Φ_i, ‖Φ_i L‖),
     Φ_i of unit norm, and the L used (float array)."""
-    work, st, M, dec, L, lams = _jordan_setup(model, estimate, lambdas, decouple)
+    work, st, task, M, dec, L, lams = _jordan_setup(model, estimate, lambdas, decouple)
     pool = _candidates(st, L, lams, rtol)
     return [(c["lam"], c["phi"], c["res"]) for c in pool], _np(L)
 
@@ -783,7 +762,7 @@ def design_robust_jordan(model: PlantModel, *, estimate, lambdas=None,
     λ (left singular vectors of B_λ L); the fewest rows meeting the task, and among them
     the set with least Σ ‖Φ_i L‖² (module docstring). Seed 001 §5-6.
     """
-    work, st, M, dec, L, lams = _jordan_setup(model, estimate, lambdas, decouple)
+    work, st, task, M, dec, L, lams = _jordan_setup(model, estimate, lambdas, decouple)
     n, l = st.n, st.l  # noqa: E741
     F, G, H, C, Lf, Mf = (_np(X) for X in (st.F, st.G, st.H, st.C, L, M))
     tol = TASK_RTOL if rtol is None else max(TASK_RTOL, rtol)
@@ -871,11 +850,8 @@ def design_robust_jordan(model: PlantModel, *, estimate, lambdas=None,
 
     # Step 5: equations
     xs, ys = observer_symbols(k), output_symbols(l)
-    rhs = mats["F_star"] * sp.Matrix(xs) + mats["J_star"] * sp.Matrix(ys)
-    if work.inputs:
-        rhs += mats["G_star"] * sp.Matrix(work.inputs)
-    z = mats["Hz"] * sp.Matrix(xs) + mats["Q"] * sp.Matrix(ys)
-    outputs = [("z" if z.rows == 1 else f"z{i + 1}", e) for i, e in enumerate(z)]
+    rhs = reduced_equations(mats, work.inputs, xs, ys)
+    outputs = named_outputs("z", estimate_outputs(mats, xs, ys))
     choice = (f"APPROXIMATE (robust, METHOD §2d): k = {k} rows with λ = ({', '.join(map(str, lam_t))})"
               f" from {len(pool)} candidate unit rows (L0 = I; per λ the principal directions"
               f" of the admissible rows, ordered by ‖Φ_i L‖) for λ in"
@@ -885,10 +861,9 @@ def design_robust_jordan(model: PlantModel, *, estimate, lambdas=None,
               + (f" (smaller sets rejected: {'; '.join(tried[:3])})" if tried else ""))
     return Design(
         model_name=work.name, form="jordan", k=k, matrices=mats, conditions=tuple(conds),
-        assumptions=(), certificate=cert, unknown_input=None,
-        decoupled=tuple(s.name for s in dec), symbolic=False, method="float", choice=choice,
-        attempts=tuple(tried), observer="virtual-sensor", time=work.time,
-        estimate=_estimate_str(work, M), lambdas=lam_t, equations=tuple(rhs),
+        assumptions=(), certificate=cert, task=task, structure=st, symbolic=False,
+        method="float", choice=choice, attempts=tuple(tried), time=work.time,
+        lambdas=lam_t, equations=tuple(rhs),
         observer_states=tuple(xs), outputs=tuple(outputs), approximate=True,
         residual_norm=residual)
 

@@ -100,8 +100,9 @@ from ._certificate import certify_design
 from ._design import Condition, Design
 from ..errors import InfeasibleDesignError, ModelError, UsageError
 from ._jordan import Admissible
-from ._reduced import is_stable, observer_symbols, output_symbols
-from ..model import PlantModel
+from ._reduced import is_stable, observer_symbols, output_symbols, reduced_equations
+from ._task import task_for
+from ..model import PlantModel, Task
 from ._nonlinear import substitute_arguments
 from ..model import extract_structure
 from ..numerics import echelon_rows, exact_rank, left_null_space
@@ -263,9 +264,9 @@ def gain_bound(model: PlantModel, design: Design, *, delta: float = 1.0,
     work = model.substitute_parameters() if model.parameters else model
     st = extract_structure(work)
     mats = design.matrices
-    lam = float(sp.Matrix(mats["F_star"])[0, 0])
-    Ds = float(sp.Matrix(mats["D_star"])[0, 0])
-    Js, Rs = sp.Matrix(mats["J_star"]), sp.Matrix(mats["R_star"])
+    lam = float(sp.Matrix(mats.F_star)[0, 0])
+    Ds = float(sp.Matrix(mats.D_star)[0, 0])
+    Js, Rs = sp.Matrix(mats.J_star), sp.Matrix(mats.R_star)
     W = sp.Matrix(st.W)
     fault = work.symbol(design.unknown_input)
     d_star = _abs_bound(work, fault, "fault")
@@ -285,7 +286,7 @@ def gain_bound(model: PlantModel, design: Design, *, delta: float = 1.0,
     else:
         pv = 0.0
         terms.append(GainTerm("w*|J* + λR*|", 0.0, "no measurement noise declared"))
-    Cs = sp.Matrix(mats["C_star"]) if "C_star" in mats else sp.zeros(1, 0)
+    Cs = sp.Matrix(mats.C_star) if mats.C_star is not None else sp.zeros(1, 0)
     nonlin = any(e != 0 for e in Cs)
     if nonlin:
         if lipschitz is None:
@@ -309,7 +310,7 @@ def gain_bound(model: PlantModel, design: Design, *, delta: float = 1.0,
 def design_sliding(model: PlantModel, *, fault: str | None = None, lam=None, k1=None,
                    eps: float = 1e-3, delta: float = 1.0, gain_margin: float = 2.0,
                    injection: str = "regularised", tau: float = 0.02,
-                   lipschitz: float | None = None, decouple=()):
+                   lipschitz: float | None = None, decouple=(), task: Task | None = None):
     """Sliding-mode fault estimator for one fault (seed 002 §5): the certified design;
     :func:`observer_cad.observers.sliding_observer` builds its observer.
 
@@ -345,33 +346,16 @@ def design_sliding(model: PlantModel, *, fault: str | None = None, lam=None, k1=
     if work.time != "continuous":
         raise UsageError(f"{where}: the sliding-mode observer is continuous-time (seed 002 §5);"
                          f" the model is {work.time}-time")
-    if not work.faults:
-        raise ModelError(f"{where}: the model declares no faults to estimate")
-    if fault is None:
-        if len(work.faults) > 1:
-            raise UsageError(f"{where}: several faults ({', '.join(f.name for f in work.faults)});"
-                             " name the one to estimate (fault=...)")
-        fsym = work.faults[0]
-    else:
-        fsym = work.symbol(str(fault))
-        if fsym is None or fsym not in work.faults:
-            raise ModelError(f"{where}: unknown fault '{fault}'; declared faults: "
-                             + ", ".join(f.name for f in work.faults))
+    task = task_for(work, task, observer="sliding-mode",
+                    faults=[] if fault is None else [str(fault)], disturbances=decouple)
+    fsym = work.symbol(task.targets[0])
     if not eps > 0 or not delta > 0 or not tau > 0:
         raise UsageError("eps, delta and tau must be positive")
     st = extract_structure(work)
     F, G, H, C = (sp.Matrix(M) for M in (st.F, st.G, st.H, st.C))
     n, l = st.n, st.l
     D = sp.Matrix(st.unknown_input_columns([fsym]))
-    dec = [s for s in work.faults if s != fsym] + list(work.disturbances)
-    for nm in decouple or ():
-        s = work.symbol(str(nm))
-        if s is None or (s not in work.faults and s not in work.disturbances):
-            raise ModelError(f"{where}: unknown disturbance '{nm}'")
-        if s == fsym:
-            raise UsageError(f"{where}: cannot decouple from the estimated fault '{nm}'")
-        if s not in dec:
-            dec.append(s)
+    dec = [work.symbol(nm) for nm in task.decoupled]
     L = sp.Matrix(st.unknown_input_columns(dec)) if dec else sp.zeros(n, 0)
 
     # matching condition (necessary)
@@ -461,15 +445,8 @@ def design_sliding(model: PlantModel, *, fault: str | None = None, lam=None, k1=
     ystar = (Rs * sp.Matrix(ys))[0, 0]
     e = x - ystar
     veq = e / (sp.Abs(e) + EPS)
-    rhs = lv * x + (Js * sp.Matrix(ys))[0, 0]
-    if work.inputs:
-        rhs += (mats["G_star"] * sp.Matrix(work.inputs))[0, 0]
-    if nonlinear:
-        psi = sp.zeros(C.cols, 1)
-        for ns in nonlinear:
-            psi[ns.index - 1, 0] = ns.function
-        rhs += (mats["C_star"] * psi)[0, 0]
-    model_rhs = sp.expand(rhs)
+    model_rhs = reduced_equations(mats, work.inputs, xs, ys, nonlinear=nonlinear, q=C.cols,
+                                  deep=True)[0]
     Dst = mats["D_star"][0, 0]
     if injection == "regularised":
         states = tuple(xs)
@@ -484,9 +461,8 @@ def design_sliding(model: PlantModel, *, fault: str | None = None, lam=None, k1=
 
     design0 = Design(
         model_name=work.name, form="jordan", k=1, matrices=mats, conditions=tuple(conds),
-        assumptions=(), certificate=cert, unknown_input=fsym.name,
-        decoupled=tuple(s.name for s in dec), symbolic=False, method="exact",
-        choice="", attempts=tuple(tried), observer="sliding-mode", time="continuous",
+        assumptions=(), certificate=cert, task=task, structure=st, symbolic=False,
+        method="exact", choice="", attempts=tuple(tried), time="continuous",
         lambdas=(lv,), nonlinear=tuple(nonlinear), equations=update,
         observer_states=states, outputs=outputs)
     gb = gain_bound(work, design0, delta=delta, lipschitz=lipschitz)

@@ -28,8 +28,9 @@ from ._poles import default_eigenvalues, parse_eigenvalues, place_poles, require
 from ._certificate import certify_design
 from ._design import Condition, Design
 from ..errors import InfeasibleDesignError, ModelError, UsageError
-from ._reduced import observer_symbols, output_symbols, parse_estimate
-from ..model import PlantModel
+from ._reduced import estimate_outputs, observer_symbols, output_symbols, reduced_equations
+from ._task import task_for
+from ..model import PlantModel, Task
 from ._nonlinear import substitute_arguments
 from ..model import extract_structure
 from ..numerics import echelon_rows, exact_rank, left_null_space, solve_left
@@ -72,7 +73,7 @@ def _member(v, F, H1, H0, k):
 def design_virtual_sensor_canonical(model: PlantModel, *, estimate, variant: str = "plain",
                                     eigenvalues: Sequence | None = None,
                                     decouple: Sequence[str] = (), symbolic: bool = False,
-                                    diagonalize: bool = True) -> Design:
+                                    diagonalize: bool = True, task: Task | None = None) -> Design:
     """Canonical-form virtual sensor for z = M x (plain, or the seed-004 variant).
 
     Parameters
@@ -89,19 +90,15 @@ def design_virtual_sensor_canonical(model: PlantModel, *, estimate, variant: str
     work = model if symbolic else model.substitute_parameters()
     st = extract_structure(work)
     where = model.where
-    M = parse_estimate(work, estimate)
+    task = task_for(work, task, observer="virtual-sensor", disturbances=decouple,
+                    estimate=estimate)
+    M = sp.Matrix(task.M)
     if M.rows != 1:
         raise UsageError("a canonical-form virtual sensor estimates one signal z = M x")
     F, G, H = sp.Matrix(st.F), sp.Matrix(st.G), sp.Matrix(st.H)
     n, l = st.n, st.l
-    dec = list(work.disturbances)
-    for nm in decouple or ():
-        s = work.symbol(str(nm))
-        if s is None or (s not in work.faults and s not in work.disturbances):
-            raise ModelError(f"{where}: unknown disturbance '{nm}'")
-        if s not in dec:
-            dec.append(s)
-    L = sp.Matrix(st.unknown_input_columns(dec)) if dec else sp.zeros(n, 0)
+    L = sp.Matrix(st.unknown_input_columns(task.decoupled)) if task.decoupled \
+        else sp.zeros(n, 0)
     H0 = sp.Matrix.vstack(H, M) if variant == "004" else H
 
     attempts = []
@@ -206,18 +203,8 @@ def design_virtual_sensor_canonical(model: PlantModel, *, estimate, variant: str
         conds.append(Condition("F* − K H* nonnegative", nonneg, f"F* − K H* = {Fcl.tolist()}",
                                "METHOD §3", required=False))
     xs, ys = observer_symbols(k), output_symbols(l)
-    us = sp.Matrix(work.inputs) if work.inputs else sp.zeros(0, 1)
-    r_expr = (mats["R_star"] * sp.Matrix(ys) - mats["H_star"] * sp.Matrix(xs))[0, 0]
-    rhs = mats["F_star"] * sp.Matrix(xs) + mats["J_star"] * sp.Matrix(ys) + K * r_expr
-    if us.rows:
-        rhs += mats["G_star"] * us
-    if subs:
-        psi = sp.zeros(len(st.terms), 1)
-        for ns in subs:
-            psi[ns.index - 1, 0] = ns.function
-        rhs += mats["C_star"] * psi
-    equations = tuple(sp.expand(e, deep=False) for e in rhs)
-    z = sp.expand((Hz * sp.Matrix(xs) + Q * sp.Matrix(ys))[0, 0])
+    equations = reduced_equations(mats, work.inputs, xs, ys, nonlinear=subs, q=len(st.terms))
+    z = sp.expand(estimate_outputs(mats, xs, ys)[0, 0])
 
     if diagonalize and all(sp.im(e) == 0 for e in cl_list) and len(set(cl_list)) == k:
         T_cols = []
@@ -244,11 +231,10 @@ def design_virtual_sensor_canonical(model: PlantModel, *, estimate, variant: str
                   f" satisfies the virtual-sensor condition; R* = {list(mats['R_star'])}")
     return Design(
         model_name=work.name, form="canonical", k=k, matrices=mats, conditions=tuple(conds),
-        assumptions=(), certificate=cert, unknown_input=None,
-        decoupled=tuple(s.name for s in dec), symbolic=bool(work.parameters), method="exact",
+        assumptions=(), certificate=cert, task=task, structure=st,
+        symbolic=bool(work.parameters), method="exact",
         choice=chosen_txt + (" (seed-004 variant: driven by y and y_v = z)" if variant == "004" else ""),
-        attempts=tuple(attempts), observer="virtual-sensor", time=work.time,
-        estimate=str((M * sp.Matrix(work.states))[0, 0]),
+        attempts=tuple(attempts), time=work.time,
         closed_loop_eigenvalues=cl_list, equations=equations, observer_states=tuple(xs),
         nonlinear=tuple(subs),
         outputs=(("z", z),))
