@@ -130,7 +130,7 @@ from typing import Mapping, Sequence
 import numpy as np
 import sympy as sp
 
-from ..synthesis import Condition
+from ..synthesis import Condition, parse_json_expression
 from ..errors import ModelError, ObserverCadError, UsageError
 from ..model import PlantModel, load_model, to_rational
 from ._observer import Observer, output_symbols
@@ -610,6 +610,33 @@ class DremDesign:
         if equations:
             out["observer_equations"] = self.observer.to_json()
         return out
+
+    @classmethod
+    def from_json(cls, data, model: PlantModel, spec: "DremSpec") -> "DremDesign":
+        """Rebuild a DREM design from its JSON (:meth:`to_json`): the recorded choice (pole
+        sets, γ, ε variant) is parsed by the whitelist reader and passed back to
+        :func:`drem_design`; the rebuilt filters and unknowns must match the recorded ones."""
+        if not isinstance(data, dict) or data.get("observer") != "drem":
+            raise UsageError("not a DREM design: a JSON object with observer = 'drem' is expected")
+        filters = data.get("filters")
+        if not isinstance(filters, list) or not filters:
+            raise UsageError("a DREM design's 'filters' must be a non-empty list")
+        try:
+            poles = [[float(parse_json_expression(v, {}, "filters.poles")) for v in f["poles"]]
+                     for f in filters]
+            gamma = float(parse_json_expression(data["gamma"], {}, "gamma"))
+        except (KeyError, TypeError):
+            raise UsageError("a DREM design's filters need 'poles' and the design 'gamma'") from None
+        include = data.get("include_epsilon", False)
+        if not isinstance(include, bool):
+            raise UsageError("a DREM design's include_epsilon must be true or false")
+        rebuilt = drem_design(model, spec, poles=poles, gamma=gamma, include_epsilon=include)
+        again = rebuilt.to_json(equations=False)
+        for key in ("unknowns", "filters", "gamma", "N"):
+            if again[key] != data.get(key):
+                raise UsageError(f"{model.where}: the recorded DREM design does not match the"
+                                 f" model: its '{key}' differs when rebuilt")
+        return rebuilt
 
     def format(self) -> str:
         c = self.cls

@@ -138,13 +138,10 @@ def _reduced(model: PlantModel, design: Design) -> _Reduced:
     if model.time != "discrete":
         raise UsageError("unknown-input estimators (seed 000) are discrete-time; the model"
                          f" {model.name} is {model.time}-time")
-    name = design.unknown_input
-    if not name or "," in str(name):
+    if len(design.task.targets) != 1:
         raise UsageError("unknown_input_observer needs a design for one unknown input; for a"
                          " vector d use vector_unknown_input_observer")
-    target = model.symbol(str(name))
-    if target is None or (target not in model.faults and target not in model.disturbances):
-        raise ModelError(f"{model.where}: '{name}' is not a fault or disturbance of the model")
+    target = model.symbol(design.task.targets[0])  # the task was checked against the model
     mats = design.matrices
     if mats.D_star is None:
         raise UsageError("unknown_input_observer needs a design with D* (a canonical"

@@ -213,6 +213,11 @@ class DesignRequest:
         return cls(**kw)
 
 
+def _declared(model: PlantModel) -> list:
+    return [s for role in ("states", "inputs", "faults", "disturbances", "noise")
+            for s in getattr(model, role)] + list(model.parameters)
+
+
 @dataclasses.dataclass(frozen=True)
 class Design:
     """A certified reduced-order model (METHOD §2) and the decisions behind it.
@@ -343,6 +348,8 @@ class Design:
         """
         if not isinstance(data, dict) or not isinstance(data.get("matrices"), dict):
             raise UsageError("not a design: a JSON object with 'matrices' is expected")
+        if not isinstance(model, PlantModel):
+            raise UsageError("Design.from_json needs the PlantModel the design is for")
         for key in ("k", "form", "method", "observer", "time", "states", "equations", "outputs"):
             if key not in data:
                 raise UsageError(f"not a design: the key '{key}' is missing")
@@ -362,8 +369,7 @@ class Design:
             raise UsageError("a design's k must be a positive integer")
         if not isinstance(data["states"], list):
             raise UsageError("a design's 'states' must list the observer's states")
-        names = {s.name: s for s in model.symbols}
-        names.update({s.name: s for s in work.symbols})
+        names = {s.name: s for s in _declared(model)}
         xs = []
         for s in data["states"]:
             if not isinstance(s, str) or not s.isidentifier():

@@ -1,0 +1,154 @@
+"""A design survives its JSON: Design.from_json(design.to_json()) rebuilds the same observer
+for every kind, the recorded request reproduces the same design, and a tampered or foreign
+JSON is refused (it is data: parsed by a whitelist and re-certified, never trusted)."""
+import json
+
+import pytest
+import sympy as sp
+
+from observer_cad import Design, UsageError, build_observer, design, load_model
+from observer_cad.errors import CertificateError, ModelError
+
+CASES = {
+    "virtual-sensor-jordan": ("three_tank.py", dict(observer="virtual-sensor", estimate="x1")),
+    "virtual-sensor-canonical": ("three_tank_linear.py",
+                                 dict(observer="virtual-sensor", estimate="x1", form="canonical")),
+    "virtual-sensor-004": ("three_tank_linear.py",
+                           dict(observer="virtual-sensor", estimate="x1", form="canonical",
+                                variant="004", eigenvalues=[-1, -2])),
+    "interval-jordan-nonlinear": ("three_tank.py", dict(observer="interval", estimate="x1")),
+    "interval-jordan-linear": ("three_tank_linear.py", dict(observer="interval", estimate="x1")),
+    "interval-canonical": ("three_tank_linear.py",
+                           dict(observer="interval", estimate="x1", form="canonical",
+                                eigenvalues=[-1, -2])),
+    "unknown-input-canonical": ("electric_drive.py", dict(observer="unknown-input", faults=["d"])),
+    "unknown-input-symbolic": ("electric_drive.py",
+                               dict(observer="unknown-input", faults=["rho"], symbolic=True)),
+    "unknown-input-jordan": ("electric_drive.py",
+                             dict(observer="unknown-input", faults=["d"], form="jordan",
+                                  lambdas=["1/2"])),
+    "diagnostic-jordan": ("electric_drive.py", dict(observer="diagnostic")),
+    "diagnostic-canonical": ("electric_drive.py",
+                             dict(observer="diagnostic", form="canonical", eigenvalues=["1/2"])),
+    "sliding-mode": ("sliding_example.py", dict(observer="sliding-mode", faults=["d"])),
+}
+
+
+def _same(a, b) -> bool:
+    return sp.simplify(sp.sympify(a) - sp.sympify(b)) == 0
+
+
+def _assert_same_observer(o1, o2):
+    assert o1.kind == o2.kind and o1.time == o2.time
+    assert [str(s) for s in o1.states] == [str(s) for s in o2.states]
+    assert [str(s) for s in o1.signals] == [str(s) for s in o2.signals]
+    assert len(o1.update) == len(o2.update)
+    for e1, e2 in zip(o1.update, o2.update):
+        assert _same(e1, e2), (e1, e2)
+    assert [n for n, _ in o1.outputs] == [n for n, _ in o2.outputs]
+    for (_, e1), (_, e2) in zip(o1.outputs, o2.outputs):
+        assert _same(e1, e2), (e1, e2)
+    assert {str(k): float(v) for k, v in o1.parameters.items()} == \
+        {str(k): float(v) for k, v in o2.parameters.items()}
+    assert dict(o1.delays) == dict(o2.delays)
+
+
+def _same_matrices(d1, d2):
+    m1, m2 = d1.matrices.as_dict(), d2.matrices.as_dict()
+    assert set(m1) == set(m2)
+    for name in m1:
+        diff = (sp.Matrix(m1[name]) - sp.Matrix(m2[name])).applyfunc(sp.simplify)
+        assert diff == sp.zeros(*diff.shape), name
+
+
+@pytest.fixture(scope="module")
+def designed(models_dir):
+    out = {}
+    for key, (fname, opts) in CASES.items():
+        model = load_model(models_dir / fname)
+        out[key] = (model, design(model, **opts))
+    return out
+
+
+@pytest.mark.parametrize("key", sorted(CASES))
+def test_from_json_rebuilds_the_same_observer(designed, key):
+    model, d = designed[key]
+    data = json.loads(json.dumps(d.to_json()))  # through text, as a file would
+    back = Design.from_json(data, model)
+    assert back.observer == d.observer and back.k == d.k and back.form == d.form
+    assert back.task == d.task
+    assert back.certificate.passed
+    _same_matrices(d, back)
+    if d.symbolic:  # a symbolic design has no numeric observer; the design itself came back
+        assert back.assumptions == d.assumptions
+        return
+    _assert_same_observer(build_observer(model, d), build_observer(model, back))
+
+
+@pytest.mark.parametrize("key", sorted(CASES))
+def test_recorded_request_reproduces_the_design(designed, key):
+    model, d = designed[key]
+    again = design(model, **d.request.options())
+    _same_matrices(d, again)
+    assert again.lambdas == d.lambdas and again.request == d.request
+
+
+def test_request_records_the_choices_made(designed):
+    _, d = designed["diagnostic-jordan"]
+    assert d.request.lambdas == tuple(d.lambdas) and d.request.method == "exact"
+    _, c = designed["diagnostic-canonical"]
+    assert c.request.eigenvalues == tuple(c.closed_loop_eigenvalues)
+
+
+def test_tampered_matrix_fails_the_certificate(designed):
+    model, d = designed["virtual-sensor-jordan"]
+    data = json.loads(json.dumps(d.to_json()))
+    data["matrices"]["J_star"][0][0] = "123"
+    with pytest.raises(CertificateError):
+        Design.from_json(data, model)
+
+
+@pytest.mark.parametrize("payload", [
+    "__import__('os').system('touch PWNED')",
+    "x1.__class__",
+    "(lambda: 1)()",
+    "open('f')",
+    "'text'",
+    "[1, 2]",
+    "2**10**10",
+])
+def test_expressions_are_data(designed, payload, tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    model, d = designed["diagnostic-jordan"]
+    data = json.loads(json.dumps(d.to_json()))
+    data["equations"][0] = payload
+    with pytest.raises(UsageError):
+        Design.from_json(data, model)
+    assert not (tmp_path / "PWNED").exists()
+
+
+def test_design_for_another_model_is_refused(designed, models_dir):
+    _, d = designed["unknown-input-canonical"]
+    other = load_model(models_dir / "three_tank_linear.py")
+    with pytest.raises((UsageError, ModelError, CertificateError)):
+        Design.from_json(json.loads(json.dumps(d.to_json())), other)
+
+
+def test_not_a_design():
+    with pytest.raises(UsageError):
+        Design.from_json({"hello": 1}, None)
+
+
+@pytest.mark.slow  # the DREM design itself takes ~10 s
+def test_drem_design_rebuilds_from_its_json(models_dir):
+    from observer_cad.observers import DremDesign, build_observer, drem_design, load_drem
+    model, spec = load_drem(models_dir / "drem_example.py")
+    d = drem_design(model, spec, gamma=2)
+    data = json.loads(json.dumps(d.to_json(equations=False)))
+    back = DremDesign.from_json(data, model, spec)
+    o1, o2 = build_observer(model, d), build_observer(model, back)
+    assert [str(e) for e in o1.update] == [str(e) for e in o2.update]
+    assert [(n, str(e)) for n, e in o1.outputs] == [(n, str(e)) for n, e in o2.outputs]
+    data["gamma"] = "__import__('os')"
+    with pytest.raises(UsageError):
+        DremDesign.from_json(data, model, spec)
