@@ -265,3 +265,51 @@ def test_demo(capsys, tmp_path, monkeypatch):
     assert "[FAIL]" not in out
     for name in ("electric_drive", "three_tank"):
         assert f"Model {name}" in out, name
+
+
+def test_unstable_user_gain_is_a_failed_condition_and_exit_2(capsys, models_dir):
+    """An estimator gain that makes F* − g H* unstable is the user's error: the design is
+    printed with [FAIL] on the observer condition, and one line on stderr, exit 2."""
+    argv = ["design", str(models_dir / "electric_drive.py"), "--observer", "unknown-input",
+            "--fault", "d", "--gain", "3"]
+    rc = main(argv)
+    cap = capsys.readouterr()
+    assert rc == 2
+    assert "[FAIL] observer stable: spectral radius of F* − g H* < 1" in cap.out
+    err = [ln for ln in cap.err.splitlines() if ln.strip()]
+    assert len(err) == 1 and "observer stable" in err[0] and "Traceback" not in cap.err
+    rc = main(argv[:-1] + ["-0.5", "--json"])
+    cap = capsys.readouterr()
+    assert rc == 0
+    data = json.loads(cap.out)
+    stable = [c for c in data["observer_conditions"] if c["name"].startswith("observer stable")]
+    assert stable and stable[0]["holds"] is True and stable[0]["required"] is True
+
+
+def test_simulate_refuses_the_unstable_gain_too(capsys, models_dir, tmp_path):
+    rc = main(["simulate", str(models_dir / "electric_drive.py"), "--observer", "unknown-input",
+               "--fault", "d", "--gain", "5", "--scenario",
+               str(models_dir / "scenarios" / "electric_drive_fig1.json"), "--out", str(tmp_path / "o")])
+    cap = capsys.readouterr()
+    assert rc == 2 and "observer stable" in cap.err
+    assert not (tmp_path / "o" / "signals.csv").exists()
+
+
+def test_interval_design_fails_where_simulate_refuses(capsys, tmp_path):
+    """A model without bounds on its disturbance: the interval observer cannot be built,
+    so design refuses it at design time with the same message simulate gives."""
+    src = ("import sympy as sp\nfrom observer_cad import PlantModel\n"
+           "x1, x2, rho = sp.symbols('x1 x2 rho')\n"
+           "model = PlantModel(name='nb', time='continuous', states=[x1, x2],"
+           " disturbances=[rho], outputs=[x2], dynamics=[-x1 + rho, x1 - 2*x2])\n")
+    path = tmp_path / "nb.py"
+    path.write_text(src)
+    scen = tmp_path / "s.json"
+    scen.write_text(json.dumps({"t_end": 1, "dt": 0.1, "signals": {"rho": "0"}}))
+    rc_d = main(["design", str(path), "--observer", "interval", "--estimate", "x1"])
+    err_d = capsys.readouterr().err
+    rc_s = main(["simulate", str(path), "--observer", "interval", "--estimate", "x1",
+                 "--scenario", str(scen), "--out", str(tmp_path / "o")])
+    err_s = capsys.readouterr().err
+    assert rc_d == rc_s == 2
+    assert err_d == err_s and len(err_d.strip().splitlines()) == 1

@@ -221,7 +221,7 @@ def _design_from_args(args):
 
 
 def _cmd_design(args) -> int:
-    from ..reporting import format_design, format_observer
+    from ..reporting import format_design, format_observer, format_observer_conditions
     model, result = _design_from_args(args)
     if args.observer == "drem":
         if args.json:
@@ -235,11 +235,10 @@ def _cmd_design(args) -> int:
         return 0
     observer = None
     if not args.symbolic and not result.approximate:
+        # build it here exactly as simulate and codegen do: a design whose observer cannot
+        # be built, or whose observer fails a required condition, is refused now
         from ..observers import build_observer
-        try:
-            observer = build_observer(model, result, **_observer_options(args, result))
-        except ObserverCadError:
-            observer = None  # the design stands; the observer kind is not buildable yet
+        observer = build_observer(model, result, **_observer_options(args, result))
     if args.json:
         out = result.to_json()
         if observer is not None:
@@ -248,12 +247,27 @@ def _cmd_design(args) -> int:
             out["states"] = oj["states"]
             out["equations"] = oj["equations"]
             out["outputs"] = oj["outputs"]
+            out["observer_conditions"] = [c.to_json() for c in observer.own_conditions]
         print(json.dumps(out, indent=2))
     else:
         print(format_design(result))
         if observer is not None and observer.kind in ("interval", "unknown-input", "sliding-mode"):
             print(format_observer(observer))
+        if observer is not None and observer.own_conditions:
+            print(format_observer_conditions(observer))
+    _refuse_failed(observer)
     return 0
+
+
+def _refuse_failed(observer) -> None:
+    """A required observer condition that fails is the user's error (e.g. an unstable
+    --gain): one line naming it, exit status 2."""
+    if observer is None or not observer.failed_conditions:
+        return
+    c = observer.failed_conditions[0]
+    more = len(observer.failed_conditions) - 1
+    raise UsageError(f"the observer fails a required condition: {c.name} ({c.detail})"
+                     + (f"; and {more} more" if more else ""))
 
 
 def _cmd_simulate(args) -> int:
@@ -265,6 +279,7 @@ def _cmd_simulate(args) -> int:
     model, result = _design_from_args(args)
     scenario = load_scenario(args.scenario)
     observer = build_observer(model, result, **_observer_options(args, result))
+    _refuse_failed(observer)
     res = simulate(model, observer, scenario)
     path = write_signals_csv(res, args.out)
     print(f"wrote {path} ({len(res['t'])} rows, columns: {', '.join(res.order)})")
@@ -288,6 +303,7 @@ def _cmd_codegen(args) -> int:
         raise UsageError("codegen needs numeric parameters: drop --symbolic")
     model, result = _design_from_args(args)
     observer = build_observer(model, result, **_observer_options(args, result))
+    _refuse_failed(observer)
     try:
         from ..codegen import export_observer
     except ModuleNotFoundError:  # pragma: no cover - during development only

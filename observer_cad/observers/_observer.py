@@ -73,6 +73,22 @@ class Observer:
         object.__setattr__(self, "initial", MappingProxyType(dict(self.initial)))
 
     @property
+    def own_conditions(self) -> tuple:
+        """The conditions the observer adds to its design's (stability of the gains,
+        inclusion, monotonicity, bounds): what building it checked."""
+        base = set(self.design.conditions) if self.design is not None else set()
+        return tuple(c for c in self.conditions if c not in base)
+
+    @property
+    def failed_conditions(self) -> tuple:
+        """Required conditions that do not hold: such an observer must not be used."""
+        return tuple(c for c in self.conditions if c.required and not c.holds)
+
+    def __repr__(self) -> str:
+        return (f"<Observer {self.kind} {self.name} ({self.time} time): {len(self.states)} states,"
+                f" outputs {', '.join(self.output_names)}>")
+
+    @property
     def output_names(self) -> tuple:
         return tuple(name for name, _ in self.outputs)
 

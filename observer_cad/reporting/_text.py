@@ -7,7 +7,7 @@ from ..synthesis import Design
 from ..model import Structure
 
 __all__ = ["format_matrix", "format_structure", "format_design", "structure_to_json",
-           "format_observer"]
+           "format_observer", "format_observer_conditions"]
 
 
 def format_matrix(name: str, M, indent: str = "  ") -> str:
@@ -127,6 +127,18 @@ def format_design(d: Design) -> str:
     for a in d.assumptions:
         out.append(f"  {a}")
     out.append(f"\nChoice\n  {d.choice}")
+    return "\n".join(out)
+
+
+def format_observer_conditions(ob) -> str:
+    """The conditions building the observer checked, in the design's format."""
+    conds = ob.own_conditions
+    if not conds:
+        return ""
+    out = ["\nObserver conditions"]
+    for c in conds:
+        out.append(f"  {_mark(c.holds, c.required)} {c.name}: {c.detail}"
+                   + (f"  [{c.reference}]" if c.reference else ""))
     return "\n".join(out)
 
 
