@@ -427,7 +427,7 @@ def bench_case(title, path, primary, fallback, scen, a):
     # ---- inputs: N grid points, signals as the reference simulator builds them
     N = a.n
     sc = scenario_from_dict(scen(N))
-    t, _, n_grid, V3, s0 = cs._prepare(sc, None)
+    t, _, n_grid, V3, s0 = cs.prepare(sc)
     assert n_grid == N, (n_grid, N)
     V = np.ascontiguousarray(V3[0])
     H = np.zeros(N)

@@ -181,7 +181,7 @@ def test_trajectory_parity_every_kind(case, built):
     for c in ref.columns:
         errs[c] = _close(ref[c], res[c], what=f"compiled vs reference, column {c}")
     # interpreted casadi, the same joint step, whole trajectory
-    t, _, N, V, s0 = cs._prepare(sc, None)
+    t, _, N, V, s0 = cs.prepare(sc)
     S, Y, O = _interpreted(cs, t, V[0], s0)
     Sc, Yc, Oc = cs.run_arrays(t, V[0], s0)
     for j in range(cs.ns):
@@ -239,7 +239,7 @@ def test_random_single_steps_every_kind(case, built):
     casadi and an independent numpy step agree."""
     m, o, sc = built(case)
     cs = CompiledSimulator(m, o)
-    t, _, N, V, s0 = cs._prepare(sc, None)
+    t, _, N, V, s0 = cs.prepare(sc)
     Sc, _, _ = cs.run_arrays(t, V[0], s0)
     ref = _numpy_joint(m, o)
     rng = np.random.default_rng(7)
@@ -460,7 +460,7 @@ def test_drem_trajectory_parity():
     sc = dataclasses.replace(sc, t_end=5.0)
     cs = CompiledSimulator(m, o)
     res = cs.simulate(sc)
-    t, _, N, V, s0 = cs._prepare(sc, None)
+    t, _, N, V, s0 = cs.prepare(sc)
     S, Y, O = _interpreted(cs, t, V[0], s0)
     Sc, Yc, Oc = cs.run_arrays(t, V[0], s0)
     for j in range(cs.ns):

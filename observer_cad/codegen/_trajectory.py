@@ -216,7 +216,9 @@ class CompiledSimulator:
         return S, Y, O
 
     # ------------------------------------------------------------------ scenarios
-    def _prepare(self, scenario: Scenario, runs):
+    def prepare(self, scenario: Scenario, runs: int | None = None):
+        """The inputs of :meth:`run_arrays` for a scenario: ``(t, runs, steps, V, s0)``, V the
+        signals per run (runs × steps × inputs), s0 the joint initial state [x(0); ξ(0)]."""
         m, observer = self.model, self.observer
         t = scenario.grid(m.time)
         R = 1 if runs is None else int(runs)
@@ -251,7 +253,7 @@ class CompiledSimulator:
                  threads: int | None = None) -> SimulationResult:
         """As :func:`observer_cad.simulate.simulate` (same columns, same order); with
         ``runs=R`` the R seeded realisations run on ``threads`` threads."""
-        t, R, N, V, s0 = self._prepare(scenario, runs)
+        t, R, N, V, s0 = self.prepare(scenario, runs)
         S = np.empty((R, N, self.ns))
         Y = np.empty((R, N, self.ny))
         O = np.empty((R, N, self.no))

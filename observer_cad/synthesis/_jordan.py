@@ -36,6 +36,7 @@ from ._design import Condition, Design
 from ..errors import InfeasibleDesignError, ModelError, UsageError
 from ..model import ObserverKind, PlantModel, Task
 from ._nonlinear import substitute_arguments
+from ._poles import default_eigenvalues
 from ._reduced import is_stable, jordan_equations, observer_symbols, output_symbols
 from ._task import task_for, task_parts
 from ._jordan_float import design_jordan_float
@@ -128,12 +129,6 @@ def admissible_lambdas(F, H, L0) -> Admissible:
     real.sort(key=lambda v: (bool(v.free_symbols), sp.re(v) if v.is_number else 0, str(v)))
     return Admissible(False, tuple(real), tuple(other),
                       f"gcd of the maximal minors of [L0(F − λI); H] = {g}")
-
-
-def _default_lambdas(time: str, count: int):
-    if time == "continuous":
-        return [sp.Integer(-i) for i in range(1, count + 1)]
-    return [sp.Rational(1, 2 ** i) for i in range(1, count + 1)]
 
 
 def _rank(M) -> int:
@@ -237,7 +232,7 @@ def design_jordan(model: PlantModel, *, observer: str, estimate=None,
                     f"{where}: λ = {lam} is not stable in {work.time} time (needs {need})")
             lam_list.append(lam)
     elif adm.generic:
-        lam_list = _default_lambdas(work.time, n)
+        lam_list = default_eigenvalues(work.time, n)
     else:
         lam_list = [v for v in adm.values if is_stable(v, work.time) is not False
                     and not v.has(sp.CRootOf)]  # roots of cubic and higher factors: not used

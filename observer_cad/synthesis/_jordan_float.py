@@ -39,6 +39,7 @@ from ..numerics import SingleThreadBLAS, np_exact, to_sympy_float
 from ._certificate import certify_design
 from ._design import Condition, Design
 from ..errors import InfeasibleDesignError, UsageError
+from ._poles import default_eigenvalues
 from ._reduced import jordan_equations, observer_symbols, output_symbols
 from ._task import task_for, task_parts
 from ..model import PlantModel, Task
@@ -243,9 +244,7 @@ def _stable(lam: float, time: str) -> bool:
 
 
 def _defaults(time: str, count: int):
-    if time == "continuous":
-        return [-float(i) for i in range(1, count + 1)]
-    return [2.0 ** -i for i in range(1, count + 1)]
+    return [float(v) for v in default_eigenvalues(time, count)]
 
 
 def _family(A, B, lam, m0, tol):

@@ -81,6 +81,7 @@ from ._task import task_parts
 from ._certificate import certify_design
 from ._design import Condition, Design
 from ..errors import InfeasibleDesignError, ModelError, ObserverCadError, UsageError
+from ._poles import default_eigenvalues
 from ._reduced import (estimate_outputs, is_stable, named_outputs, observer_symbols,
                        output_symbols, reduced_equations)
 from ..model import PlantModel, resolve_task
@@ -646,12 +647,6 @@ def _certify(st, ctx, mats, mats_np, M):
 
 
 # ---------------------------------------------------------------- Jordan
-def _default_lambdas(time, count):
-    if time == "continuous":
-        return [sp.Integer(-i) for i in range(1, count + 1)]
-    return [sp.Rational(1, 2 ** i) for i in range(1, count + 1)]
-
-
 def _jordan_setup(model, estimate, lambdas, decouple):
     work = model.substitute_parameters()
     st = extract_structure(work)
@@ -674,7 +669,7 @@ def _jordan_setup(model, estimate, lambdas, decouple):
                     f"{model.where}: λ = {lam} is not stable in {work.time} time (needs {need})")
             lams.append(lam)
     else:
-        lams = _default_lambdas(work.time, n)
+        lams = default_eigenvalues(work.time, n)
     return work, st, task, M, dec, L, lams
 
 
