@@ -88,19 +88,6 @@ def interval_observer(model: PlantModel, design: Design, **options) -> Observer:
     return interval_observer_nonlinear(model, design, **options)
 
 
-def _interval_initial(model, d, xl, xu, margin=1):
-    """Default initial bounds Φ x(0) ∓ margin (expressions in the plant's initial state;
-    a scenario's ``observer_initial`` overrides them)."""
-    Phi = sp.Matrix(d.matrices.Phi)
-    xs0 = Phi * sp.Matrix(model.states)
-    init = {}
-    for i in range(Phi.rows):
-        init[xl[i]] = xs0[i] - margin
-        init[xu[i]] = xs0[i] + margin
-    return init
-
-
-
 def build_observer(model: PlantModel, design: Design, **options) -> Observer:
     """The observer for a design; ``options`` go to the kind's builder (gains, bounds)."""
     if isinstance(design, DremDesign):  # DREM designs carry their observer

@@ -126,7 +126,7 @@ def interval_observer_nonlinear(model: PlantModel, design: Design, *, margin=Non
         raise UsageError("interval_observer_nonlinear takes the reduced model without output"
                          " feedback (a Jordan design); this design has a gain K")
     work = _work(model)
-    st = extract_structure(work)
+    st = design.structure  # extracted once, by the design (parameters substituted)
     time = work.time
     dom = tuple(work.domain if domain is None else domain)
     d = design

@@ -1015,9 +1015,8 @@ def model_nonlinearity(model):
 
 def reduced_nonlinearity(model, design):
     """(C*Ψ*(x*, y, u), x* symbols, y symbols, definitions {x*_i: Φ_i x, y_j: H_j x})."""
-    from ..model import extract_structure
     m = model.substitute_parameters() if model.parameters else model
-    st = extract_structure(m)
+    st = design.structure
     k = design.k
     xs = list(design.observer_states) or list(sp.symbols(f"xs1:{k + 1}"))
     ys = list(sp.symbols(f"y1:{len(m.outputs) + 1}"))
