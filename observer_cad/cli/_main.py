@@ -11,6 +11,7 @@ import sys
 from pathlib import Path
 
 from ..errors import ObserverCadError, UsageError
+from ..version import package_version
 
 __all__ = ["main", "build_parser"]
 
@@ -39,6 +40,8 @@ def build_parser() -> argparse.ArgumentParser:
     p = _Parser(prog=PROG, description=(
         "Design reduced-order, disturbance-decoupled observers from a symbolic plant model, "
         "with every synthesis condition checked exactly and every design certified."))
+    p.add_argument("--version", action="version", version=f"%(prog)s {package_version()}",
+                   help="print the version and exit")
     sub = p.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser,
                            required=True)
 
