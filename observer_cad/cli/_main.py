@@ -271,6 +271,9 @@ def _cmd_simulate(args) -> int:
     res = simulate(model, observer, scenario)
     path = write_signals_csv(res, args.out)
     print(f"wrote {path} ({len(res['t'])} rows, columns: {', '.join(res.order)})")
+    from ..reporting import UNITS_FILE
+    units = ", ".join(f"{c} [{u}]" for c, u in res.units.items() if c in res.order)
+    print(f"wrote {path.with_name(UNITS_FILE)} ({'units: ' + units if units else 'no units: the model declares none'})")
     from ..reporting import plot_simulation
     for fig in plot_simulation(res, args.out, time=model.time,
                                title=f"{model.name}, {observer.kind}"):
