@@ -115,3 +115,18 @@ def test_nothing_points_outside_the_repository():
             if re.search(r"/work/|\.\./shared|shared/seeds|\bshared/[A-Z]+\.md", line):
                 bad.append(f"{f.relative_to(ROOT)}:{i}: {line.strip()[:100]}")
     assert not bad, "references to paths outside the repository:\n" + "\n".join(bad)
+
+
+@pytest.mark.parametrize("path", ["sim/signals.csv", "c/estimator.c", "estimator", "out/report.md",
+                                  "examples/tour_out/c/x.c", "examples/.ipynb_checkpoints/x.ipynb",
+                                  ".venv/bin/python", "venv/bin/python"])
+def test_gitignore_covers_what_the_tour_writes(path):
+    """The README tour writes sim/, c/, estimator (and the demo out/); the notebook its
+    tour_out/ and checkpoints; a venv may sit in the clone."""
+    try:
+        r = subprocess.run(["git", "check-ignore", "-q", "--no-index", path], cwd=ROOT)
+    except OSError:
+        pytest.skip("git is not installed")
+    if r.returncode == 128:
+        pytest.skip("not a git checkout")
+    assert r.returncode == 0, f"{path} is not ignored by .gitignore"
