@@ -55,4 +55,7 @@ model = PlantModel(
         k6: sp.Rational(1, 25),
     },
     bounds={d: (-0.4, 0.4), rho: (-0.05, 0.05), w1: (-0.01, 0.01), w2: (-0.01, 0.01)},
+    # as the docstring says; d and rho in the units of the equations they enter,
+    # w1, w2 in those of the outputs they disturb
+    units={x1: "rad", x2: "rad/s", x3: "A", u: "V", d: "A", rho: "rad/s", w1: "rad", w2: "A"},
 )

@@ -11,6 +11,7 @@ The everyday API is re-exported here::
     d = design(model, observer="unknown-input", faults=["d"])
     obs = build_observer(model, d)
 """
+from .version import package_version as _package_version
 from .errors import (CertificateError, DimensionError, InfeasibleDesignError, ModelError,
                      ObserverCadError, UsageError)
 from .model import (NonlinearTerm, ObserverKind, PlantModel, Structure, Task, extract_structure,
@@ -20,7 +21,10 @@ from .synthesis import (Certificate, Condition, Design, DesignMatrices, DesignRe
 from .observers import DremSpec, Observer, build_observer
 from .simulation import Scenario, SimulationResult, load_scenario, simulate
 
+__version__ = _package_version()
+
 __all__ = [
+    "__version__",
     "PlantModel", "load_model", "Structure", "NonlinearTerm", "extract_structure",
     "Task", "ObserverKind", "resolve_task",
     "design", "design_canonical", "Design", "DesignMatrices", "DesignRequest", "Condition", "Certificate", "certify_reduced_model",

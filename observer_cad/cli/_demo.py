@@ -308,12 +308,21 @@ def _run_case(i: int, n: int, case: Case, models_dir: Path, models: dict, engine
 
 
 # ---------------------------------------------------------------- figures
-UNITS = {
-    "electric_drive": {"x1": "rad", "x2": "rad/s", "x3": "A", "u": "V", "d": "A", "rho": "rad/s"},
-    "three_tank": {"x1": "m", "x2": "m", "x3": "m", "u1": "m/s", "u2": "m/s"},
-    "three_tank_linear": {"x1": "m", "x2": "m", "x3": "m", "u1": "m/s", "u2": "m/s"},
-    "sliding_example": {"x1": "m", "x2": "m", "x3": "m", "d": "m/s"},
-}
+def _unit(res, name: str) -> str:
+    """The unit of a column, from the model's ``units=`` (via the result); "" when none."""
+    return (getattr(res, "units", None) or {}).get(name, "")
+
+
+def _br(unit: str) -> str:
+    """`` [unit]`` for an axis label, or nothing."""
+    return f" [{unit}]" if unit else ""
+
+
+def _sp(unit: str) -> str:
+    """`` unit`` after a number, or nothing."""
+    return f" {unit}" if unit else ""
+
+
 SIGNAL_TEX = {"d": "d", "rho": r"\rho", "x1": "x_1", "x2": "x_2", "x3": "x_3"}
 
 
@@ -364,7 +373,7 @@ def _estimate_figure(out: Outcome, scenario: str, name: str, title: str, *, boun
     res = out.sims[scenario]
     delay = int(out.observer.delays.get(f"{name}_hat", 0))
     t, true, est = _aligned(res, name, delay)
-    unit = UNITS[out.model.name].get(name, "")
+    unit = _unit(res, name)
     sym = SIGNAL_TEX.get(name, name)
     fig, (a, b) = plt.subplots(2, 1, sharex=True, figsize=(8, 5.6), height_ratios=[3, 2])
     a.plot(res["t"], res[name], color="k", lw=2.2, label=rf"${sym}(t)$ (true)")
@@ -377,7 +386,7 @@ def _estimate_figure(out: Outcome, scenario: str, name: str, title: str, *, boun
         a.plot([], [], color="0.45", ls=":", label=bounds_label or f"bounds ±{bounds[1]:g}")
     span = hi - lo
     a.set_ylim(lo - 0.08 * span, hi + 0.42 * span)  # room for the legend above the data
-    a.set_ylabel(rf"${sym}$ [{unit}]")
+    a.set_ylabel(rf"${sym}$" + _br(unit))
     a.set_title(title)
     a.legend(loc="upper left", ncols=2)
     err = est - true
@@ -387,10 +396,10 @@ def _estimate_figure(out: Outcome, scenario: str, name: str, title: str, *, boun
     emax = float(np.max(np.abs(err)))
     if emax <= span:
         b.set_ylim(-span, span)
-    b.set_ylabel(rf"$e_{{{sym}}}$ [{unit}]")
+    b.set_ylabel(rf"$e_{{{sym}}}$" + _br(unit))
     b.set_xlabel(xlabel)
     b.legend(loc="lower left")
-    txt = rf"max $|e_{{{sym}}}|$ = {_sci(emax)} {unit}"
+    txt = rf"max $|e_{{{sym}}}|$ = {_sci(emax)}{_sp(unit)}"
     if emax < 1e-9:
         txt += " — zero to floating-point rounding (exact estimator)"
     if note:
@@ -407,7 +416,8 @@ def fig_000_1(outs, path):
     fig, e = _estimate_figure(o, "electric_drive_fig1", "d",
                               "Seed 000, Fig. 1: fault d of the electric drive and its estimate (k = 1)",
                               bounds=(-0.4, 0.4), bounds_label=_DB, note="d̂(t) is produced at step t + 1")
-    return fig, f"Seed 000 Fig. 1 — d(t) = 0.3 sin(t/2) for t ≤ 20, then 1 (outside the declared bounds ±0.4); estimate d̂ and error e_d = d̂ − d, max|e_d| = {e:.1e} A."
+    u = _unit(o.sims["electric_drive_fig1"], "d")
+    return fig, f"Seed 000 Fig. 1 — d(t) = 0.3 sin(t/2) for t ≤ 20, then 1 (outside the declared bounds ±0.4); estimate d̂ and error e_d = d̂ − d, max|e_d| = {e:.1e}{_sp(u)}."
 
 
 def fig_000_2(outs, path):
@@ -415,7 +425,8 @@ def fig_000_2(outs, path):
     fig, e = _estimate_figure(o, "electric_drive_fig2", "d",
                               "Seed 000, Fig. 2: fault d (random after t = 20) and its estimate (k = 1)",
                               bounds=(-0.4, 0.4), bounds_label=_DB, note="d̂(t) is produced at step t + 1")
-    return fig, f"Seed 000 Fig. 2 — d(t) = 0.3 sin(t/2) for t ≤ 20, then uniform in [−0.5, 0.5]; error max|e_d| = {e:.1e} A."
+    u = _unit(o.sims["electric_drive_fig2"], "d")
+    return fig, f"Seed 000 Fig. 2 — d(t) = 0.3 sin(t/2) for t ≤ 20, then uniform in [−0.5, 0.5]; error max|e_d| = {e:.1e}{_sp(u)}."
 
 
 def fig_000_3(outs, path):
@@ -425,7 +436,8 @@ def fig_000_3(outs, path):
                               bounds=(-0.2, 0.2),
                               bounds_label="ρ* = ±0.2 of the interval copies (ρ may leave it)",
                               note="ρ̂(t) is produced at step t + 2")
-    return fig, f"Seed 000 Fig. 3 — ρ(t) = 0.3 sin(t/2) for t ≤ 40, then 1; no noise; error max|e_ρ| = {e:.1e} rad/s."
+    u = _unit(o.sims["electric_drive_rho_fig3"], "rho")
+    return fig, f"Seed 000 Fig. 3 — ρ(t) = 0.3 sin(t/2) for t ≤ 40, then 1; no noise; error max|e_ρ| = {e:.1e}{_sp(u)}."
 
 
 def fig_000_4(outs, path):
@@ -435,10 +447,11 @@ def fig_000_4(outs, path):
     res4, res3 = o.sims["electric_drive_rho_fig4"], o.sims["electric_drive_rho_fig3"]
     t, true, est = _aligned(res4, "rho", 2)
     _, true3, est3 = _aligned(res3, "rho", 2)
+    u = _unit(res4, "rho")
     fig, (a, b, c) = plt.subplots(3, 1, sharex=True, figsize=(8, 7.6), height_ratios=[3, 2, 2])
     a.plot(t, est, color="tab:red", lw=1.0, label=r"$\hat{\rho}(t)$ (estimate, noisy outputs)")
     a.plot(res4["t"], res4["rho"], color="k", lw=1.8, label=r"$\rho(t)$ (true)")
-    a.set_ylabel(r"$\rho$ [rad/s]")
+    a.set_ylabel(r"$\rho$" + _br(u))
     a.set_title("Seed 000, Fig. 4: ρ estimated from outputs with noise |w| ≤ 0.01 (k = 2)")
     a.legend(loc="upper left", ncols=2)
     lim = 1.1 * np.max(np.abs(est))
@@ -447,11 +460,11 @@ def fig_000_4(outs, path):
     err = est - true
     b.plot(t, err, color="tab:blue", lw=1.0, label=r"$e_\rho = \hat{\rho} - \rho$")
     b.axhline(0, color="k", lw=0.6)
-    b.set_ylabel(r"$e_\rho$ [rad/s]")
+    b.set_ylabel(r"$e_\rho$" + _br(u))
     b.legend(loc="upper left")
     m_ = np.max(np.abs(err))
     b.set_ylim(-1.1 * m_, 1.55 * m_)
-    _box(b, rf"max $|e_\rho|$ = {np.max(np.abs(err)):.3g} rad/s, RMS {np.sqrt(np.mean(err ** 2)):.3g}",
+    _box(b, rf"max $|e_\rho|$ = {np.max(np.abs(err)):.3g}{_sp(u)}, RMS {np.sqrt(np.mean(err ** 2)):.3g}",
          "upper right")
     e3 = np.abs(est3 - true3)
     floor = 1e-17
@@ -459,7 +472,7 @@ def fig_000_4(outs, path):
                label="with noise (Fig. 4)")
     c.semilogy(t, np.maximum(e3, floor), color="tab:green", lw=1.2,
                label="without noise (Fig. 3)")
-    c.set_ylabel(r"$|e_\rho|$ [rad/s]")
+    c.set_ylabel(r"$|e_\rho|$" + _br(u))
     c.set_xlabel("t [steps]")
     c.legend(loc="upper right", ncols=2)
     c.set_ylim(1e-17, 1e6)
@@ -468,7 +481,7 @@ def fig_000_4(outs, path):
            transform=c.transAxes, va="center", fontsize=9,
            bbox=dict(boxstyle="round,pad=0.3", fc="white", ec="0.6", alpha=0.92))
     return fig, (f"Seed 000 Fig. 4 — as Fig. 3 with measurement noise w1, w2 ~ U[−0.01, 0.01]: the"
-                 f" estimate is visibly worse (max|e_ρ| = {np.max(np.abs(err)):.3g} rad/s against"
+                 f" estimate is visibly worse (max|e_ρ| = {np.max(np.abs(err)):.3g}{_sp(u)} against"
                  f" {np.max(e3):.1e} without noise, bottom panel).")
 
 
@@ -477,7 +490,8 @@ def fig_000_s8(outs, path):
     fig, e = _estimate_figure(o, "electric_drive_fig1", "d",
                               "Seed 000 §8: Jordan-form estimator of d (λ = 1/2), Fig. 1 scenario",
                               bounds=(-0.4, 0.4), bounds_label=_DB, note="d̂(t) is produced at step t + 1")
-    return fig, f"Seed 000 §8 — the Jordan-form (λ-model) estimator on Fig. 1's scenario; max|e_d| = {e:.1e} A."
+    u = _unit(o.sims["electric_drive_fig1"], "d")
+    return fig, f"Seed 000 §8 — the Jordan-form (λ-model) estimator on Fig. 1's scenario; max|e_d| = {e:.1e}{_sp(u)}."
 
 
 def fig_drive_residual(outs, path):
@@ -486,16 +500,17 @@ def fig_drive_residual(outs, path):
     res = o.sims["electric_drive_diagnostic"]
     t = res["t"]
     fig, (a, b) = plt.subplots(2, 1, sharex=True, figsize=(8, 5.2))
-    a.plot(t, res["d"], color="tab:red", lw=1.6, label="fault d [A]")
-    a.plot(t, res["rho"], color="0.5", lw=1.0, label="load disturbance ρ [rad/s] (decoupled)")
-    a.set_ylabel("d [A], ρ [rad/s]")
+    ud, ur = _br(_unit(res, "d")), _br(_unit(res, "rho"))
+    a.plot(t, res["d"], color="tab:red", lw=1.6, label=f"fault d{ud}")
+    a.plot(t, res["rho"], color="0.5", lw=1.0, label=f"load disturbance ρ{ur} (decoupled)")
+    a.set_ylabel(f"d{ud}, ρ{ur}")
     a.set_title("Residual generator for the electric drive (Jordan form, λ = 1/2)")
     a.legend(loc="upper left")
     r = res["r"]
     b.plot(t, r, color="tab:purple", lw=1.5, label=f"residual r = {_rstar_text(o)} − x*")
     b.axhline(0, color="k", lw=0.6)
     b.axvline(50, color="tab:red", ls=":", lw=1.0)
-    b.set_ylabel(r"residual $r = R^* y - x^*$")
+    b.set_ylabel(r"residual $r = R^* y - x^*$" + _br(_unit(res, "r")))
     b.set_xlabel("t [steps]")
     b.legend(loc="upper left")
     before = float(np.max(np.abs(r[t < 50])))
@@ -520,7 +535,7 @@ def _rstar_text(o) -> str:
     return " + ".join(terms).replace("+ −", "− ")
 
 
-def _interval_panel(ax, res, name, *, t_max=None, unit="", label_true=None, colors=("tab:blue", "tab:orange")):
+def _interval_panel(ax, res, name, *, t_max=None, unit=None, label_true=None, colors=("tab:blue", "tab:orange")):
     t = np.asarray(res["t"])
     sel = slice(None) if t_max is None else (t <= t_max)
     lo, hi, z = (np.asarray(res[c])[sel] for c in (f"{name}_lower", f"{name}_upper", name))
@@ -532,7 +547,7 @@ def _interval_panel(ax, res, name, *, t_max=None, unit="", label_true=None, colo
     ax.plot(ts, hi, color=colors[1], lw=1.2, label=rf"upper bound $\overline{{{letter}}}{sub}$")
     ax.plot(ts, lo, color=colors[0], lw=1.2, label=rf"lower bound $\underline{{{letter}}}{sub}$")
     ax.plot(ts, z, color="k", lw=1.4, label=label_true or rf"${sym}$ (true)")
-    ax.set_ylabel(rf"${sym}$ [{unit}]")
+    ax.set_ylabel(rf"${sym}$" + _br(_unit(res, name) if unit is None else unit))
     full_lo, full_hi, full_z = (np.asarray(res[c]) for c in (f"{name}_lower", f"{name}_upper", name))
     viol = int(np.sum((full_z < full_lo - 1e-9) | (full_z > full_hi + 1e-9)))
     return viol
@@ -563,7 +578,7 @@ def fig_drive_interval(outs, path):
     o = outs["drive_interval"]
     res = o.sims["electric_drive_interval"]
     fig, ax = plt.subplots(figsize=(8, 4.2))
-    viol = _interval_panel(ax, res, "x2", t_max=300, unit="rad/s")
+    viol = _interval_panel(ax, res, "x2", t_max=300)
     ax.set_xlabel("t [steps]")
     ax.set_title("Electric drive: interval observer for the motor speed x2 (λ = 4/5)")
     ax.legend(loc="upper right", ncols=3)
@@ -571,7 +586,7 @@ def fig_drive_interval(outs, path):
     n = len(res["t"])
     w = np.asarray(res["x2_upper"]) - np.asarray(res["x2_lower"])
     _box(ax, f"first 300 of {n} steps shown; x2 inside the bounds at all {n} steps"
-             f" ({viol} violations)\nwidth → {w[-1]:.3g} rad/s = 2·0.05/(1 − 4/5): set by |ρ| ≤ 0.05;"
+             f" ({viol} violations)\nwidth → {w[-1]:.3g}{_sp(_unit(res, 'x2'))} = 2·0.05/(1 − 4/5): set by |ρ| ≤ 0.05;"
              " the fault d does not enter (Φ = (0, 1, 0))", "lower right")
     return fig, (f"Interval observer of the electric drive's speed x2 with ρ, d and noise random within"
                  f" their bounds: the bounds enclose x2 at every step ({viol} violations in {n}).")
@@ -591,17 +606,17 @@ def fig_002_2(outs, path):
         a.text(tt + (0.12 if ha == "left" else -0.12), 0.97, what, fontsize=8, color="0.3", ha=ha,
                va="top", transform=a.get_xaxis_transform())
     a.set_ylim(-0.15, 1.15 * np.max(x1) + 0.1)
-    a.set_ylabel(r"level $x_1$ [m]")
+    a.set_ylabel(r"level $x_1$" + _br(_unit(res, "x1")))
     a.set_title("Seed 002, Fig. 2: virtual sensor $\\dot{x}^* = u_1 - \\sqrt{x^* - y_1}$ for $x_1$ (λ = −1, k = 1)")
     a.legend(loc="lower right")
     e = np.abs(z - x1)
     b.semilogy(t, np.maximum(e, 1e-17), color="tab:blue", lw=1.4, label=r"$|z - x_1|$")
     for tt in (1, 5, 6, 10):
         b.axvline(tt, color="0.55", ls=":", lw=1.0)
-    b.set_ylabel(r"$|z - x_1|$ [m]")
+    b.set_ylabel(r"$|z - x_1|$" + _br(_unit(res, "x1")))
     b.set_xlabel("t [s]")
     b.legend(loc="upper right")
-    _box(b, f"sensor starts at x*(0) = 0.5, x1(0) = 0: the error decays ({e[0]:.2g} → {e[-1]:.1e} m at t = 20)\n"
+    _box(b, f"sensor starts at x*(0) = 0.5, x1(0) = 0: the error decays ({e[0]:.2g} → {e[-1]:.1e}{_sp(_unit(res, 'x1'))} at t = 20)\n"
             "and does not react to the steps of ρ1, ρ2 (decoupled)", "lower left")
     return fig, (f"Seed 002 Fig. 2 — nonlinear three-tank, u1 = 1 (t > 1), u2 = 0.5 (t > 5), ρ1 = −0.3"
                  f" (t > 6), ρ2 = −0.4 (t > 10), no noise: x1 and the virtual sensor z; the error decays"
@@ -617,7 +632,7 @@ def fig_002_3(outs, path):
     total = []
     for ax, (key, sc, w) in zip(axes[:2], cases):
         res = outs[key].sims[sc]
-        v = _interval_panel(ax, res, "x1", unit="m")
+        v = _interval_panel(ax, res, "x1")
         total.append(v)
         ax.set_title(f"|w| ≤ {w}" if ax is not axes[0] else
                      f"Seed 002, Fig. 3: interval observer for $x_1$ of the nonlinear three-tank — |w| ≤ {w}",
@@ -632,8 +647,8 @@ def fig_002_3(outs, path):
     for (key, sc, w), col in zip(cases, ("tab:blue", "tab:red")):
         res = outs[key].sims[sc]
         width = np.asarray(res["x1_upper"]) - np.asarray(res["x1_lower"])
-        c.semilogy(res["t"], width, color=col, lw=1.4, label=f"|w| ≤ {w}: width → {width[-1]:.3g} m")
-    c.set_ylabel("width [m]")
+        c.semilogy(res["t"], width, color=col, lw=1.4, label=f"|w| ≤ {w}: width → {width[-1]:.3g}{_sp(_unit(res, 'x1'))}")
+    c.set_ylabel("width" + _br(_unit(res, "x1")))
     c.set_xlabel("t [s]")
     c.legend(loc="upper right")
     return fig, (f"Seed 002 Fig. 3 — interval bounds of x1 (u1 = 0.5, u2 = 0.2, ρ1, ρ2 random in ±0.5) for"
@@ -646,7 +661,7 @@ def fig_001_2(outs, path):
     res2 = outs["lin_interval_m2"].sims["three_tank_linear_interval"]
     res1 = outs["lin_interval_m1"].sims["three_tank_linear_interval"]
     fig, (a, b) = plt.subplots(2, 1, sharex=True, figsize=(8, 6.0), height_ratios=[3, 2])
-    v2 = _interval_panel(a, res2, "x1", unit="m")
+    v2 = _interval_panel(a, res2, "x1")
     v1 = int(np.sum((res1["x1"] < res1["x1_lower"] - 1e-9) | (res1["x1"] > res1["x1_upper"] + 1e-9)))
     a.set_title("Seed 001, Fig. 2: interval observer (7.2) for $x_1$ of the linear three-tank (method 2, k = 1)")
     a.legend(loc="lower right")
@@ -655,13 +670,13 @@ def fig_001_2(outs, path):
     for res, lab, col in ((res2, "method 2 (Jordan, k = 1)", "tab:blue"),
                           (res1, "method 1 (canonical → diagonal, k = 2)", "tab:green")):
         w = np.asarray(res["x1_upper"]) - np.asarray(res["x1_lower"])
-        b.semilogy(res["t"], w, color=col, lw=1.4, label=f"{lab}: width → {w[-1]:.3g} m")
-    b.set_ylabel(r"width $\overline{x}_1 - \underline{x}_1$ [m]")
+        b.semilogy(res["t"], w, color=col, lw=1.4, label=f"{lab}: width → {w[-1]:.3g}{_sp(_unit(res, 'x1'))}")
+    b.set_ylabel(r"width $\overline{x}_1 - \underline{x}_1$" + _br(_unit(res2, "x1")))
     b.set_xlabel("t [s]")
     b.legend(loc="upper right")
     return fig, (f"Seed 001 Fig. 2 — linear three-tank, u1 = 1 (t ≥ 1), u2 = 0.5 (t ≥ 5), ρ and noise random"
                  f" in ±0.2, ±0.02: x1 and its bounds (method 2, {v2} violations); method 1 ({v1}"
-                 f" violations) converges to the same width 2w* = 0.04 m (bottom).")
+                 f" violations) converges to the same width 2w* = 0.04{_sp(_unit(res2, 'x1'))} (bottom).")
 
 
 def fig_lin_virtual(outs, path):
@@ -686,14 +701,14 @@ def fig_lin_virtual(outs, path):
         ax.axvline(10, color="0.55", ls=":", lw=1.0)
     a.text(10.12, 0.97, "ρ = −0.2 from t = 10", fontsize=8, color="0.3", va="top",
            transform=a.get_xaxis_transform())
-    a.set_ylabel(r"level $x_1$ [m]")
+    a.set_ylabel(r"level $x_1$" + _br(_unit(base, "x1")))
     a.set_title("Linear three-tank: virtual sensors for $x_1$ (seeds 001, 004), started at $x^*(0) = 0$")
     a.legend(loc="lower right")
-    b.set_ylabel(r"$|\hat{x}_1 - x_1|$ [m]")
+    b.set_ylabel(r"$|\hat{x}_1 - x_1|$" + _br(_unit(base, "x1")))
     b.set_xlabel("t [s]")
     b.legend(loc="upper right")
     spread = max(float(np.max(np.abs(errs[i] - errs[0]))) for i in range(len(errs)))
-    _box(b, f"the three errors coincide (max difference {_sci(spread)} m): each is −x1(0)·e^(−t);\n"
+    _box(b, f"the three errors coincide (max difference {_sci(spread)}{_sp(_unit(base, 'x1'))}): each is −x1(0)·e^(−t);\n"
             "no reaction to the disturbance step at t = 10 (decoupled)", "lower left")
     return fig, ("Linear three-tank, no noise, inputs as in seed 002 Fig. 2 and a disturbance step ρ = −0.2"
                  " at t = 10: three virtual sensors for x1 (started at 0) converge exponentially — their"
@@ -709,7 +724,7 @@ def fig_sliding(outs, path):
     fig, (a, b) = plt.subplots(2, 1, sharex=True, figsize=(8, 5.8), height_ratios=[3, 2])
     a.plot(t, d, color="k", lw=2.2, label="d (true)")
     a.plot(t, dh, color="tab:red", ls="--", lw=1.3, label=r"$\hat{d}$ (sliding-mode estimate)")
-    a.set_ylabel("d [m/s]")
+    a.set_ylabel("d" + _br(_unit(res, "d")))
     a.set_ylim(-1.3, k1 + 0.9)
     a.set_title(f"Sliding-mode estimator of the fault d (sliding example, λ = −1, k1 = {k1:.3g})")
     a.legend(loc="upper right")
@@ -718,15 +733,15 @@ def fig_sliding(outs, path):
     a.annotate(f"reaching phase: d̂ saturated at k1 = {k1:.3g} until t ≈ {reach:.2f} s", xy=(reach / 2, k1),
                xytext=(1.0, k1 + 0.45), fontsize=8.5, arrowprops=dict(arrowstyle="->", color="0.3"))
     b.semilogy(t, np.maximum(err, 1e-12), color="tab:blue", lw=1.2, label=r"$|\hat{d} - d|$")
-    b.set_ylabel(r"$|\hat{d} - d|$ [m/s]")
+    b.set_ylabel(r"$|\hat{d} - d|$" + _br(_unit(res, "d")))
     b.set_xlabel("t [s]")
     b.legend(loc="upper right")
     late = t >= 1
-    b.text(0.1, 0.55, f"t ≥ 1 s: max|d̂ − d| = {np.max(err[late]):.2g} m/s\n(boundary layer ε = 0.001:"
+    b.text(0.1, 0.55, f"t ≥ 1 s: max|d̂ − d| = {np.max(err[late]):.2g}{_sp(_unit(res, 'd'))}\n(boundary layer ε = 0.001:"
            " not an ideal sliding mode)", transform=b.transAxes, fontsize=9, va="center",
            bbox=dict(boxstyle="round,pad=0.3", fc="white", ec="0.6", alpha=0.92))
     return fig, (f"Sliding-mode estimator (this project's example): after a reaching phase of"
-                 f" {reach:.2f} s the estimate follows d with max error {np.max(err[late]):.2g} m/s"
+                 f" {reach:.2f} s the estimate follows d with max error {np.max(err[late]):.2g}{_sp(_unit(res, 'd'))}"
                  " while the disturbance ρ = 0.4 sin 3t acts (decoupled).")
 
 
@@ -776,6 +791,23 @@ def _model_section(model) -> str:
     return "\n".join(out)
 
 
+def _units_text(models: dict) -> str:
+    """Units as the model files declare them (``units=``); models without any are named."""
+    from ..reporting import md_escape
+    with_units, without = [], []
+    for name, m in models.items():
+        if m.units:
+            with_units.append(md_escape(f"{name}: " + ", ".join(f"{s} {u}" for s, u in m.units.items())))
+        else:
+            without.append(md_escape(name))
+    text = "Units, as the model files declare them (`units=`): " + ("; ".join(with_units) or "none") + "."
+    if without:
+        text += (" No units for " + ", ".join(without) + ": their model files declare none (the"
+                 " three-tank papers set every coefficient to 1 and give no units), so their axes"
+                 " carry none.")
+    return text
+
+
 def _report(outcomes, figs, out_dir: Path, totals: dict, engine: _Engine, models: dict) -> str:
     from ..reporting import design_section, md_escape, render_report
     ok = [o for o in outcomes if o.error is None]
@@ -792,10 +824,7 @@ def _report(outcomes, figs, out_dir: Path, totals: dict, engine: _Engine, models
         f"- Python {platform.python_version()}, {platform.machine()}, {os.cpu_count()} CPU(s)",
         "- time: " + ", ".join(f"{k} {v:.2f} s" for k, v in totals.items()),
         "",
-        "Conventions: discrete-time plots use t in steps; continuous-time plots t in s. Electric drive:"
-        " x1 rad, x2 rad/s, x3 A, u V (d enters the current equation, in A; ρ the speed equation, in"
-        " rad/s). Three-tank: levels in m, inflows in m/s (the papers set every geometric coefficient"
-        " to 1, so the units are nominal).",
+        "Conventions: discrete-time plots use t in steps; continuous-time plots t in s. " + _units_text(models),
         "",
         "## Summary",
         "",

@@ -11,6 +11,7 @@ import sys
 from pathlib import Path
 
 from ..errors import ObserverCadError, UsageError
+from ..version import package_version
 
 __all__ = ["main", "build_parser"]
 
@@ -39,6 +40,8 @@ def build_parser() -> argparse.ArgumentParser:
     p = _Parser(prog=PROG, description=(
         "Design reduced-order, disturbance-decoupled observers from a symbolic plant model, "
         "with every synthesis condition checked exactly and every design certified."))
+    p.add_argument("--version", action="version", version=f"%(prog)s {package_version()}",
+                   help="print the version and exit")
     sub = p.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser,
                            required=True)
 
@@ -283,6 +286,9 @@ def _cmd_simulate(args) -> int:
     res = simulate(model, observer, scenario)
     path = write_signals_csv(res, args.out)
     print(f"wrote {path} ({len(res['t'])} rows, columns: {', '.join(res.order)})")
+    from ..reporting import UNITS_FILE
+    units = ", ".join(f"{c} [{u}]" for c, u in res.units.items() if c in res.order)
+    print(f"wrote {path.with_name(UNITS_FILE)} ({'units: ' + units if units else 'no units: the model declares none'})")
     from ..reporting import plot_simulation
     for fig in plot_simulation(res, args.out, time=model.time,
                                title=f"{model.name}, {observer.kind}"):

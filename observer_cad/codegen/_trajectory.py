@@ -33,7 +33,7 @@ import sympy as sp
 from ..errors import UsageError
 from ..model import PlantModel
 from ..observers import Observer, output_symbols
-from ..simulation import Scenario, SimulationResult, signal_arrays, align_delay
+from ..simulation import Scenario, SimulationResult, column_units, signal_arrays, align_delay
 from ._compile import CACHE_LOCK, FLAGS, STATS, CodegenError, compile_source, fingerprint, forget_fingerprint, generate_c, lookup_fingerprint, record_fingerprint
 from ._translate import describe, joint_identity, joint_step, joint_step_name
 
@@ -288,7 +288,8 @@ class CompiledSimulator:
                 order.append(name)
         if runs is None:
             cols = {k: v[0] for k, v in cols.items()}
-        return SimulationResult(cols, tuple(order))
+        return SimulationResult(cols, tuple(order), units=column_units(m, observer, cols),
+                                model=m.name, time=m.time)
 
     def simulate_many(self, scenarios, *, threads: int | None = None) -> list:
         """Many scenarios at once on threads (ctypes releases the GIL)."""

@@ -6,7 +6,7 @@ keyed by the sympy node), so a subexpression that occurs in several places — e
 observer reads in four RK4 stages — becomes one casadi node and is computed once in the
 generated code.  Sums built here put their state-dependent terms last (CasADi keeps
 the written order of a sum; with the loop-carried state last the dependency chain of a
-step is shortest — see /work/shared/PERFORMANCE.md).
+step is shortest — see docs/PERFORMANCE.md).
 
 Step functions (each a named :class:`casadi.Function` whose ``__doc__`` lists the
 argument order and meaning; :func:`describe` gives the same text):

@@ -128,6 +128,11 @@ class PlantModel:
         The state matrix F of the linear/nonlinear split (METHOD §1). When given, the
         difference between the right-hand side's own linear part and F is absorbed
         into the nonlinear terms as formal terms ``β_j A_j x`` (seed 002 §8).
+    units : mapping Symbol -> str, optional
+        The unit of any declared symbol, e.g. ``{x1: "rad", u: "V"}`` (a symbol's name
+        may stand for it). Used for axis labels, ``signals.units.json`` beside the CSV
+        and the report; an output ``y_i`` has the unit its states share
+        (:meth:`output_unit`). A symbol without an entry has no unit.
     source : str, optional
         The model file it came from (set by :func:`load_model`; used in messages).
     """
@@ -145,6 +150,7 @@ class PlantModel:
     bounds: Mapping = dataclasses.field(default_factory=dict)
     domain: tuple = ()
     linear_part: Any = None
+    units: Mapping = dataclasses.field(default_factory=dict)
     source: str | None = None
 
     def __post_init__(self) -> None:
@@ -257,6 +263,7 @@ class PlantModel:
                 raise ModelError(
                     f"{where}: linear_part uses '{sorted(extra, key=str)[0]}', which is not a parameter")
             set_("linear_part", F)
+        set_("units", MappingProxyType(_units(self.units, roles, where)))
 
     # ------------------------------------------------------------------ helpers
     @property
@@ -290,6 +297,24 @@ class PlantModel:
                 return s
         return None
 
+    def unit_of(self, name: str) -> str | None:
+        """The unit of a declared symbol or an output ``y_i`` (by name), or None."""
+        sym = self.symbol(name)
+        if sym is not None:
+            return self.units.get(sym)
+        if name in self.output_names:
+            return self.output_unit(self.output_names.index(name))
+        return None
+
+    def output_unit(self, i: int) -> str | None:
+        """Unit of output ``y_{i+1}``: the unit every state in it has (noise and parameters
+        do not count), or None when a state in it has no unit or two units differ."""
+        states = [s for s in self.states if s in self.outputs[i].free_symbols]
+        found = {self.units.get(s) for s in states}
+        if len(found) != 1 or None in found:
+            return None
+        return found.pop()
+
     def parameter_values(self) -> dict:
         """Defaults of all parameters; raises ModelError naming one without a value."""
         for p, v in self.parameters.items():
@@ -317,10 +342,70 @@ class PlantModel:
             parameters={},
             domain=tuple(sub(r) for r in self.domain),
             linear_part=None if self.linear_part is None else self.linear_part.xreplace(vals),
+            units={s: u for s, u in self.units.items() if s not in vals},
         )
 
-    def __str__(self) -> str:  # pragma: no cover - cosmetic
+    def _sizes(self) -> str:
+        n, l = len(self.states), len(self.outputs)
+        parts = [f"{n} state{'s' * (n != 1)}", f"{l} output{'s' * (l != 1)}"]
+        for role in ("inputs", "faults", "disturbances", "noise", "parameters"):
+            k = len(getattr(self, role))
+            if k:
+                parts.append(f"{k} {role if k > 1 or role == 'noise' else role[:-1]}")
+        return ", ".join(parts)
+
+    def __str__(self) -> str:
         return f"PlantModel({self.name!r}, {self.time}, n={len(self.states)}, l={len(self.outputs)})"
+
+    def __repr__(self) -> str:
+        return f"<PlantModel {self.name!r}: {self.time} time, {self._sizes()}>"
+
+    def _equations_latex(self) -> str:
+        """The model's equations, one per line (``aligned``)."""
+        lhs = (lambda x: rf"{sp.latex(x)}(t+1)") if self.time == "discrete" else \
+            (lambda x: rf"\dot{{{sp.latex(x)}}}")
+        rows = [rf"{lhs(x)} &= {sp.latex(f)}" for x, f in zip(self.states, self.dynamics)]
+        rows += [rf"y_{{{i + 1}}} &= {sp.latex(h)}" for i, h in enumerate(self.outputs)]
+        return r"\begin{aligned}" + r" \\ ".join(rows) + r"\end{aligned}"
+
+    def _repr_latex_(self) -> str:
+        return "$$" + self._equations_latex() + "$$"
+
+    def _repr_markdown_(self) -> str:
+        def names(syms):
+            return ", ".join(f"{s}" + (f" [{self.units[s]}]" if s in self.units else "")
+                             for s in syms) or "—"
+        lines = [f"**PlantModel `{self.name}`** — {self.time} time, {self._sizes()}", "",
+                 "| role | symbols |", "|---|---|"]
+        for role in ("states", "inputs", "faults", "disturbances", "noise"):
+            syms = getattr(self, role)
+            if syms:
+                lines.append(f"| {role} | {names(syms)} |")
+        if self.parameters:
+            lines.append(f"| parameters | {', '.join(str(p) for p in self.parameters)} |")
+        lines += ["", "$$" + self._equations_latex() + "$$"]
+        return "\n".join(lines)
+
+
+def _units(raw: Any, roles: dict, where: str) -> dict:
+    """Validate ``units``: keys declared symbols (or their names), values non-empty strings."""
+    if raw is None:
+        return {}
+    if not isinstance(raw, Mapping):
+        raise ModelError(f"{where}: units must be a mapping symbol -> unit string, got {raw!r}")
+    by_name = {s.name: s for s in roles}
+    out = {}
+    for key, unit in raw.items():
+        sym = by_name.get(key) if isinstance(key, str) else key
+        if not isinstance(sym, sp.Symbol) or sym not in roles:
+            raise ModelError(f"{where}: units given for '{key}', which is not a declared symbol")
+        if not isinstance(unit, str) or not unit.strip() or "\n" in unit:
+            raise ModelError(f"{where}: the unit of '{sym}' must be a non-empty one-line string,"
+                             f" got {unit!r}")
+        if sym in out:
+            raise ModelError(f"{where}: units of '{sym}' are given twice")
+        out[sym] = unit.strip()
+    return out
 
 
 def load_model(path: str | Path) -> PlantModel:

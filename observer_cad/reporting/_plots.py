@@ -47,12 +47,15 @@ def plot_simulation(result, out_dir, *, time: str, title: str = "", units: dict 
     - ``<s>_lower`` / ``<s>_upper``: ``<s>_bounds.png`` (the bounds and, when the
       signal is a column, the signal itself);
     - ``r``: ``residual.png``.
-    Returns the paths written.
+
+    Axis labels carry units (``x1 [rad]``): ``units`` (column -> unit) if given, else the
+    result's own ``units`` (from the model's ``units=``, see
+    :func:`observer_cad.simulation.column_units`). Returns the paths written.
     """
     plt = _plt()
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    units = units or {}
+    units = dict(getattr(result, "units", None) or {}) if units is None else dict(units)
     t = np.asarray(result["t"], dtype=float)
     names = list(result.order)
     paths = []
@@ -107,7 +110,7 @@ def plot_simulation(result, out_dir, *, time: str, title: str = "", units: dict 
             ax.plot(t, result[name], color="tab:purple", lw=1.2, label=name)
             ax.axhline(0, color="k", lw=0.6)
             ax.set_xlabel(xl)
-            ax.set_ylabel(f"residual {name}")
+            ax.set_ylabel(f"residual {ylabel(name)}")
             ax.set_title(f"{title}: residual {name}" if title else f"residual {name}")
             ax.grid(alpha=0.3)
             ax.legend(loc="best")

@@ -34,7 +34,7 @@ from ..errors import UsageError
 from ..model import PlantModel
 from ..observers import Observer, output_symbols
 
-__all__ = ["signal_arrays", "align_delay", "Scenario", "load_scenario", "scenario_from_dict", "simulate", "SimulationResult", "T"]
+__all__ = ["signal_arrays", "align_delay", "Scenario", "load_scenario", "scenario_from_dict", "simulate", "SimulationResult", "column_units", "T"]
 
 T = sp.Symbol("t")
 
@@ -92,13 +92,113 @@ def scenario_from_dict(data: dict, source: str | None = None) -> Scenario:
 class SimulationResult:
     """Columns by name: ``t``, the plant states, ``y1…``, every input, fault,
     disturbance and noise, and the observer's outputs. Arrays have shape (N,) for one
-    run, (R, N) for ``runs=R``."""
+    run, (R, N) for ``runs=R``.
+
+    ``order`` is the CSV's column order (noise is a column but not in the CSV);
+    ``units`` maps a column to its unit (columns without one are absent, see
+    :func:`column_units`); ``model`` and ``time`` name the simulated plant and its time
+    domain.
+    """
 
     columns: dict
     order: tuple
+    units: Mapping = dataclasses.field(default_factory=dict)
+    model: str | None = None
+    time: str | None = None
 
     def __getitem__(self, name):
         return self.columns[name]
+
+    @property
+    def runs(self) -> int | None:
+        """R for a Monte-Carlo result, None for a single run."""
+        t = np.asarray(self.columns["t"])
+        return None if t.ndim == 1 else t.shape[0]
+
+    def to_pandas(self):
+        """The columns in ``order`` as a ``pandas.DataFrame`` indexed by ``t`` (one run), or
+        with a ``(run, t)`` MultiIndex (``runs=R``); ``df.attrs["units"]`` holds the units.
+
+        pandas is optional: without it this raises :class:`ImportError` saying
+        ``pip install pandas``.
+        """
+        try:
+            import pandas as pd
+        except ImportError:
+            raise ImportError("SimulationResult.to_pandas() needs pandas:"
+                              " pip install pandas (or pip install 'observer_cad[export]')") from None
+        names = [c for c in self.order if c != "t"]
+        t = np.asarray(self.columns["t"], dtype=float)
+        if t.ndim == 1:
+            df = pd.DataFrame({c: np.asarray(self.columns[c], dtype=float) for c in names},
+                              index=pd.Index(t, name="t"))
+        else:
+            R, N = t.shape
+            index = pd.MultiIndex.from_arrays([np.repeat(np.arange(R), N), t.reshape(-1)],
+                                              names=["run", "t"])
+            df = pd.DataFrame({c: np.asarray(self.columns[c], dtype=float).reshape(-1)
+                               for c in names}, index=index)
+        df.attrs["units"] = {c: u for c, u in self.units.items() if c in self.order}
+        if self.model is not None:
+            df.attrs["model"] = self.model
+        return df
+
+    def _summary(self) -> str:
+        t = np.asarray(self.columns["t"], dtype=float)
+        n = t.shape[-1]
+        unit = "s" if self.time == "continuous" else ("steps" if self.time == "discrete" else "")
+        span = f"t = {t.flat[0]:g} … {t.flat[-1]:g}{' ' + unit if unit else ''}" if n else "no samples"
+        runs = "" if t.ndim == 1 else f", {t.shape[0]} runs"
+        what = f"{self.model!r}, " if self.model else ""
+        time = f"{self.time} time, " if self.time else ""
+        return f"{what}{time}{n} samples{runs}, {span}, {len(self.order) - 1} signals"
+
+    def __repr__(self) -> str:
+        return f"<SimulationResult {self._summary()}>"
+
+    def _label(self, c: str) -> str:
+        return f"{c} [{self.units[c]}]" if c in self.units else c
+
+    def _repr_markdown_(self) -> str:
+        cols = ", ".join(f"`{self._label(c)}`" for c in self.order if c != "t")
+        return f"**SimulationResult** — {self._summary()}\n\ncolumns: {cols}"
+
+    def _repr_latex_(self) -> str:
+        t = np.asarray(self.columns["t"], dtype=float)
+        cols = ", ".join(r"\mathrm{" + self._label(c).replace("_", r"\_") + "}"
+                         for c in self.order if c != "t")
+        return (rf"$\text{{SimulationResult: {t.shape[-1]} samples, }}"
+                rf"t \in [{t.flat[0]:g}, {t.flat[-1]:g}];\ {cols}$")
+
+
+def column_units(model: PlantModel, observer: Observer | None, names) -> dict:
+    """The unit of every column in ``names`` that has one.
+
+    Plant columns take the model's units (``y_i`` the unit its states share,
+    :meth:`PlantModel.output_unit`). Observer outputs inherit their signal's:
+    ``x1_hat``, ``x1_lower``, ``x1_upper`` the unit of ``x1``; ``d_hat`` that of ``d``;
+    a residual ``r`` (``r1``, …) the unit of the outputs it compares when they share
+    one, else none; an estimate of an expression (``z_hat``) has none.
+    """
+    ys = list(output_symbols(len(model.outputs)))
+    out_expr = dict(observer.outputs) if observer is not None else {}
+    units = {}
+    for name in names:
+        u = model.unit_of(name)
+        if u is None:
+            for suffix in ("_hat", "_lower", "_upper"):
+                if name.endswith(suffix) and model.symbol(name[:-len(suffix)]) is not None:
+                    u = model.unit_of(name[:-len(suffix)])
+                    break
+            else:
+                if name in out_expr and (name == "r" or (name[:1] == "r" and name[1:].isdigit())):
+                    used = sp.sympify(out_expr[name]).free_symbols & set(ys)
+                    found = {model.output_unit(ys.index(y)) for y in used}
+                    if len(found) == 1:
+                        u = found.pop()
+        if u is not None:
+            units[name] = u
+    return units
 
 
 def signal_arrays(model: PlantModel, sc: Scenario, t: np.ndarray, runs: int):
@@ -270,4 +370,5 @@ def simulate(model: PlantModel, observer: Observer | None, scenario: Scenario, *
             order.append(name)
     if runs is None:
         cols = {k: v[0] for k, v in cols.items()}
-    return SimulationResult(cols, tuple(order))
+    return SimulationResult(cols, tuple(order), units=column_units(model, observer, cols),
+                            model=model.name, time=model.time)
