@@ -88,6 +88,19 @@ class Observer:
         return (f"<Observer {self.kind} {self.name} ({self.time} time): {len(self.states)} states,"
                 f" outputs {', '.join(self.output_names)}>")
 
+    def _repr_markdown_(self) -> str:
+        dot = r"(t+1)" if self.time == "discrete" else r"'"
+        lines = [f"**Observer** `{self.kind}` `{self.name}` ({self.time} time): {self.description}",
+                 ""]
+        for x, e in zip(self.states, self.update):
+            lines.append(f"$${sp.latex(x)}{dot} = {sp.latex(e)}$$")
+        for name, e in self.outputs:
+            label = name.replace("_", r"\_")
+            lines.append(f"$$\\mathrm{{{label}}} = {sp.latex(e)}$$")
+        if self.parameters:
+            lines.append("parameters: " + ", ".join(f"`{p} = {v}`" for p, v in self.parameters.items()))
+        return "\n".join(lines)
+
     @property
     def output_names(self) -> tuple:
         return tuple(name for name, _ in self.outputs)

@@ -213,6 +213,12 @@ class DesignRequest:
         return cls(**kw)
 
 
+def _latex_name(name: str) -> str:
+    """Φ, F^*, H_z, F_{diag}, … for a matrix name."""
+    base = name.replace("Phi", r"\Phi").replace("Hz", "H_z").replace("_star", "^*")
+    return base.replace("_diag", r"_{\mathrm{diag}}")
+
+
 def _declared(model: PlantModel) -> list:
     return [s for role in ("states", "inputs", "faults", "disturbances", "noise")
             for s in getattr(model, role)] + list(model.parameters)
@@ -293,6 +299,29 @@ class Design:
         approx = ", APPROXIMATE" if self.approximate else ""
         return (f"<Design {self.observer.value} for {self.model_name}: {self.task.describe()};"
                 f" {self.form.value} form, k = {self.k}, {self.method.value}{approx}, {cert}>")
+
+    def _repr_markdown_(self) -> str:
+        """Notebook view: what, the matrices (LaTeX), the conditions, the assumptions."""
+        cert = "**certified**" if self.certificate.passed else "**NOT certified**"
+        lines = [f"**Design** `{self.observer.value}` for `{self.model_name}`: "
+                 f"{self.task.describe()} — {self.form.value} form, k = {self.k},"
+                 f" {self.method.value} arithmetic, {cert}"
+                 + (" — **APPROXIMATE**" if self.approximate else ""), ""]
+        for name, M in self.matrices.items():
+            lines.append(f"$${_latex_name(name)} = {sp.latex(sp.Matrix(M))}$$")
+        lines += ["", "| | condition | evidence |", "|---|---|---|"]
+        for c in self.conditions:
+            mark = "✅" if c.holds else ("❌" if c.required else "—")
+            detail = c.detail.replace("|", "\\|")
+            lines.append(f"| {mark} | {c.name} | {detail} |")
+        if self.assumptions:
+            lines += ["", "Assumptions: " + ", ".join(f"${sp.latex(a)}$" for a in self.assumptions)]
+        return "\n".join(lines)
+
+    def _repr_latex_(self) -> str:
+        body = r" \\ ".join(f"{_latex_name(n)} &= {sp.latex(sp.Matrix(M))}"
+                             for n, M in self.matrices.items())
+        return r"$\begin{aligned}" + body + r"\end{aligned}$"
 
     def to_json(self) -> dict:
         """The JSON object the CLI prints with ``--json``."""

@@ -1,0 +1,26 @@
+"""Design and Observer read well in a notebook: a short repr, Markdown with LaTeX."""
+from observer_cad import build_observer, design, load_model
+
+
+def test_design_and_observer_reprs(models_dir):
+    m = load_model(models_dir / "electric_drive.py")
+    d = design(m, observer="unknown-input", faults=["d"])
+    r = repr(d)
+    assert len(r) < 200 and "unknown-input" in r and "certified" in r and "k = 1" in r
+    md = d._repr_markdown_()
+    assert r"$$\Phi = " in md and "| ✅ |" in md
+    assert d._repr_latex_().startswith(r"$\begin{aligned}\Phi &=")
+    o = build_observer(m, d)
+    assert len(repr(o)) < 200 and "d_hat" in repr(o)
+    assert "$$" in o._repr_markdown_()
+
+
+def test_unknown_input_design_prints_the_estimator_formula(capsys, models_dir):
+    """design --observer unknown-input shows the d̂ formula simulate and codegen use
+    (gains g, the bounds d_min/d_max and α), not only the residual."""
+    from observer_cad.cli import main
+    assert main(["design", str(models_dir / "electric_drive.py"), "--observer", "unknown-input",
+                 "--fault", "d"]) == 0
+    out = capsys.readouterr().out
+    assert "d_hat = " in out and "alpha" in out and "d_min" in out and "d_max" in out
+    assert "parameters: g = " in out
