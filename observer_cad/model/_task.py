@@ -84,6 +84,9 @@ class Task:
         names = self.bounded if self.observer == ObserverKind.INTERVAL else self.decoupled
         return sp.Matrix(st.unknown_input_columns(names)) if names else sp.zeros(st.n, 0)
 
+    def __repr__(self) -> str:
+        return f"Task({self.observer.value}: {self.describe()})"
+
     def describe(self) -> str:
         what = {ObserverKind.UNKNOWN_INPUT: f"estimate {', '.join(self.targets)}",
                 ObserverKind.SLIDING_MODE: f"estimate {', '.join(self.targets)}",
