@@ -16,12 +16,13 @@ from .errors import (CertificateError, DimensionError, InfeasibleDesignError, Mo
 from .model import NonlinearTerm, PlantModel, Structure, extract_structure, load_model
 from .synthesis import (Certificate, Condition, Design, certify_reduced_model, design,
                         design_canonical)
+from .synthesis import Analysis, analyze
 from .observers import DremSpec, Observer, build_observer
 from .simulation import Scenario, SimulationResult, load_scenario, simulate
 
 __all__ = [
     "PlantModel", "load_model", "Structure", "NonlinearTerm", "extract_structure",
-    "design", "design_canonical", "Design", "Condition", "Certificate", "certify_reduced_model",
+    "design", "design_canonical", "analyze", "Analysis", "Design", "Condition", "Certificate", "certify_reduced_model",
     "Observer", "build_observer", "DremSpec", "Scenario", "SimulationResult", "load_scenario", "simulate",
     "CompiledSimulator",
     "ObserverCadError", "ModelError", "DimensionError", "InfeasibleDesignError",
