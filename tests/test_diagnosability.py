@@ -274,3 +274,19 @@ def test_float_path_agrees_with_the_exact_one(n, l, p, m, seed, density):
     assert [(q.a_from_b, q.b_from_a) for q in fl.pairs] == [(q.a_from_b, q.b_from_a) for q in ex.pairs]
     assert {r.sensitive for r in fl.structure} == {r.sensitive for r in ex.structure}
     assert any(note.startswith("float path") for note in fl.notes)
+
+
+# ---------------------------------------------------------------- parity with the designer
+@pytest.mark.parametrize("n,l,p,m,seed,density", CASES[:8])
+def test_min_order_is_the_k_the_canonical_designer_finds(n, l, p, m, seed, density):
+    from observer_cad.errors import InfeasibleDesignError
+    from observer_cad.synthesis import design_canonical
+    model = model_from(*multi_fault_matrices(n, l, p, m, seed, density))
+    a = analyze(model)
+    for f in a.faults:
+        try:
+            k = design_canonical(model, unknown_input=f, symbolic=False, single_row=False).k
+        except InfeasibleDesignError:
+            k = None
+        mo = a.min_order[f]
+        assert k == (mo if mo is not None and mo < n else None), f  # the designer: k < n

@@ -406,7 +406,7 @@ class _Symbolic:
 
 class _Float:
     """Row-space operations by SVD (numeric models above ``FLOAT_AUTO_N`` states, or
-    ``method="float"``): orthonormal bases, a rank cut at ``rtol·σ_1``; ``margin`` keeps
+    ``method="float"``): orthonormal bases, a rank cut at ``rtol·max(σ_1, 1)``; ``margin`` keeps
     the smallest distance of a decision from its cut (σ/tol or tol/σ), the evidence."""
 
     def __init__(self, rtol=None):
@@ -445,8 +445,10 @@ class _Float:
 
     def _svd(self, M):
         U, sv, Vt = np.linalg.svd(M, full_matrices=True)
-        tol = self.rtol * (sv[0] if sv.size else 0.0)
-        r = int(np.sum(sv > tol)) if tol > 0 else 0
+        # every matrix here is built from unit rows / columns and orthonormal bases: its
+        # scale is about 1, so a theoretically zero product (noise only) is cut as such
+        tol = self.rtol * max(sv[0] if sv.size else 0.0, 1.0)
+        r = int(np.sum(sv > tol))
         if tol > 0:
             if r:
                 self.margin = min(self.margin, sv[r - 1] / tol)
@@ -495,7 +497,7 @@ class _Reach:
         self.p = L.shape[1]
         self.conds: set = set()
         self.A: list = []
-        self.B: list = [ops.zeros(0, self.n)]
+        self.K: list = [ops.eye(self.n)]  # B_j = {φ : φ K_j = 0}
         self.a_done = self.b_done = False
         self._Y = H
         self._cache: dict = {}
@@ -513,15 +515,21 @@ class _Reach:
         self._Y = ops.vstack(ops.mul(Ai, F), H)
 
     def _step_b(self):
+        # B_{j+1} = {φ : φ L = 0, φ F ∈ B_j + rowsp H} is the annihilator of
+        # K_{j+1} = Im L + F (K_j ∩ ker H) when B_j is that of K_j (K_0 = Rⁿ, B_0 = {0})
         ops, F, H, L, n = self.ops, self.F, self.H, self.L, self.n
-        Z = ops.vstack(self.B[-1], H)
-        N = ops.left_null(Z.transpose(), self.conds).transpose()  # columns x with Z x = 0
-        M = ops.hstack(L, ops.mul(F, N)) if N.shape[1] else L
-        Bj = ops.eye(n) if M.shape[1] == 0 else ops.left_null(M, self.conds)
-        if Bj.shape[0] == self.B[-1].shape[0]:
+        K = self.K[-1]
+        if K.shape[1]:
+            Y = ops.left_null(ops.mul(H, K).transpose(), self.conds).transpose()
+            X = ops.mul(K, Y) if Y.shape[1] else ops.zeros(n, 0)
+        else:
+            X = ops.zeros(n, 0)
+        M = ops.hstack(L, ops.mul(F, X)) if X.shape[1] else L
+        Kn = ops.basis(M.transpose(), self.conds).transpose() if M.shape[1] else M
+        if Kn.shape[1] == K.shape[1]:
             self.b_done = True
             return
-        self.B.append(Bj)
+        self.K.append(Kn)
 
     def _grow(self) -> bool:
         if self.a_done and self.b_done:
@@ -534,22 +542,23 @@ class _Reach:
 
     def _cap(self, i, j):
         """A_i ∩ B_j (indices beyond the last space are the stable ones)."""
-        while (len(self.A) < i and not self.a_done) or (len(self.B) - 1 < j and not self.b_done):
+        while (len(self.A) < i and not self.a_done) or (len(self.K) - 1 < j and not self.b_done):
             self._grow()
         i = min(i, len(self.A))
-        j = min(j, len(self.B) - 1)
+        j = min(j, len(self.K) - 1)
         ops = self.ops
         if i < 1 or j < 1:
             return ops.zeros(0, self.n)
         key = (i, j)
         if key not in self._cache:
-            A, B = self.A[i - 1], self.B[j]
-            if A.shape[0] == 0 or B.shape[0] == 0:
+            A, K = self.A[i - 1], self.K[j]
+            if A.shape[0] == 0 or K.shape[1] == self.n:
                 out = ops.zeros(0, self.n)
-            else:
-                X = ops.left_null(ops.vstack(A, B), self.conds)
-                out = ops.basis(ops.mul(X[:, :A.shape[0]], A), self.conds) if X.shape[0] \
-                    else ops.zeros(0, self.n)
+            elif K.shape[1] == 0:
+                out = A
+            else:  # x A with x (A K) = 0: independent rows, as x and A have them
+                X = ops.left_null(ops.mul(A, K), self.conds)
+                out = ops.mul(X, A) if X.shape[0] else ops.zeros(0, self.n)
             self._cache[key] = out
         return self._cache[key]
 
@@ -558,14 +567,14 @@ class _Reach:
         """The order from which Σ_k no longer grows (grows the spaces to the end)."""
         while self._grow():
             pass
-        return max(1, len(self.A) + len(self.B) - 2)
+        return max(1, len(self.A) + len(self.K) - 2)
 
     def detects(self, d, conds) -> bool:
         """Σ_∞ d ≠ 0 for a fault column d as the backend holds it."""
         if not self.A:
             self._grow()
         while True:
-            if self.ops.sees(self._cap(len(self.A), len(self.B) - 1), d, conds):
+            if self.ops.sees(self._cap(len(self.A), len(self.K) - 1), d, conds):
                 return True
             if not self._grow():
                 return False
@@ -938,7 +947,7 @@ def _analyze(work, st, fs, dist, candidates, symbolic, method, rtol, max_enumera
     notes.append("a residual of order k = n is a full-order one; the reduced-order designs"
                  " (design --form canonical) search k < n")
     if method == "float":
-        notes.append(f"float path: rank decisions by SVD, cut at {P.ops.rtol:.0e}·σ_1; the"
+        notes.append(f"float path: rank decisions by SVD, cut at {P.ops.rtol:.0e}·max(σ_1, 1); the"
                      f" closest decision was {P.ops.margin:.1e} times away from its cut"
                      " (exact: method='exact')")
     return Analysis(
