@@ -34,8 +34,10 @@ the span of all rows of all members of order k is ``Σ_k = Σ_i A_i ∩ B_{k+1�
 f has a detecting residual of order k iff ``Σ_k D_f ≠ 0``. The A_i and B_j grow and stop
 growing at the first repeat (each is a function of the previous one), after at most n
 steps; then ``Σ_k = A_∞ ∩ B_∞`` for every larger k, and f is detectable iff
-``(A_∞ ∩ B_∞) D_f ≠ 0``. Every space is a row space in Rⁿ (n-sized eliminations, not
-the l(k+1)-row Krylov matrix); the tests check ``Σ_k D_f ≠ 0`` against the members of
+``(A_∞ ∩ B_∞) D_f ≠ 0``. B_j is kept as the annihilator of the column space
+``K_j = Im L + F (K_{j−1} ∩ ker H)`` (K_0 = Rⁿ), the unobservability-subspace
+recursion. Every space lives in Rⁿ (n-sized eliminations, not the l(k+1)-row Krylov
+matrix), and they are grown only until the question is answered; the tests check ``Σ_k D_f ≠ 0`` against the members of
 ``(W⁽ᵏ⁾ L⁽ᵏ⁾)`` built with :func:`krylov_blocks` / :func:`member_to_phi`, and
 detectability against the normal rank of the system matrix.
 
@@ -885,10 +887,13 @@ def _analyze(work, st, fs, dist, candidates, symbolic, method, rtol, max_enumera
                                   (ab[2] and ab[0]) or (ba[2] and ba[0]),
                                   tuple(sorted(ab[3] | ba[3], key=str))))
 
-    # Step 3: achievable structure matrix rows
+    # Step 3: achievable structure matrix rows. Larger sets first: f detectable with S
+    # decoupled stays detectable with any subset of S decoupled (more members), so a
+    # positive answer for S ∪ {g} settles f for S without computing.
     m = len(names)
     complete = m <= max_enumerated
-    sizes = range(m) if complete else range(min(m, 3))
+    sizes = range(m - 1, -1, -1) if complete else range(min(m - 1, 2), -1, -1)
+    known: dict = {}  # (S, f) -> (detectable, via_substitution)
     rows: dict = {}
     for size in sizes:
         for S in itertools.combinations(names, size):
@@ -896,15 +901,21 @@ def _analyze(work, st, fs, dist, candidates, symbolic, method, rtol, max_enumera
             for f in names:
                 if f in S:
                     continue
-                ok, _, sub, conds = P.ask(f, S, order=False)
-                all_conds |= conds
-                if ok:
+                ans = next((known[(T, f)] for g in names if g != f and g not in S
+                            for T in [tuple(x for x in names if x in S or x == g)]
+                            if known.get((T, f), (False, True)) == (True, False)), None)
+                if ans is None:
+                    ok, _, sub, conds = P.ask(f, S, order=False)
+                    all_conds |= conds
+                    ans = (ok, sub)
+                known[(S, f)] = ans
+                if ans[0]:
                     sens.append(f)
-                    via = via or sub
+                    via = via or ans[1]
             if not sens:
                 continue
             key = tuple(sens)
-            if key not in rows:
+            if key not in rows or len(S) < len(rows[key].requested):
                 rows[key] = StructureRow(S, tuple(f for f in names if f not in sens), key, via)
     structure_rows = tuple(sorted(rows.values(), key=lambda r: (len(r.decoupled), r.decoupled)))
 
