@@ -290,3 +290,12 @@ def test_min_order_is_the_k_the_canonical_designer_finds(n, l, p, m, seed, densi
             k = None
         mo = a.min_order[f]
         assert k == (mo if mo is not None and mo < n else None), f  # the designer: k < n
+
+
+def test_structure_enumeration_beyond_the_limit_is_partial_and_says_so():
+    model = model_from(*multi_fault_matrices(5, 4, 1, 4, 3, 0.7))
+    full = analyze(model)
+    part = analyze(model, max_enumerated=3)
+    assert full.structure_complete and not part.structure_complete
+    assert {r.sensitive for r in part.structure} <= {r.sensitive for r in full.structure}
+    assert any("enumerated for at most two decoupled faults" in n for n in part.notes)
