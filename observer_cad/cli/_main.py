@@ -1,4 +1,4 @@
-"""Command-line interface: ``observer-cad show|design|demo``.
+"""Command-line interface: ``observer-cad show|design|simulate|codegen|analyze|demo``.
 
 Every user error prints one line ``observer-cad: error: ...`` on stderr and exits with
 status 2; no traceback is shown.
@@ -81,6 +81,30 @@ def build_parser() -> argparse.ArgumentParser:
     cg.add_argument("--dt", type=float, default=None,
                     help="continuous time: the RK4 step size baked into the step (default 0.01)")
     cg.add_argument("--name", default=None, help="C name prefix (default: the observer's name)")
+
+    an = sub.add_parser("analyze", help="which faults can be detected and isolated (diagnosability)",
+                        description="For the declared faults, with the declared disturbances "
+                                    "decoupled: detectability and the minimal order of a "
+                                    "detecting residual generator, isolability of each pair, "
+                                    "the achievable structure matrix, the reason for each "
+                                    "failure and which extra measurement would help (METHOD §2a).")
+    an.add_argument("model", metavar="MODEL", help="path to a model file")
+    an.add_argument("--fault", metavar="NAME", action="append", default=[],
+                    help="a fault to analyse (repeatable; default every declared fault)")
+    an.add_argument("--disturbance", metavar="NAME", action="append", default=[],
+                    help="a further fault or disturbance to decouple (repeatable); the model's "
+                         "own disturbances are always decoupled")
+    an.add_argument("--candidate", metavar="EXPR", action="append", default=[],
+                    help="a candidate extra output, linear in the states (repeatable), tried for "
+                         "the suggestions besides every unmeasured state")
+    an.add_argument("--symbolic", action="store_true",
+                    help="keep parameters as symbols (answers generic, with assumptions)")
+    an.add_argument("--method", choices=["auto", "exact", "float"], default="auto",
+                    help="exact algebra or SVD rank decisions (default auto: float above 20 "
+                         "states for numeric models)")
+    an.add_argument("--rtol", type=float, default=None,
+                    help="relative rank tolerance of the float path (default 1e-9)")
+    an.add_argument("--json", action="store_true", help="print one JSON object instead of text")
 
     dm = sub.add_parser("demo", help="design, compile, simulate and report the seed papers' examples",
                         description="Design every observer the seed papers build for the electric drive and "
@@ -321,6 +345,20 @@ def _cmd_codegen(args) -> int:
     return 0
 
 
+def _cmd_analyze(args) -> int:
+    from ..model import load_model
+    from ..reporting import analysis_to_json, format_analysis
+    from ..synthesis import analyze
+    result = analyze(load_model(args.model), faults=args.fault or None,
+                     disturbances=args.disturbance, candidates=args.candidate,
+                     symbolic=args.symbolic, method=args.method, rtol=args.rtol)
+    if args.json:
+        print(json.dumps(analysis_to_json(result), indent=2))
+    else:
+        print(format_analysis(result))
+    return 0
+
+
 def _cmd_demo(args) -> int:
     from ._demo import run_demo
     return run_demo(MODELS_DIR, Path(args.out), compile=not args.no_compile)
@@ -334,7 +372,8 @@ def main(argv=None) -> int:
             parser.print_help()
             return 2
         return {"show": _cmd_show, "design": _cmd_design, "simulate": _cmd_simulate,
-                "codegen": _cmd_codegen, "demo": _cmd_demo}[args.command](args)
+                "codegen": _cmd_codegen, "analyze": _cmd_analyze,
+                "demo": _cmd_demo}[args.command](args)
     except ObserverCadError as exc:
         msg = " / ".join(part.strip() for part in str(exc).splitlines() if part.strip())
         print(f"{PROG}: error: {msg}", file=sys.stderr)
