@@ -1,6 +1,6 @@
 """Stage 8 — the command line (``observer-cad``) and the seed-paper demo.
 """
-from ._demo import (CASES, FIGURES, Case, Run, run_demo)
+from ._demo import (CASES, EXAMPLES_DIR, FIGURES, Case, Run, run_demo)
 from ._main import (main, build_parser)
 
-__all__ = ["CASES", "FIGURES", "Case", "Run", "run_demo", "main", "build_parser"]
+__all__ = ["CASES", "EXAMPLES_DIR", "FIGURES", "Case", "Run", "run_demo", "main", "build_parser"]

@@ -40,15 +40,22 @@ import numpy as np
 import sympy as sp
 
 from ..files import atomic_write_text
-from ..errors import ObserverCadError
+from ..errors import ObserverCadError, UsageError
 from ..model import load_model
 from ..reporting import format_design, format_observer, format_structure
 from ..model import extract_structure
 from ..synthesis import design as make_design
 
-__all__ = ["CASES", "FIGURES", "Case", "Run", "run_demo"]
+__all__ = ["CASES", "EXAMPLES_DIR", "FIGURES", "Case", "Run", "run_demo"]
 
 R = sp.Rational
+
+#: The example models (``*.py``) and their scenarios (``scenarios/*.json``), which ship
+#: inside the package: in a source checkout ``observer_cad/examples`` is a symbolic link
+#: to the repository's ``models/`` (one copy of every file), and an installed package
+#: holds the files themselves (pyproject ``package-data``). The demo reads its models
+#: here, so it runs from any directory, with or without the repository.
+EXAMPLES_DIR = Path(__file__).resolve().parent.parent / "examples"
 
 
 @dataclasses.dataclass(frozen=True)
@@ -904,19 +911,23 @@ def _figures(by_key: dict, fig_dir: Path, log, failed: list) -> list:
 
 
 # ---------------------------------------------------------------- entry point
-def run_demo(models_dir: Path, out_dir: Path = Path("out"), *, compile: bool = True,
-             stream=None) -> int:
+def run_demo(models_dir: Path = EXAMPLES_DIR, out_dir: Path = Path("out"), *,
+             compile: bool = True, stream=None) -> int:
     """Design, compile, simulate, plot and report every case of :data:`CASES` into
-    ``out_dir``; returns 0 when every design was built and certified, else 1."""
+    ``out_dir``, reading the models and scenarios from ``models_dir`` (default: the
+    examples shipped with the package, :data:`EXAMPLES_DIR`); returns 0 when every
+    design was built and certified, else 1."""
     t_start = time.perf_counter()
     log = _Log(stream if stream is not None else sys.stdout)
     models_dir, out_dir = Path(models_dir), Path(out_dir)
+    if not (models_dir / "scenarios").is_dir():
+        raise UsageError(f"{models_dir}: the example models are not there (a broken install "
+                         "or checkout: reinstall observer_cad)")
     fig_dir, des_dir = out_dir / "figures", out_dir / "designs"
     for d in (out_dir, fig_dir, des_dir):
         try:
             d.mkdir(parents=True, exist_ok=True)
         except OSError as exc:
-            from ..errors import UsageError
             raise UsageError(f"{d}: cannot create the output directory: {exc.strerror}") from None
     n = len(CASES)
     log(f"observer-cad demo: {n} designs from seed papers 000, 001, 002, 004 → {out_dir}/report.md")

@@ -16,7 +16,6 @@ from ..version import package_version
 __all__ = ["main", "build_parser"]
 
 PROG = "observer-cad"
-MODELS_DIR = Path(__file__).resolve().parent.parent.parent / "models"
 
 
 class _Parser(argparse.ArgumentParser):
@@ -360,8 +359,8 @@ def _cmd_analyze(args) -> int:
 
 
 def _cmd_demo(args) -> int:
-    from ._demo import run_demo
-    return run_demo(MODELS_DIR, Path(args.out), compile=not args.no_compile)
+    from ._demo import EXAMPLES_DIR, run_demo
+    return run_demo(EXAMPLES_DIR, Path(args.out), compile=not args.no_compile)
 
 
 def main(argv=None) -> int:

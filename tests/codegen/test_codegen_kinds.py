@@ -44,7 +44,7 @@ from observer_cad.observers import build_observer
 from observer_cad.simulation import load_scenario, scenario_from_dict, simulate
 from observer_cad.synthesis import design
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 SCEN = ROOT / "models" / "scenarios"
 RTOL = 1e-12
 needs_cc = pytest.mark.skipif(
@@ -443,6 +443,7 @@ def _drem():
     return m, drem_observer(m, spec), load_scenario(SCEN / "drem_example.json")
 
 
+@pytest.mark.slow  # full-length DREM trajectories, ~5 s
 @needs_cc
 def test_drem_trajectory_parity():
     """The DREM adaptive observer (92 states, gamma = 1e22), first 5 s of its scenario.

@@ -97,6 +97,7 @@ def test_kind_designs_simulates_and_holds(models_dir, tmp_path, capsys, model, a
         assert np.max(np.abs(dh[late] - d[late])) < 0.02
 
 
+@pytest.mark.slow  # full-length DREM simulation, ~10 s
 def test_drem_cli_reports_insufficient_excitation(models_dir, tmp_path, capsys):
     """A constant input gives no excitation: simulate says so (one line, exit 3) instead of
     silently returning estimates; design --json carries the observer's equations."""

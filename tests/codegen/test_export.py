@@ -42,7 +42,7 @@ from observer_cad.observers import build_observer
 from observer_cad.simulation import scenario_from_dict, simulate
 from observer_cad.synthesis import design
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 SCEN = ROOT / "models" / "scenarios"
 RTOL = 1e-12
 CC = shutil.which("cc")
@@ -300,6 +300,7 @@ def test_step_wrapper_and_work_sizes(built, tmp_path):
 
 
 # ------------------------------------------------------------------ valgrind
+@pytest.mark.slow  # valgrind runs, 1–3 s each
 @needs_cc
 @pytest.mark.skipif(VALGRIND is None, reason="valgrind not installed (apt-get install -y"
                     " valgrind); the exported example is not checked for memory errors")

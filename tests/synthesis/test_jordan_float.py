@@ -8,7 +8,8 @@ from observer_cad.errors import InfeasibleDesignError, UsageError
 from observer_cad.synthesis import admissible_lambdas_float, design_jordan_float
 
 # (n, l, p): square pencils (l = p), wide ones (l < p), generic ones (l > p)
-SHAPES = [(4, 1, 1), (5, 2, 2), (6, 1, 2), (7, 2, 3), (8, 1, 1), (5, 3, 1), (6, 2, 0)]
+SHAPES = [(4, 1, 1), (5, 2, 2), (6, 1, 2), (7, 2, 3), (5, 3, 1), (6, 2, 0),
+          pytest.param(8, 1, 1, marks=pytest.mark.slow)]  # n = 8: ~1 s each, exact path
 
 
 def _pencil_inputs(n, l, p, seed, density=1.0):  # noqa: E741
@@ -154,6 +155,7 @@ def test_nonlinear_rejected(tmp_path):
         design_jordan_float(m, observer="virtual-sensor", estimate="x1")
 
 
+@pytest.mark.slow  # n = 40 models, ~1 s each
 @pytest.mark.parametrize("observer", ["virtual-sensor", "diagnostic", "interval"])
 def test_n40_float_design_certified(observer):
     m = randsys.random_model(40, 10, 2, seed=5, time="continuous", integer=False)

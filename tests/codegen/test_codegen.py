@@ -31,7 +31,7 @@ from observer_cad.synthesis import design
 from observer_cad.codegen import CodegenError, CompiledSimulator, STATS, compile_function, joint_step, observer_step, plant_step, to_casadi
 from observer_cad.codegen import split_signals
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 RTOL = 1e-12
 HAVE_CC = any(os.path.exists(os.path.join(d, "cc")) for d in os.environ.get("PATH", "").split(":"))
 needs_cc = pytest.mark.skipif(not HAVE_CC, reason="no C compiler")
@@ -336,6 +336,7 @@ def _which(name):
     return None
 
 
+@pytest.mark.slow  # a subprocess compiles and is killed, ~4 s
 @needs_cc
 def test_killed_compile_leaves_no_corrupt_entry(built, tmp_path):
     cache = tmp_path / "cache"
@@ -379,6 +380,7 @@ def test_killed_compile_leaves_no_corrupt_entry(built, tmp_path):
     assert r.returncode == 0 and r.stdout.startswith("True"), r.stderr
 
 
+@pytest.mark.slow  # two subprocesses compile, ~4 s
 @needs_cc
 def test_two_processes_compiling_at_once_both_succeed(tmp_path):
     script = textwrap.dedent(f"""
@@ -561,6 +563,7 @@ def test_missing_or_bad_fingerprint_record_falls_back_to_the_content_key(built, 
     assert not list(tmp_path.glob(".tmp-*"))
 
 
+@pytest.mark.slow  # a fresh interpreter, ~5 s
 @needs_cc
 def test_fingerprint_hit_in_a_fresh_process(built, tmp_path):
     """The fingerprint is the same in another process (no hash randomisation in it): a

@@ -370,11 +370,10 @@ def test_degenerate_alpha_denominator_does_not_crash(drive, d_designs, scen):
     assert np.allclose(dhat, 0.1)  # and the "estimate" is the bound: no information left
 
 
-def test_wrong_inputs(drive, d_designs, rho_design):
+def test_wrong_inputs(drive, d_designs, rho_design, models_dir):
     with pytest.raises(ObserverCadError, match="g must have 2"):
         unknown_input_observer(drive, rho_design, g=[-0.4])
-    three = load_model(__import__("pathlib").Path(__file__).resolve().parent.parent
-                       / "models" / "three_tank_linear.py")
+    three = load_model(models_dir / "three_tank_linear.py")
     if three.time != "discrete":
         des = design_canonical(three, unknown_input=three.disturbances[-1].name)
         with pytest.raises(ObserverCadError, match="discrete"):

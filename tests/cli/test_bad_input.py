@@ -30,7 +30,7 @@ from observer_cad import design_canonical, extract_structure, load_model
 from observer_cad.cli import main
 from observer_cad.errors import DimensionError, InfeasibleDesignError, ModelError, ObserverCadError, UsageError
 
-ROOT = Path(__file__).resolve().parent.parent
+ROOT = Path(__file__).resolve().parents[2]
 DRIVE = str(ROOT / "models" / "electric_drive.py")
 PREFIX = "observer-cad: error:"
 

@@ -27,6 +27,7 @@ def demo_run(models_dir, tmp_path_factory):
     return rc, out, buf.getvalue(), cache
 
 
+@pytest.mark.slow  # the whole demo run, ~10 s
 def test_demo_succeeds_and_reports_progress(demo_run):
     rc, out, log, _ = demo_run
     assert rc == 0, log
@@ -38,6 +39,7 @@ def test_demo_succeeds_and_reports_progress(demo_run):
     assert log.count("[figure]") == len(demo.FIGURES)
 
 
+@pytest.mark.slow  # the whole demo run, ~10 s
 def test_compiled_with_a_cold_cache(demo_run):
     rc, out, log, cache = demo_run
     if "falling back to the reference simulator" in log:
@@ -46,6 +48,7 @@ def test_compiled_with_a_cold_cache(demo_run):
     assert list(cache.glob("*.so")), "the compiled libraries went to OBSERVER_CAD_CACHE"
 
 
+@pytest.mark.slow  # the whole demo run, ~10 s
 def test_report_references_existing_pngs(demo_run):
     rc, out, log, _ = demo_run
     report = (out / "report.md").read_text(encoding="utf-8")
@@ -65,6 +68,7 @@ def test_report_references_existing_pngs(demo_run):
     assert not [p for p in out.rglob(".*") if p.is_file()]
 
 
+@pytest.mark.slow  # the whole demo run, ~10 s
 def test_every_design_certified(demo_run):
     rc, out, log, _ = demo_run
     for case in demo.CASES:
@@ -80,6 +84,7 @@ def test_every_design_certified(demo_run):
     assert summary.count("| ✅ |") == len(demo.CASES)
 
 
+@pytest.mark.slow  # the whole demo run, ~10 s
 def test_report_has_latex_conditions_and_timings(demo_run):
     rc, out, log, _ = demo_run
     report = (out / "report.md").read_text(encoding="utf-8")

@@ -234,16 +234,19 @@ def _assert_converged(d, r):
     assert rep.stiffness < 2.78
 
 
+@pytest.mark.slow  # convergence run, ~10 s
 def test_theta_affine_v_constant_converges(example_run):
     _, d, _, r = example_run
     _assert_converged(d, r)
 
 
+@pytest.mark.slow  # convergence run, ~10 s
 def test_v_affine_converges(v_affine_run):
     _, d, _, r = v_affine_run
     _assert_converged(d, r)
 
 
+@pytest.mark.slow  # shares the convergence run above
 def test_regression_identity_and_epsilon_decay(example_run):
     """Cᵀζ_a − y − Φ_a ϑ(t) = ε_a(t) = −Cᵀ e^{F_a t} x(0) along the run, decaying at the
     slowest pole of filter a."""
@@ -283,6 +286,7 @@ def test_regression_identity_and_epsilon_decay(example_run):
     assert slope == pytest.approx(d.slowest_pole, rel=0.02)
 
 
+@pytest.mark.slow  # full-length simulation, ~6 s
 def test_constant_input_reports_insufficient_excitation(models_dir):
     m, spec = load_drem(models_dir / "drem_example.py")
     d = drem_design(m, spec)

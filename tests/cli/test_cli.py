@@ -19,7 +19,7 @@ import sympy as sp
 from observer_cad import extract_structure, load_model
 from observer_cad.cli import build_parser, main
 
-ROOT = Path(__file__).resolve().parent.parent
+ROOT = Path(__file__).resolve().parents[2]
 MODELS = ROOT / "models"
 DRIVE = str(MODELS / "electric_drive.py")
 TANK = str(MODELS / "three_tank.py")
@@ -250,6 +250,7 @@ def test_help_show_mentions_every_option(capsys):
 
 
 # ----------------------------------------------------------------------------- demo
+@pytest.mark.slow  # the whole demo, ~10 s
 def test_demo(capsys, tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
     monkeypatch.setenv("OBSERVER_CAD_CACHE", str(tmp_path / "cache"))
