@@ -214,6 +214,35 @@ class Analysis:
     notes: tuple = ()
     candidates: tuple = ()
 
+    def __repr__(self) -> str:
+        det = sum(1 for r in self.fault_results if r.detectable)
+        iso = sum(1 for p in self.pairs if p.isolable)
+        return (f"<Analysis of {self.model_name}: {det} of {len(self.faults)} faults detectable,"
+                f" {iso} of {len(self.pairs)} pairs isolable, {len(self.structure)} achievable"
+                f" structure rows>")
+
+    def _repr_markdown_(self) -> str:
+        """Notebook view: detectability, isolability and the achievable structure matrix."""
+        lines = [f"**Diagnosability** of `{self.model_name}` with"
+                 f" {', '.join(self.disturbances) or 'nothing'} decoupled", "",
+                 "| fault | detectable | minimal order | reason |", "|---|---|---|---|"]
+        for r in self.fault_results:
+            lines.append(f"| {r.fault} | {'✅' if r.detectable else '❌'} |"
+                         f" {r.min_order if r.min_order is not None else '—'} |"
+                         f" {r.reason.replace('|', '/')} |")
+        if self.pairs:
+            lines += ["", "| pair | isolable |", "|---|---|"]
+            lines += [f"| {a} / {b} | {'✅' if p.isolable else '❌'} |"
+                      for p in self.pairs for a, b in [p.faults]]
+        if self.structure:
+            lines += ["", "| decoupled | " + " | ".join(self.faults) + " |",
+                      "|---|" + "---|" * len(self.faults)]
+            for row in self.structure:
+                bits = row.row(self.faults)
+                lines.append(f"| {', '.join(row.decoupled) or '—'} | "
+                             + " | ".join(str(bits[f]) for f in self.faults) + " |")
+        return "\n".join(lines)
+
     def fault(self, name: str) -> FaultAnalysis:
         for r in self.fault_results:
             if r.fault == name:

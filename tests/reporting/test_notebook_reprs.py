@@ -24,3 +24,13 @@ def test_unknown_input_design_prints_the_estimator_formula(capsys, models_dir):
     out = capsys.readouterr().out
     assert "d_hat = " in out and "alpha" in out and "d_min" in out and "d_max" in out
     assert "parameters: g = " in out
+
+
+def test_analysis_reprs(models_dir):
+    from observer_cad import analyze
+    a = analyze(load_model(models_dir / "three_tank_faults.py"))
+    r = repr(a)
+    assert len(r) < 200 and "faults detectable" in r
+    md = a._repr_markdown_()
+    assert "| fault | detectable | minimal order | reason |" in md
+    assert md.count("\n| f") >= len(a.faults)
