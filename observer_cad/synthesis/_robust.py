@@ -82,7 +82,7 @@ from ._design import Condition, Design
 from ..errors import InfeasibleDesignError, ModelError, ObserverCadError, UsageError
 from ._reduced import is_stable, observer_symbols, output_symbols, parse_estimate
 from ..model import PlantModel
-from ..model import extract_structure
+from ..model import extract_structure, parse_expression
 from ..numerics import float_left_null_space, float_rank, rank_from_sv
 
 __all__ = ["design_robust_canonical", "design_robust_jordan", "robust_basis",
@@ -685,8 +685,8 @@ def _jordan_setup(model, estimate, lambdas, decouple):
     if lambdas:
         lams = []
         for val in lambdas:
-            lam = sp.nsimplify(sp.sympify(val), rational=True) if not isinstance(val, sp.Basic) \
-                else val
+            lam = parse_expression(val, where="--lambda", allow_complex=True)
+            lam = sp.nsimplify(lam, rational=True) if lam.has(sp.Float) else lam
             if lam.free_symbols or not lam.is_real:
                 raise UsageError(f"λ = {lam} must be a real number")
             if is_stable(lam, work.time) is False:
