@@ -259,9 +259,12 @@ def _cmd_design(args) -> int:
     observer = None
     if not args.symbolic and not result.approximate:
         from ..observers import build_observer
+        options = _observer_options(args, result)  # a bad --gain is an error here too
         try:
-            observer = build_observer(model, result, **_observer_options(args, result))
+            observer = build_observer(model, result, **options)
         except ObserverCadError:
+            if options:
+                raise  # e.g. more --gain values than the estimator has rows
             observer = None  # the design stands; the observer kind is not buildable yet
     if args.json:
         out = result.to_json()

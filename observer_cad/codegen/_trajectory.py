@@ -271,9 +271,9 @@ class CompiledSimulator:
         else:
             for r in range(R):
                 one(r)
-        return self._result(t, R, N, V, S, Y, O, runs, keep_nonfinite)
+        return self._result(t, R, N, V, S, Y, O, runs, keep_nonfinite, where=scenario.source)
 
-    def _result(self, t, R, N, V, S, Y, O, runs, keep_nonfinite=False):
+    def _result(self, t, R, N, V, S, Y, O, runs, keep_nonfinite=False, where=None):
         m, observer = self.model, self.observer
         cols = {"t": np.broadcast_to(t, (R, N)).copy()}
         for j, s in enumerate(m.states):
@@ -291,7 +291,8 @@ class CompiledSimulator:
                 delays[name] = int(observer.delays.get(name, 0))
                 cols[name] = align_delay(O[:, :, j], delays[name])
                 order.append(name)
-        return finish_result(cols, order, delays, t, m, observer, runs, keep_nonfinite)
+        return finish_result(cols, order, delays, t, m, observer, runs, keep_nonfinite,
+                             where=where)
 
     def simulate_many(self, scenarios, *, threads: int | None = None) -> list:
         """Many scenarios at once on threads (ctypes releases the GIL)."""

@@ -364,6 +364,8 @@ def parse_number(text, *, where: str, allow_complex: bool = False) -> sp.Expr:
     elif isinstance(text, bool):
         raise ExpressionError(f"{where}: {text!r} is not a number", reason="not a number")
     elif isinstance(text, (int, float)):
+        if isinstance(text, float) and not math.isfinite(text):
+            raise ExpressionError(f"{where}: {text!r} is not finite", reason="not finite")
         e = parse_expression(repr(text), where=where, allow_complex=allow_complex)
         shown = repr(text)
     else:

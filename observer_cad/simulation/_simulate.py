@@ -313,7 +313,7 @@ def find_nonfinite(columns: Mapping, order, *, t: np.ndarray, delays: Mapping, s
     at = f"at t = {ti:g}" + (f" (run {run})" if np.asarray(columns[name]).ndim > 1
                               and np.asarray(columns[name]).shape[0] > 1 else "")
     cause = {
-        "signal": f"signal {name} is {val_s} {at}: its expression is not finite there"
+        "signal": f"signal '{name}' is {val_s} {at}: its expression is not finite there"
                   " (a division by zero or an overflow)",
         "state": f"{name} became {val_s} {at}: the plant left its domain or the input overflowed",
         "output": f"output {name} became {val_s} {at}: a state or noise value overflowed",
@@ -500,10 +500,12 @@ def simulate(model: PlantModel, observer: Observer | None, scenario: Scenario, *
             delays[name] = int(observer.delays.get(name, 0))
             cols[name] = align_delay(np.array(v, dtype=float), delays[name])
             order.append(name)
-    return finish_result(cols, order, delays, t, m, observer, runs, keep_nonfinite)
+    return finish_result(cols, order, delays, t, m, observer, runs, keep_nonfinite,
+                         where=scenario.source)
 
 
-def finish_result(cols, order, delays, t, model, observer, runs, keep_nonfinite):
+def finish_result(cols, order, delays, t, model, observer, runs, keep_nonfinite, *,
+                  where=None):
     """The :class:`SimulationResult` of columns of shape (R, N), after the finiteness
     check (shared by the reference and the compiled simulator)."""
     ins = list(model.inputs) + list(model.faults) + list(model.disturbances) + list(model.noise)
@@ -511,8 +513,10 @@ def finish_result(cols, order, delays, t, model, observer, runs, keep_nonfinite)
                          states=[s.name for s in model.states],
                          outputs=[str(y) for y in output_symbols(len(model.outputs))],
                          observer=[name for name, _ in observer.outputs] if observer else ())
-    if msg is not None and not keep_nonfinite:
-        raise NonFiniteError(msg)
+    if msg is not None:
+        msg = f"{where or 'simulation'}: {msg}"
+        if not keep_nonfinite:
+            raise NonFiniteError(msg)
     if runs is None:
         cols = {k: v[0] for k, v in cols.items()}
     return SimulationResult(cols, tuple(order), dict(delays), msg)
