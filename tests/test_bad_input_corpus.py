@@ -304,6 +304,10 @@ CLI_VALUES = {
                         "--out", "out", "--dt", "inf"], ("--dt",)),
     "gamma_nan": (["design", MODELS / "drem_example.py", "--observer", "drem", "--gamma", "nan"],
                   ("--gamma",)),
+    "poles_nan": (["design", MODELS / "drem_example.py", "--observer", "drem",
+                   "--poles", "nan,-1"], ("--poles", "finite")),
+    "poles_text": (["design", MODELS / "drem_example.py", "--observer", "drem",
+                    "--poles", "a,b"], ("--poles",)),
     "gamma_negative": (["design", MODELS / "drem_example.py", "--observer", "drem",
                         "--gamma", "-1"], ("--gamma",)),
 }

@@ -218,11 +218,14 @@ def _drem_from_args(args):
     model, spec = load_drem(args.model)
     poles = None
     if args.poles:
+        import math
         try:
             poles = [[float(v) for v in item.split(",")] for item in args.poles]
         except ValueError:
             raise UsageError(f"--poles {' '.join(args.poles)}: use comma-separated numbers per set,"
                              " e.g. -1,-2 -3,-4") from None
+        if not all(math.isfinite(v) for ps in poles for v in ps):
+            raise UsageError(f"--poles {' '.join(args.poles)}: every pole must be a finite number")
     return model, drem_design(model, spec, gamma=args.gamma, poles=poles,
                               include_epsilon=args.include_epsilon)
 

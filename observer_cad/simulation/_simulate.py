@@ -7,11 +7,16 @@ Scenarios are data (JSON)::
      "seed": 1,
      "initial": {"x1": 0, "x2": 0},     # plant initial state (missing: 0)
      "observer_initial": {"xl1": -1},   # optional, overrides the observer's defaults
-     "signals": {"u": "0.2*sin(t/10)",  # sympy expression in t (Piecewise allowed)
+     "signals": {"u": "0.2*sin(t/10)",  # expression in t (the safe reader's grammar:
+                                        # observer_cad.model.parse_expression; Piecewise allowed)
                  "rho": {"uniform": [-0.05, 0.05]},   # seeded random samples
                  "d": {"piecewise": [["0.3*sin(t/2)", "t <= 20"],
                                      [{"uniform": [-0.5, 0.5]}, true]]}}}
 
+Every value is validated when the :class:`Scenario` is made (before anything is
+allocated); :func:`check_memory` refuses arrays above ``$OBSERVER_CAD_MEMORY_LIMIT``
+(default 2 GiB). A value that becomes NaN or infinite stops the simulation with
+:class:`~observer_cad.errors.NonFiniteError` naming the first one (CLI exit status 4).
 Every input, fault, disturbance and noise not given is zero. Signals are held constant
 over a step. Continuous time: plant and observer are integrated as one system by
 fixed-step RK4 (the outputs y = H x + W w are evaluated inside the stages, so the
