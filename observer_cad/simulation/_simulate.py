@@ -30,6 +30,7 @@ from __future__ import annotations
 import dataclasses
 import json
 import math
+import numbers
 import os
 from pathlib import Path
 from typing import Mapping
@@ -57,7 +58,8 @@ _KNOWN_KEYS = ("steps", "t_end", "dt", "seed", "initial", "observer_initial", "s
 
 
 def _is_number(v) -> bool:
-    return isinstance(v, (int, float)) and not isinstance(v, bool)
+    """A real number (Python or numpy), not a bool."""
+    return isinstance(v, numbers.Real) and not isinstance(v, (bool, np.bool_))
 
 
 def _finite(where, what, v):
@@ -81,10 +83,10 @@ def _whole(where, what, v):
     """A whole number: an int, or a float without fraction (1e3); not a bool."""
     if isinstance(v, float) and math.isfinite(v) and v.is_integer():
         return int(v)
-    if not isinstance(v, int) or isinstance(v, bool):
+    if not isinstance(v, numbers.Integral) or isinstance(v, (bool, np.bool_)):
         shown = json.dumps(v) if _jsonable(v) else repr(v)
         raise UsageError(f"{where}: {what} must be a whole number, got {shown}")
-    return v
+    return int(v)
 
 
 def _signal_spec(where, name, spec, depth=0):
