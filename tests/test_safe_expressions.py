@@ -207,3 +207,12 @@ def test_no_sympify_or_eval_on_user_text_in_the_package():
         for m in re.finditer(r"(sympify\([^)]*locals=|parse_expr\(|\beval\(|\bexec\()", src):
             bad.append(f"{f.relative_to(pkg)}: {m.group(0)}")
     assert not bad, bad
+
+
+def test_a_lambda_may_name_a_parameter_of_a_symbolic_design(capsys):
+    """--lambda reads the model's parameter names as its symbols (not their values)."""
+    from observer_cad.cli import main
+    rc = main(["design", str(ROOT / "models" / "electric_drive.py"), "--observer", "diagnostic",
+               "--fault", "d", "--symbolic", "--lambda", "k2"])
+    out = capsys.readouterr().out
+    assert rc == 0 and "λ = (k2)" in out and "F_star = [ k2 ]" in out, out
