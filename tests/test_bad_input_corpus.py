@@ -504,3 +504,24 @@ def test_corpus_has_at_least_100_cases():
     n = (len(SCENARIOS) + len(NONFINITE) + len(CLI_VALUES) + len(MODEL_CASES)
          + len(CACHE_FAULTS) + 4)
     assert n >= 100, n
+
+
+@pytest.mark.skipif(casadi is None, reason="no C compiler or casadi")
+def test_compiled_simulator_reports_the_same_first_nonfinite_value(tmp_path, monkeypatch):
+    from observer_cad import build_observer, design, load_model
+    from observer_cad.codegen import CompiledSimulator
+    from observer_cad.errors import NonFiniteError
+    from observer_cad.simulation import scenario_from_dict, simulate
+    monkeypatch.setenv("OBSERVER_CAD_CACHE", str(tmp_path / "cache"))
+    m = load_model(TANK)
+    ob = build_observer(m, design(m, observer="virtual-sensor", estimate="x1"))
+    sc = scenario_from_dict({"t_end": 1, "dt": 0.01, "initial": {"x1": 0, "x2": 1, "x3": 2}},
+                            source="sc.json")
+    with pytest.raises(NonFiniteError) as ref:
+        simulate(m, ob, sc)
+    with pytest.raises(NonFiniteError) as comp:
+        CompiledSimulator(m, ob).simulate(sc)
+    assert str(ref.value) == str(comp.value)
+    assert str(ref.value).startswith("sc.json: x1 became nan at t = 0.01")
+    kept = CompiledSimulator(m, ob).simulate(sc, keep_nonfinite=True)
+    assert kept.nonfinite == str(ref.value)
