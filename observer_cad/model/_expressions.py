@@ -187,11 +187,9 @@ class _Builder:
             raise _Reject(f"function '{ident}' used without arguments")
         if self.any_name and not ident.startswith("_"):
             return sp.Symbol(ident)
-        known = ", ".join(sorted(self.table)) or "none"
-        return self._unknown(ident, known)
-
-    @staticmethod
-    def _unknown(ident, known):
+        names = sorted(self.table)
+        known = ", ".join(names[:12]) + (f", … ({len(names)} names)" if len(names) > 12 else "") \
+            if names else "none"
         raise _Reject(f"unknown name '{ident}' (allowed names: {known})")
 
     def power(self, a, b):
