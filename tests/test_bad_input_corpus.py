@@ -251,6 +251,7 @@ CLI_VALUES = {
     "gain_huge": (uio("--gain", "1e999"), ("--gain", "floating-point range")),
     "gain_too_many": (uio("--gain", "-0.7", "-0.4", "-0.1", "-0.2"), ("g must have",)),
     "gain_symbol": (uio("--gain", "k1"), ("--gain", "'k1'")),
+    "gain_symbolic_design": (uio("--symbolic", "--gain", "1+"), ("--gain", "not a valid")),
     "gain_wrong_observer": (vs("--gain", "1"), ("--gain applies",)),
     "eigenvalue_incomplete": (vs("--form", "canonical", "--eigenvalues", "-1+"),
                               ("--eigenvalues", "not a valid expression")),

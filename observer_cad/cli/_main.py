@@ -260,9 +260,9 @@ def _cmd_design(args) -> int:
             print(result.format())
         return 0
     observer = None
+    options = _observer_options(args, result)  # a bad --gain is an error here too
     if not args.symbolic and not result.approximate:
         from ..observers import build_observer
-        options = _observer_options(args, result)  # a bad --gain is an error here too
         try:
             observer = build_observer(model, result, **options)
         except ObserverCadError:
