@@ -412,6 +412,32 @@ def test_design_json_is_read_without_evaluation(tmp_path):
     assert not Path("PWNED").exists()
 
 
+DESIGN_FILES = {
+    "payload": (json.dumps({"matrices": {"Phi": [[PAYLOAD]]}}).encode(), "matrix Phi"),
+    "dunder": (json.dumps({"matrices": {"Phi": [["k1.__class__"]]}}).encode(), "attribute"),
+    "not_utf8": (b"\xff\xfe\x00{", "cannot read"),
+    "not_json": (b"{", "not valid JSON"),
+    "no_matrices": (b"{}", "not a design"),
+    "matrices_not_object": (b'{"matrices": [1]}', "not a design"),
+    "ragged_rows": (b'{"matrices": {"Phi": [["1"], ["1", "2"]]}}', "equal-length rows"),
+    "row_not_list": (b'{"matrices": {"Phi": ["1"]}}', "equal-length rows"),
+    "deep": (b"[" * 100000 + b"]" * 100000, "design"),
+}
+
+
+@pytest.mark.parametrize("cid", list(DESIGN_FILES))
+def test_design_json_file(work, cid):
+    from observer_cad.errors import UsageError
+    from observer_cad.reporting import matrices_from_json, read_design_json
+    raw, needle = DESIGN_FILES[cid]
+    p = work / "design.json"
+    p.write_bytes(raw)
+    with pytest.raises(UsageError) as info:
+        matrices_from_json(read_design_json(p))
+    assert needle in str(info.value) and "\n" not in str(info.value)
+    assert not (work / "PWNED").exists()
+
+
 # ----------------------------------------------------------------------------- cache faults
 casadi = pytest.importorskip("casadi") if shutil.which(os.environ.get("CC") or "cc") else None
 
@@ -503,7 +529,7 @@ def test_through_a_real_process(work, argv_kind):
 
 def test_corpus_has_at_least_100_cases():
     n = (len(SCENARIOS) + len(NONFINITE) + len(CLI_VALUES) + len(MODEL_CASES)
-         + len(CACHE_FAULTS) + 4)
+         + len(DESIGN_FILES) + len(CACHE_FAULTS) + 4)
     assert n >= 100, n
 
 

@@ -181,7 +181,10 @@ def read_design_json(path) -> dict:
         data = json.loads(p.read_text(encoding="utf-8"))
     except json.JSONDecodeError as exc:
         raise UsageError(f"{path}: not valid JSON: {exc}") from None
-    if not isinstance(data, dict) or "matrices" not in data:
+    except (OSError, UnicodeDecodeError, RecursionError) as exc:
+        raise UsageError(f"{path}: cannot read the design:"
+                         f" {getattr(exc, 'strerror', None) or type(exc).__name__}") from None
+    if not isinstance(data, dict) or not isinstance(data.get("matrices"), dict):
         raise UsageError(f"{path}: not a design (no 'matrices')")
     return data
 
@@ -193,6 +196,9 @@ def matrices_from_json(data: dict) -> dict:
         if not rows:
             out[name] = sp.zeros(0, 0)
             continue
+        if not isinstance(rows, list) or not all(isinstance(r, list) for r in rows) \
+                or len({len(r) for r in rows}) != 1:
+            raise UsageError(f"design JSON: matrix {name} is not a list of equal-length rows")
         out[name] = sp.Matrix([[_parse(e, name) for e in row] for row in rows]) if rows[0] \
             else sp.zeros(len(rows), 0)
     return out
