@@ -36,3 +36,17 @@ class CertificateError(ObserverCadError):
 
 class UsageError(ObserverCadError):
     """An option given to the CLI or a public function is invalid."""
+
+
+class ExpressionError(UsageError):
+    """Text that should denote an expression (a scenario signal, a CLI value) is not one
+    the whitelist grammar accepts; ``reason`` says what was rejected."""
+
+    def __init__(self, message: str, reason: str = ""):
+        super().__init__(message)
+        self.reason = reason or message
+
+
+class NonFiniteError(ObserverCadError):
+    """A simulation produced a value that is not finite (NaN or ±inf). The CLI exits
+    with status 4 (not 2: the input was well-formed, the trajectory left the domain)."""

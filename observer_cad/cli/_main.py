@@ -1,7 +1,8 @@
 """Command-line interface: ``observer-cad show|design|simulate|codegen|analyze|demo``.
 
 Every user error prints one line ``observer-cad: error: ...`` on stderr and exits with
-status 2; no traceback is shown.
+status 2; a simulation that produced a value that is not finite (NaN, ±inf) exits with
+status 4 (one line naming the first: time, signal, likely cause); no traceback is shown.
 """
 from __future__ import annotations
 
@@ -10,7 +11,7 @@ import json
 import sys
 from pathlib import Path
 
-from ..errors import ObserverCadError, UsageError
+from ..errors import NonFiniteError, ObserverCadError, UsageError
 from ..version import package_version
 
 __all__ = ["main", "build_parser"]
@@ -68,6 +69,10 @@ def build_parser() -> argparse.ArgumentParser:
     _add_design_options(sim)
     sim.add_argument("--scenario", metavar="FILE", required=True, help="scenario JSON file")
     sim.add_argument("--out", metavar="DIR", required=True, help="output directory")
+    sim.add_argument("--keep-nonfinite", action="store_true",
+                     help="when a value becomes NaN or infinite, still write the CSV (with nan/inf"
+                          " written literally; an empty cell always means 'not available') and"
+                          " exit with status 4 after a one-line warning")
 
     cg = sub.add_parser("codegen", help="export the observer as standalone C",
                         description="Design the observer and write NAME.c, NAME.h (argument "
@@ -77,7 +82,7 @@ def build_parser() -> argparse.ArgumentParser:
     cg.add_argument("model", metavar="MODEL", help="path to a model file")
     _add_design_options(cg)
     cg.add_argument("--out", metavar="DIR", required=True, help="output directory")
-    cg.add_argument("--dt", type=float, default=None,
+    cg.add_argument("--dt", type=_positive_float("--dt"), default=None,
                     help="continuous time: the RK4 step size baked into the step (default 0.01)")
     cg.add_argument("--name", default=None, help="C name prefix (default: the observer's name)")
 
@@ -116,6 +121,21 @@ def build_parser() -> argparse.ArgumentParser:
     dm.add_argument("--no-compile", action="store_true",
                     help="simulate with the reference simulator (numpy) instead of compiled C")
     return p
+
+
+def _positive_float(option):
+    """argparse type: a finite number > 0 (``nan``, ``inf``, ``0`` and ``-1`` refused)."""
+    def convert(text):
+        import math
+        try:
+            v = float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+        if not (math.isfinite(v) and v > 0):
+            raise argparse.ArgumentTypeError(f"{text!r}: must be a finite number > 0")
+        return v
+    convert.__name__ = option
+    return convert
 
 
 def _add_design_options(p) -> None:
@@ -160,7 +180,7 @@ def _add_design_options(p) -> None:
     p.add_argument("--gain", metavar="VALUE", nargs="+",
                    help="unknown-input estimator: the gains g (one, or one per row of the "
                         "model); default as in seed 000 (-0.7; -0.4, -0.1 mismatched)")
-    p.add_argument("--gamma", type=float, default=None,
+    p.add_argument("--gamma", type=_positive_float("--gamma"), default=None,
                    help="drem: the gradient gain γ (default: the model's suggestion)")
     p.add_argument("--poles", metavar="SET", nargs="+",
                    help="drem: one comma-separated pole set per filter, e.g. -1,-2 -3,-4")
@@ -190,6 +210,7 @@ def _cmd_show(args) -> int:
 
 def _parse_bounds(model, items):
     import dataclasses
+    from ..model import parse_number
     if not items:
         return model
     bounds = dict(model.bounds)
@@ -201,7 +222,10 @@ def _parse_bounds(model, items):
         sym = model.symbol(name.strip())
         if sym is None:
             raise UsageError(f"--bound {item!r}: '{name.strip()}' is not a symbol of the model")
-        bounds[sym] = (lo.strip(), hi.strip())
+        lo_v, hi_v = (parse_number(v.strip(), where=f"--bound {item!r}") for v in (lo, hi))
+        if bool(lo_v > hi_v):
+            raise UsageError(f"--bound {item!r}: low {lo_v} > high {hi_v}")
+        bounds[sym] = (lo_v, hi_v)
     return dataclasses.replace(model, bounds=bounds)
 
 
@@ -209,9 +233,8 @@ def _observer_options(args, result) -> dict:
     if getattr(args, "gain", None):
         if result.observer != "unknown-input":
             raise UsageError("--gain applies to --observer unknown-input")
-        import sympy as sp
-        g = [sp.Rational(v) if "." in v or "/" in v or v.lstrip("-").isdigit() else sp.sympify(v)
-             for v in args.gain]
+        from ..model import parse_number
+        g = [parse_number(v, where="--gain") for v in args.gain]
         return {"g": g if len(g) > 1 else g[0]}
     return {}
 
@@ -221,11 +244,14 @@ def _drem_from_args(args):
     model, spec = load_drem(args.model)
     poles = None
     if args.poles:
+        import math
         try:
             poles = [[float(v) for v in item.split(",")] for item in args.poles]
         except ValueError:
             raise UsageError(f"--poles {' '.join(args.poles)}: use comma-separated numbers per set,"
                              " e.g. -1,-2 -3,-4") from None
+        if not all(math.isfinite(v) for ps in poles for v in ps):
+            raise UsageError(f"--poles {' '.join(args.poles)}: every pole must be a finite number")
     return model, drem_design(model, spec, gamma=args.gamma, poles=poles,
                               include_epsilon=args.include_epsilon)
 
@@ -260,11 +286,12 @@ def _cmd_design(args) -> int:
             print(result.format())
         return 0
     observer = None
+    options = _observer_options(args, result)  # a bad --gain is an error here too
     if not args.symbolic and not result.approximate:
         # build it here exactly as simulate and codegen do: a design whose observer cannot
         # be built, or whose observer fails a required condition, is refused now
         from ..observers import build_observer
-        observer = build_observer(model, result, **_observer_options(args, result))
+        observer = build_observer(model, result, **options)
     if args.json:
         out = result.to_json()
         if observer is not None:
@@ -302,20 +329,28 @@ def _cmd_simulate(args) -> int:
     from ..simulation import load_scenario, simulate
     if args.symbolic:
         raise UsageError("simulate needs numeric parameters: drop --symbolic")
+    scenario = load_scenario(args.scenario)  # validated before the design's work
     model, result = _design_from_args(args)
-    scenario = load_scenario(args.scenario)
     observer = build_observer(model, result, **_observer_options(args, result))
     _refuse_failed(observer)
-    res = simulate(model, observer, scenario)
+    res = simulate(model, observer, scenario, keep_nonfinite=args.keep_nonfinite)
     path = write_signals_csv(res, args.out)
     print(f"wrote {path} ({len(res['t'])} rows, columns: {', '.join(res.order)})")
     from ..reporting import UNITS_FILE
     units = ", ".join(f"{c} [{u}]" for c, u in res.units.items() if c in res.order)
     print(f"wrote {path.with_name(UNITS_FILE)} ({'units: ' + units if units else 'no units: the model declares none'})")
     from ..reporting import plot_simulation
+    if res.nonfinite is not None:  # plot what is finite; the CSV keeps nan/inf
+        import dataclasses
+        import numpy as np
+        res = dataclasses.replace(res, columns={
+            k: np.where(np.isfinite(v), v, np.nan) for k, v in res.columns.items()})
     for fig in plot_simulation(res, args.out, time=model.time,
                                title=f"{model.name}, {observer.kind}"):
         print(f"wrote {fig}")
+    if res.nonfinite is not None:
+        print(f"{PROG}: warning: {res.nonfinite} (kept in the CSV as nan/inf)", file=sys.stderr)
+        return 4
     if observer.kind == "drem":
         from ..observers import excitation_report
         rep = excitation_report(res, observer)
@@ -376,7 +411,7 @@ def main(argv=None) -> int:
     except ObserverCadError as exc:
         msg = " / ".join(part.strip() for part in str(exc).splitlines() if part.strip())
         print(f"{PROG}: error: {msg}", file=sys.stderr)
-        return 2
+        return 4 if isinstance(exc, NonFiniteError) else 2
     except KeyboardInterrupt:
         print(f"{PROG}: interrupted", file=sys.stderr)
         return 130

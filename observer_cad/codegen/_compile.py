@@ -15,6 +15,19 @@
 * A missing compiler or a compiler error raises :class:`CodegenError` (one line, with
   the compiler's first error); the interpreted casadi Function is untouched and usable.
 
+**Integrity (nothing on disk is trusted).**  Every library has a checksum file
+``NAME-KEY.so.sha256`` (``sha256sum -c`` format), written atomically after it.  Before
+a library is loaded (``casadi.external`` or ctypes) its SHA-256 is computed and compared
+— so a truncated or replaced library is never mapped (no SIGBUS, no foreign code); a
+missing, mismatched or unreadable checksum makes the entry be rebuilt atomically (entries
+of earlier versions, which had no checksum, are rebuilt once).  Entries (library,
+checksum, ``.ref``) must be regular files owned by the current user and not writable by
+group or others, else they are refused and rebuilt (one warning line on stderr).  The
+cache directory itself must be owned by the current user, not writable by group or
+others, and writable: otherwise — or when it cannot be created — a private cache is used
+instead (``$TMPDIR/observer_cad-UID``, mode 0700, or a fresh ``mkdtemp`` directory) with
+one warning line on stderr naming both.
+
 **Fingerprints (cache hits without translation).**  Computing ``KEY`` needs the C,
 i.e. the sympy → casadi translation and casadi's code generation (10–30 ms).  Callers
 that start from sympy (:func:`compile_observer_step`, :func:`compile_plant_step`,
@@ -39,7 +52,9 @@ import hashlib
 import json
 import os
 import shutil
+import stat
 import subprocess
+import sys
 import tempfile
 import threading
 import time
@@ -50,7 +65,8 @@ import sympy as sp
 
 from ..errors import ObserverCadError
 
-__all__ = ["CACHE_LOCK", "CodegenError", "cache_dir", "compiler", "generate_c", "compile_source",
+__all__ = ["CACHE_LOCK", "CodegenError", "cache_dir", "usable_cache_dir", "verify_library",
+           "compiler", "generate_c", "compile_source",
            "compile_function", "compile_or_interpret", "CompiledFunction", "STATS", "FLAGS",
            "structure", "fingerprint", "lookup_fingerprint", "record_fingerprint",
            "forget_fingerprint", "compile_observer_step", "compile_plant_step"]
@@ -69,10 +85,158 @@ class CodegenError(ObserverCadError):
 
 
 def cache_dir(path=None) -> Path:
+    """The requested cache directory: ``path``, ``$OBSERVER_CAD_CACHE`` or
+    ``~/.cache/observer_cad`` (see :func:`usable_cache_dir` for the one actually used)."""
     if path is not None:
         return Path(path)
     env = os.environ.get("OBSERVER_CAD_CACHE")
     return Path(env) if env else Path.home() / ".cache" / "observer_cad"
+
+
+_WARNED: set = set()
+_PRIVATE: list = []
+
+
+def _warn(message: str) -> None:
+    """One line on stderr, once per process and message."""
+    with CACHE_LOCK:
+        if message in _WARNED:
+            return
+        _WARNED.add(message)
+    print(f"observer-cad: warning: {message}", file=sys.stderr)
+
+
+def _untrusted(st) -> str | None:
+    """Why a file or directory with this stat is not trusted, or None."""
+    if hasattr(os, "getuid") and st.st_uid != os.getuid():
+        return f"is owned by another user (uid {st.st_uid})"
+    if st.st_mode & 0o022:
+        return "is writable by group or others"
+    return None
+
+
+def _dir_problem(d: Path) -> str | None:
+    try:
+        st = os.stat(d)
+    except OSError as exc:
+        return f"cannot be read ({exc.strerror})"
+    if not stat.S_ISDIR(st.st_mode):
+        return "is not a directory"
+    bad = _untrusted(st)
+    if bad:
+        return bad
+    if not os.access(d, os.W_OK | os.X_OK):
+        return "is not writable"
+    return None
+
+
+def _private_cache() -> Path:
+    """A cache only the current user can write: ``$TMPDIR/observer_cad-UID`` (mode 0700)
+    when it is trustworthy, else a fresh ``mkdtemp`` directory (mode 0700)."""
+    with CACHE_LOCK:
+        if _PRIVATE and _dir_problem(_PRIVATE[0]) is None:
+            return _PRIVATE[0]
+        uid = os.getuid() if hasattr(os, "getuid") else 0
+        p = Path(tempfile.gettempdir()) / f"observer_cad-{uid}"
+        try:
+            p.mkdir(mode=0o700, exist_ok=True)
+        except OSError:
+            pass
+        if _dir_problem(p) is not None:
+            try:
+                p = Path(tempfile.mkdtemp(prefix="observer_cad-"))
+            except OSError as exc:
+                raise CodegenError(f"no usable compile cache: cannot create a private"
+                                   f" temporary directory ({exc.strerror})") from None
+        _PRIVATE[:] = [p]
+        return p
+
+
+def usable_cache_dir(path=None) -> Path:
+    """The cache directory to use: :func:`cache_dir` (created with mode 0700 if missing)
+    when it is owned by the current user, not writable by group or others, and writable;
+    otherwise a private cache (:func:`_private_cache`), with one warning line on stderr."""
+    d = cache_dir(path)
+    try:
+        d.mkdir(parents=True, exist_ok=True, mode=0o700)
+    except OSError as exc:
+        problem = f"cannot be created ({exc.strerror or type(exc).__name__})"
+    else:
+        problem = _dir_problem(d)
+    if problem is None:
+        return d
+    p = _private_cache()
+    _warn(f"compile cache {d} {problem}; using the private cache {p} instead")
+    return p
+
+
+def _file_problem(path: Path) -> str | None:
+    """Why a cache file is not trusted (missing, not a regular file, foreign, loose
+    permissions), or None."""
+    try:
+        st = os.lstat(path)
+    except OSError:
+        return "is missing"
+    if not stat.S_ISREG(st.st_mode):
+        return "is not a regular file"
+    return _untrusted(st)
+
+
+def _sha256_file(path: Path) -> str | None:
+    h = hashlib.sha256()
+    try:
+        fd = os.open(path, os.O_RDONLY | getattr(os, "O_NOFOLLOW", 0))
+        with os.fdopen(fd, "rb") as fh:
+            for chunk in iter(lambda: fh.read(1 << 20), b""):
+                h.update(chunk)
+    except OSError:
+        return None
+    return h.hexdigest()
+
+
+def _sum_path(library: Path) -> Path:
+    return library.with_name(library.name + ".sha256")
+
+
+def verify_library(library) -> str | None:
+    """None when ``library`` may be loaded: it and its checksum file are regular files
+    owned by the current user, not writable by group or others, and the library's
+    SHA-256 is the one recorded; otherwise the reason (the entry is then rebuilt)."""
+    library = Path(library)
+    for p in (library, _sum_path(library)):
+        bad = _file_problem(p)
+        if bad:
+            return f"{p.name} {bad}"
+    try:
+        with open(_sum_path(library), "rb") as fh:
+            text = fh.read(512).decode("ascii")
+        recorded = text.split()[0]
+    except (OSError, UnicodeDecodeError, IndexError):
+        return f"{_sum_path(library).name} is unreadable"
+    actual = _sha256_file(library)
+    if actual is None or actual != recorded:
+        return f"{library.name} does not match its recorded SHA-256"
+    return None
+
+
+def _refuse(path: Path, reason: str) -> None:
+    """A refused entry: warn when it is foreign or writable by others (a possible attack);
+    a missing or mismatched checksum is rebuilt silently (an old or broken entry)."""
+    if "owned by another user" in reason or "writable by group" in reason:
+        _warn(f"compile cache entry {path.parent / reason.split(' ')[0]} {reason.split(' ', 1)[1]};"
+              " not loaded, rebuilt")
+
+
+def _write_sum(library: Path, digest: str) -> None:
+    """``NAME.so.sha256`` atomically (``sha256sum -c`` format)."""
+    d = library.parent
+    fd, tmp = tempfile.mkstemp(prefix=f".tmp-{library.name}-", suffix=".sha256", dir=d)
+    try:
+        with os.fdopen(fd, "w") as fh:
+            fh.write(f"{digest}  {library.name}\n")
+        os.replace(tmp, _sum_path(library))
+    finally:
+        _cleanup(tmp)
 
 
 def compiler(cc=None) -> str:
@@ -120,7 +284,7 @@ def _codegen_digest() -> str:
     if not _SRC_DIGEST:
         h = hashlib.sha256()
         here = Path(__file__).resolve().parent
-        for nm in ("translate.py", "trajectory.py", "compile.py"):
+        for nm in ("_translate.py", "_trajectory.py", "_compile.py"):
             try:
                 h.update((here / nm).read_bytes())
             except OSError:
@@ -190,10 +354,16 @@ def _ref_path(d: Path, name: str, fp: str) -> Path:
 def lookup_fingerprint(fp: str, name: str, *, cache=None) -> dict | None:
     """The record a fingerprint maps to (``library`` an existing path, ``function``,
     ``doc``, ``key``), or None."""
-    d = cache_dir(cache)
+    d = usable_cache_dir(cache)
+    ref = _ref_path(d, name, fp)
+    bad = _file_problem(ref)
+    if bad:
+        if bad != "is missing":
+            _refuse(ref, f"{ref.name} {bad}")
+        return None
     try:
-        rec = json.loads(_ref_path(d, name, fp).read_text())
-    except (OSError, ValueError):
+        rec = json.loads(ref.read_text(encoding="utf-8"))
+    except (OSError, ValueError, RecursionError):
         return None
     if not isinstance(rec, dict) or rec.get("fingerprint") != fp:
         return None
@@ -201,7 +371,9 @@ def lookup_fingerprint(fp: str, name: str, *, cache=None) -> dict | None:
     if not isinstance(lib, str) or "/" in lib or os.sep in lib or lib.startswith("."):
         return None
     path = d / lib
-    if not path.is_file():
+    bad = verify_library(path)
+    if bad:
+        _refuse(path, bad)
         return None
     rec["library"] = path
     return rec
@@ -211,7 +383,7 @@ def record_fingerprint(fp: str, name: str, library: Path, *, cache=None, functio
                        doc=None, key=None) -> None:
     """Write ``CACHE/NAME-FP.ref`` atomically (a temporary file, then os.replace).
     Failure to write is not an error (the next call just translates again)."""
-    d = cache_dir(cache)
+    d = usable_cache_dir(cache)
     rec = {"fingerprint": fp, "library": Path(library).name, "function": function,
            "doc": doc, "key": key, "casadi": ca.__version__}
     try:
@@ -229,7 +401,7 @@ def record_fingerprint(fp: str, name: str, library: Path, *, cache=None, functio
 
 
 def forget_fingerprint(fp: str, name: str, *, cache=None) -> None:
-    _cleanup(_ref_path(cache_dir(cache), name, fp))
+    _cleanup(_ref_path(usable_cache_dir(cache), name, fp))
 
 
 def generate_c(f: ca.Function, *, header_comment: str | None = None) -> str:
@@ -261,32 +433,48 @@ def _cleanup(*paths):
 
 def compile_source(source: str, name: str, *, cache=None, cc=None, flags=FLAGS,
                    check=None) -> CompileResult:
-    """Compile C ``source`` to ``CACHE/NAME-KEY.so`` (or reuse it).  ``check(path)``, if
-    given, validates a cached entry (e.g. by loading it); a failing entry is rebuilt."""
+    """Compile C ``source`` to ``CACHE/NAME-KEY.so`` (or reuse it).  A cached entry is
+    used only when :func:`verify_library` accepts it (and ``check(path)``, if given, e.g.
+    loading it, succeeds); otherwise it is rebuilt atomically.  When the cache cannot
+    take the entry (not writable, a directory in the way) the private cache is used."""
     t0 = time.perf_counter()
     ccpath = compiler(cc)
     flags = tuple(flags)
     key = hashlib.sha256("\0".join([source, _compiler_id(ccpath), " ".join(flags)])
                          .encode()).hexdigest()
-    d = cache_dir(cache)
+    d = usable_cache_dir(cache)
     try:
-        d.mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        raise CodegenError(f"cache directory {d}: {exc.strerror}") from None
+        return _compile_into(d, source, name, key, ccpath, flags, check, t0)
+    except _CacheWriteError as exc:
+        p = _private_cache()
+        if p == d:
+            raise CodegenError(f"compile cache {d}: cannot write {exc}") from None
+        _warn(f"compile cache {d}: cannot write {exc}; using the private cache {p} instead")
+        return _compile_into(p, source, name, key, ccpath, flags, check, t0)
+
+
+class _CacheWriteError(Exception):
+    """Internal: the cache directory did not take a file (reason as the message)."""
+
+
+def _compile_into(d: Path, source, name, key, ccpath, flags, check, t0) -> CompileResult:
     final = d / f"{name}-{key[:32]}.so"
-    if final.is_file():
-        ok = True
-        if check is not None:
+    if os.path.lexists(final):
+        bad = verify_library(final)
+        if bad is None and check is not None:
             try:
                 check(final)
             except Exception:  # noqa: BLE001 - a bad entry is rebuilt
-                ok = False
-                _cleanup(final)
-        if ok:
+                bad = "does not load"
+        if bad is None:
             with CACHE_LOCK:
                 STATS["hits"] += 1
             return CompileResult(final, key, True, time.perf_counter() - t0)
-    fd, csrc = tempfile.mkstemp(prefix=f".tmp-{name}-", suffix=".c", dir=d)
+        _refuse(final, bad)
+    try:
+        fd, csrc = tempfile.mkstemp(prefix=f".tmp-{name}-", suffix=".c", dir=d)
+    except OSError as exc:
+        raise _CacheWriteError(f"a temporary file ({exc.strerror})") from None
     tmp_so = csrc[:-2] + ".so"
     try:
         with os.fdopen(fd, "w") as fh:
@@ -301,9 +489,18 @@ def compile_source(source: str, name: str, *, cache=None, cc=None, flags=FLAGS,
             first = lines[0] if lines else ((r.stderr or r.stdout).strip().splitlines() or ["?"])[0]
             raise CodegenError(f"compiling {name} with {ccpath} failed (exit {r.returncode}):"
                                f" {first.strip()}; the interpreted casadi function is still usable")
-        os.replace(tmp_so, final)
-        # keep the source next to the library for inspection (also atomic)
-        os.replace(csrc, final.with_suffix(".c"))
+        try:
+            os.chmod(tmp_so, 0o644)  # never group/other-writable, whatever the umask
+            digest = _sha256_file(Path(tmp_so))
+            if digest is None:
+                raise OSError(0, "the compiled library cannot be read")
+            os.replace(tmp_so, final)
+            _write_sum(final, digest)
+            # keep the source next to the library for inspection (also atomic)
+            os.chmod(csrc, 0o644)
+            os.replace(csrc, final.with_suffix(".c"))
+        except OSError as exc:
+            raise _CacheWriteError(f"{final.name} ({exc.strerror or exc})") from None
     finally:
         _cleanup(csrc, tmp_so)
     with CACHE_LOCK:

@@ -33,7 +33,8 @@ import sympy as sp
 from ..errors import UsageError
 from ..model import PlantModel
 from ..observers import Observer, output_symbols
-from ..simulation import Scenario, SimulationResult, column_units, signal_arrays, align_delay
+from ..simulation import (Scenario, SimulationResult, align_delay, check_memory,
+                          finish_result, signal_arrays)
 from ._compile import CACHE_LOCK, FLAGS, STATS, CodegenError, compile_source, fingerprint, forget_fingerprint, generate_c, lookup_fingerprint, record_fingerprint
 from ._translate import describe, joint_identity, joint_step, joint_step_name
 
@@ -184,8 +185,8 @@ class CompiledSimulator:
         """The C source of the library (the casadi step and the trajectory loop)."""
         if self._source is None:
             try:
-                self._source = Path(self.path).with_suffix(".c").read_text()
-            except OSError:
+                self._source = Path(self.path).with_suffix(".c").read_text(encoding="utf-8")
+            except (OSError, UnicodeDecodeError):
                 self._source = generate_c(self.step) + loop_source(self.step, self.nv)
         return self._source
 
@@ -220,8 +221,12 @@ class CompiledSimulator:
         """The inputs of :meth:`run_arrays` for a scenario: ``(t, runs, steps, V, s0)``, V the
         signals per run (runs × steps × inputs), s0 the joint initial state [x(0); ξ(0)]."""
         m, observer = self.model, self.observer
-        t = scenario.grid(m.time)
         R = 1 if runs is None else int(runs)
+        if R < 1:
+            raise UsageError(f"runs must be at least 1, got {runs}")
+        # V twice (signals and the result's copies), S, Y, O and t
+        check_memory(scenario, m.time, runs=R, columns=2 * self.nv + self.ns + self.ny + self.no + 1)
+        t = scenario.grid(m.time)
         N = t.size
         sig = signal_arrays(m, scenario, t, R)
         where = scenario.source or "scenario"
@@ -250,9 +255,10 @@ class CompiledSimulator:
         return t, R, N, V, np.asarray(s0, dtype=float)
 
     def simulate(self, scenario: Scenario, *, runs: int | None = None,
-                 threads: int | None = None) -> SimulationResult:
-        """As :func:`observer_cad.simulate.simulate` (same columns, same order); with
-        ``runs=R`` the R seeded realisations run on ``threads`` threads."""
+                 threads: int | None = None, keep_nonfinite: bool = False) -> SimulationResult:
+        """As :func:`observer_cad.simulate.simulate` (same columns, same order, the same
+        memory limit and finiteness check); with ``runs=R`` the R seeded realisations run
+        on ``threads`` threads."""
         t, R, N, V, s0 = self.prepare(scenario, runs)
         S = np.empty((R, N, self.ns))
         Y = np.empty((R, N, self.ny))
@@ -268,9 +274,9 @@ class CompiledSimulator:
         else:
             for r in range(R):
                 one(r)
-        return self._result(t, R, N, V, S, Y, O, runs)
+        return self._result(t, R, N, V, S, Y, O, runs, keep_nonfinite, where=scenario.source)
 
-    def _result(self, t, R, N, V, S, Y, O, runs):
+    def _result(self, t, R, N, V, S, Y, O, runs, keep_nonfinite=False, where=None):
         m, observer = self.model, self.observer
         cols = {"t": np.broadcast_to(t, (R, N)).copy()}
         for j, s in enumerate(m.states):
@@ -282,14 +288,14 @@ class CompiledSimulator:
             cols[s.name] = V[:, :, j]
         order = ["t"] + [s.name for s in m.states] + [str(y) for y in ys] + \
             [s.name for s in self.inputs if s not in m.noise]
+        delays = {}
         if observer is not None:
             for j, (name, _) in enumerate(observer.outputs):
-                cols[name] = align_delay(O[:, :, j], int(observer.delays.get(name, 0)))
+                delays[name] = int(observer.delays.get(name, 0))
+                cols[name] = align_delay(O[:, :, j], delays[name])
                 order.append(name)
-        if runs is None:
-            cols = {k: v[0] for k, v in cols.items()}
-        return SimulationResult(cols, tuple(order), units=column_units(m, observer, cols),
-                                model=m.name, time=m.time)
+        return finish_result(cols, order, delays, t, m, observer, runs, keep_nonfinite,
+                             where=where)
 
     def simulate_many(self, scenarios, *, threads: int | None = None) -> list:
         """Many scenarios at once on threads (ctypes releases the GIL)."""

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import dataclasses
 import importlib.util
+import math
 import sys
 from fractions import Fraction
 from pathlib import Path
@@ -21,7 +22,8 @@ from typing import Any, Mapping
 
 import sympy as sp
 
-from ..errors import DimensionError, ModelError
+from ..errors import DimensionError, ExpressionError, ModelError
+from ._expressions import parse_number
 
 __all__ = ["PlantModel", "load_model", "to_rational"]
 
@@ -31,16 +33,32 @@ TIME_DOMAINS = ("continuous", "discrete")
 def to_rational(value: Any, what: str) -> sp.Expr:
     """Convert a number to an exact sympy Rational (floats via their decimal string).
 
-    ``0.02`` becomes ``1/50``, not the binary expansion of the double.
+    ``0.02`` becomes ``1/50``, not the binary expansion of the double. Values must be
+    finite and real: NaN, ±oo, zoo and complex numbers are refused (ModelError naming
+    ``what``). Text is read by :func:`~observer_cad.model.parse_number` (never evaluated).
     """
     if isinstance(value, sp.Basic):
+        if value.has(sp.nan, sp.oo, -sp.oo, sp.zoo) or value.is_finite is False:
+            raise ModelError(f"{what}: value {value} is not a finite number")
         if value.is_Rational:
             return value
         if value.is_Float:
+            if not value.is_finite:
+                raise ModelError(f"{what}: value {value} is not a finite number")
             return sp.Rational(str(value))
         if value.is_number:
+            try:
+                v = complex(sp.N(value, 30))
+            except (TypeError, ValueError, OverflowError):
+                raise ModelError(f"{what}: value {value} is not a finite number") from None
+            if not (math.isfinite(v.real) and math.isfinite(v.imag)):
+                raise ModelError(f"{what}: value {value} is not a finite number")
+            if v.imag != 0 or value.is_real is False:
+                raise ModelError(f"{what}: value {value} is not real")
             return value
         raise ModelError(f"{what}: value {value} is not a number")
+    if isinstance(value, complex):
+        raise ModelError(f"{what}: value {value!r} is not real")
     if isinstance(value, bool):
         raise ModelError(f"{what}: value {value!r} is not a number")
     if isinstance(value, int):
@@ -53,9 +71,10 @@ def to_rational(value: Any, what: str) -> sp.Expr:
         return sp.Rational(repr(value))
     if isinstance(value, str):
         try:
-            return sp.Rational(value)
-        except (TypeError, ValueError):
-            pass
+            return to_rational(parse_number(value, where=what), what)
+        except ExpressionError as exc:
+            raise ModelError(f"{what}: value {value!r} is not a finite real number"
+                             f" ({exc.reason})") from None
     raise ModelError(f"{what}: value {value!r} is not a number")
 
 
@@ -216,6 +235,11 @@ class PlantModel:
         for w in self.noise:
             if not any(w in h.free_symbols for h in self.outputs):
                 raise ModelError(f"{where}: noise '{w}' is declared but appears in no output")
+        for role, syms in (("fault", self.faults), ("disturbance", self.disturbances)):
+            for s in syms:
+                if not any(s in f.free_symbols for f in self.dynamics):
+                    raise ModelError(f"{where}: {role} '{s}' is declared but appears in no"
+                                     " dynamics equation")
 
         # bounds
         bounds = {}

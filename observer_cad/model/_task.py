@@ -26,7 +26,8 @@ from typing import Sequence
 
 import sympy as sp
 
-from ..errors import ModelError, UsageError
+from ..errors import ExpressionError, ModelError, UsageError
+from ._expressions import parse_expression
 from ._plant import PlantModel
 from ._structure import Structure
 
@@ -151,11 +152,16 @@ def parse_estimate(model: PlantModel, expr) -> sp.Matrix:
     loc = {s.name: s for s in model.states}
     loc.update({p.name: p for p in model.parameters})
     for e in exprs:
-        try:
-            e = sp.sympify(e, locals=loc) if isinstance(e, str) else sp.sympify(e)
-        except (sp.SympifyError, SyntaxError, TypeError) as exc:
-            raise ModelError(f"{where}: cannot parse --estimate {e!r}: not a valid expression"
-                             f" ({type(exc).__name__})") from None
+        if isinstance(e, str):  # text: the safe reader (never evaluated)
+            try:
+                e = parse_expression(e, loc, where=f"{where}: --estimate")
+            except ExpressionError as exc:
+                reason = exc.reason if exc.reason.startswith("not a valid expression") \
+                    else f"not a valid expression: {exc.reason}"
+                raise ModelError(f"{where}: cannot parse --estimate {e!r}: {reason}") from None
+        elif not isinstance(e, sp.Basic):
+            raise ModelError(f"{where}: --estimate {e!r} must be one expression in the"
+                             " states, e.g. x1 or 'x1 - x2'")
         if not isinstance(e, sp.Expr):
             raise ModelError(f"{where}: --estimate {expr!r} must be one expression in the"
                              " states, e.g. x1 or 'x1 - x2'")

@@ -28,7 +28,7 @@ import sympy as sp
 
 from ..synthesis import Design
 from ..errors import UsageError
-from ..model import PlantModel
+from ..model import PlantModel, parse_expression
 
 __all__ = ["Observer", "estimate_name", "output_symbols"]
 
@@ -128,7 +128,12 @@ def estimate_name(model: PlantModel, design: Design) -> str:
     """``x1`` when z = M x is a single state, else ``z``."""
     est = design.estimate
     if est is not None:
-        e = sp.sympify(est, locals={s.name: s for s in model.states})
+        if not isinstance(est, (str, sp.Basic)):
+            return "z"
+        try:  # text is read by the safe reader, never evaluated
+            e = parse_expression(est, model.states, where="--estimate")
+        except UsageError:
+            return "z"
         if e in model.states:
             return str(e)
     return "z"

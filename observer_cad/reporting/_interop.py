@@ -25,6 +25,7 @@ import sympy as sp
 from ..files import atomic_write_text
 from ..synthesis import Design
 from ..errors import UsageError
+from ..model import parse_expression
 from ..observers import Observer
 from ._markdown import design_equations_latex, design_matrices_latex
 
@@ -180,7 +181,10 @@ def read_design_json(path) -> dict:
         data = json.loads(p.read_text(encoding="utf-8"))
     except json.JSONDecodeError as exc:
         raise UsageError(f"{path}: not valid JSON: {exc}") from None
-    if not isinstance(data, dict) or "matrices" not in data:
+    except (OSError, UnicodeDecodeError, RecursionError) as exc:
+        raise UsageError(f"{path}: cannot read the design:"
+                         f" {getattr(exc, 'strerror', None) or type(exc).__name__}") from None
+    if not isinstance(data, dict) or not isinstance(data.get("matrices"), dict):
         raise UsageError(f"{path}: not a design (no 'matrices')")
     return data
 
@@ -192,15 +196,17 @@ def matrices_from_json(data: dict) -> dict:
         if not rows:
             out[name] = sp.zeros(0, 0)
             continue
-        out[name] = sp.Matrix([[_parse(e) for e in row] for row in rows]) if rows[0] \
+        if not isinstance(rows, list) or not all(isinstance(r, list) for r in rows) \
+                or len({len(r) for r in rows}) != 1:
+            raise UsageError(f"design JSON: matrix {name} is not a list of equal-length rows")
+        out[name] = sp.Matrix([[_parse(e, name) for e in row] for row in rows]) if rows[0] \
             else sp.zeros(len(rows), 0)
     return out
 
 
-def _parse(text: str):
-    """An expression printed by sympy; every name not called as a function is a Symbol
-    (so a parameter called ``gamma`` or ``S`` stays a symbol)."""
-    import re
-    names = {n: sp.Symbol(n) for n in re.findall(r"[A-Za-z_]\w*(?!\w|\s*\()", str(text))
-             if n not in ("I", "pi", "E", "oo", "zoo", "nan")}
-    return sp.sympify(text, locals=names)
+def _parse(text: str, matrix: str = "?"):
+    """An expression printed by sympy, read by the safe reader (never evaluated); every
+    name that is not a known function or constant is a Symbol (so a parameter called
+    ``gamma`` or ``S`` stays a symbol); decimals stay floats."""
+    return parse_expression(str(text), where=f"design JSON: matrix {matrix}",
+                            allow_complex=True, any_name=True, exact_floats=False)

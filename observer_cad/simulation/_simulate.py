@@ -7,11 +7,16 @@ Scenarios are data (JSON)::
      "seed": 1,
      "initial": {"x1": 0, "x2": 0},     # plant initial state (missing: 0)
      "observer_initial": {"xl1": -1},   # optional, overrides the observer's defaults
-     "signals": {"u": "0.2*sin(t/10)",  # sympy expression in t (Piecewise allowed)
+     "signals": {"u": "0.2*sin(t/10)",  # expression in t (the safe reader's grammar:
+                                        # observer_cad.model.parse_expression; Piecewise allowed)
                  "rho": {"uniform": [-0.05, 0.05]},   # seeded random samples
                  "d": {"piecewise": [["0.3*sin(t/2)", "t <= 20"],
                                      [{"uniform": [-0.5, 0.5]}, true]]}}}
 
+Every value is validated when the :class:`Scenario` is made (before anything is
+allocated); :func:`check_memory` refuses arrays above ``$OBSERVER_CAD_MEMORY_LIMIT``
+(default 2 GiB). A value that becomes NaN or infinite stops the simulation with
+:class:`~observer_cad.errors.NonFiniteError` naming the first one (CLI exit status 4).
 Every input, fault, disturbance and noise not given is zero. Signals are held constant
 over a step. Continuous time: plant and observer are integrated as one system by
 fixed-step RK4 (the outputs y = H x + W w are evaluated inside the stages, so the
@@ -24,23 +29,112 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import math
+import numbers
+import os
 from pathlib import Path
 from typing import Mapping
 
 import numpy as np
 import sympy as sp
 
-from ..errors import UsageError
-from ..model import PlantModel
+from ..errors import NonFiniteError, UsageError
+from ..model import PlantModel, parse_expression
 from ..observers import Observer, output_symbols
 
-__all__ = ["signal_arrays", "align_delay", "Scenario", "load_scenario", "scenario_from_dict", "simulate", "SimulationResult", "column_units", "T"]
+__all__ = ["signal_arrays", "align_delay", "Scenario", "load_scenario", "scenario_from_dict",
+           "simulate", "SimulationResult", "column_units", "T", "memory_limit", "check_memory",
+           "find_nonfinite", "finish_result", "MEMORY_LIMIT_ENV", "DEFAULT_MEMORY_LIMIT"]
 
 T = sp.Symbol("t")
+
+#: environment variable that sets the memory limit of one simulation (bytes; a suffix
+#: K, M, G or T multiplies by 1024, 1024², …)
+MEMORY_LIMIT_ENV = "OBSERVER_CAD_MEMORY_LIMIT"
+#: default limit of :func:`check_memory`: 2 GiB
+DEFAULT_MEMORY_LIMIT = 2 * 1024 ** 3
+_KNOWN_KEYS = ("steps", "t_end", "dt", "seed", "initial", "observer_initial", "signals",
+               "description")
+
+
+def _is_number(v) -> bool:
+    """A real number (Python or numpy), not a bool."""
+    return isinstance(v, numbers.Real) and not isinstance(v, (bool, np.bool_))
+
+
+def _finite(where, what, v):
+    """A finite JSON number (bool and strings refused)."""
+    if not _is_number(v):
+        raise UsageError(f"{where}: {what} must be a number, got {json.dumps(v) if _jsonable(v) else repr(v)}")
+    if not math.isfinite(v):
+        raise UsageError(f"{where}: {what} must be finite, got {v}")
+    return v
+
+
+def _jsonable(v) -> bool:
+    try:
+        json.dumps(v)
+    except (TypeError, ValueError):
+        return False
+    return True
+
+
+def _whole(where, what, v):
+    """A whole number: an int, or a float without fraction (1e3); not a bool."""
+    if isinstance(v, float) and math.isfinite(v) and v.is_integer():
+        return int(v)
+    if not isinstance(v, numbers.Integral) or isinstance(v, (bool, np.bool_)):
+        shown = json.dumps(v) if _jsonable(v) else repr(v)
+        raise UsageError(f"{where}: {what} must be a whole number, got {shown}")
+    return int(v)
+
+
+def _signal_spec(where, name, spec, depth=0):
+    """Check one signal specification (and parse its expressions); nothing is evaluated."""
+    what = f"signal '{name}'"
+    if isinstance(spec, str):
+        parse_expression(spec, {"t": T}, where=f"{where}: {what}")
+        return
+    if _is_number(spec):
+        _finite(where, what, spec)
+        return
+    if isinstance(spec, dict) and set(spec) == {"uniform"}:
+        rng = spec["uniform"]
+        if not isinstance(rng, (list, tuple)) or len(rng) != 2:
+            raise UsageError(f"{where}: {what}: use {{\"uniform\": [low, high]}}")
+        lo = _finite(where, f"{what}: uniform low", rng[0])
+        hi = _finite(where, f"{what}: uniform high", rng[1])
+        if lo > hi:
+            raise UsageError(f"{where}: {what}: uniform low {lo} > high {hi}")
+        return
+    if isinstance(spec, dict) and set(spec) == {"piecewise"} and depth == 0:
+        segs = spec["piecewise"]
+        if not isinstance(segs, (list, tuple)) or not segs:
+            raise UsageError(f"{where}: {what}: piecewise needs a non-empty list of"
+                             " [value, condition] pairs")
+        for seg in segs:
+            if not isinstance(seg, (list, tuple)) or len(seg) != 2:
+                raise UsageError(f"{where}: {what}: piecewise segments are [value, condition] pairs")
+            _signal_spec(where, name, seg[0], depth + 1)
+            if not isinstance(seg[1], bool):
+                if not isinstance(seg[1], str):
+                    raise UsageError(f"{where}: {what}: a piecewise condition is text in t"
+                                     " (e.g. \"t <= 20\") or true")
+                parse_expression(seg[1], {"t": T}, where=f"{where}: {what} condition",
+                                 condition=True)
+        return
+    if isinstance(spec, bool):
+        raise UsageError(f"{where}: {what} must be a number or an expression in t, got {json.dumps(spec)}")
+    raise UsageError(f"{where}: {what}: use an expression in t, a number,"
+                     " {\"uniform\": [low, high]} or {\"piecewise\": [[value, condition], ...]}")
 
 
 @dataclasses.dataclass(frozen=True)
 class Scenario:
+    """A validated scenario: every value is checked on construction (types, finiteness,
+    ranges, whole step counts, signal expressions parsed by the safe reader), before
+    anything is allocated."""
+
     signals: Mapping
     initial: Mapping
     observer_initial: Mapping | None = None
@@ -50,16 +144,60 @@ class Scenario:
     seed: int = 0
     source: str | None = None
 
-    def grid(self, time: str) -> np.ndarray:
+    def __post_init__(self):
+        where = self.source or "scenario"
+        for key, val in (("signals", self.signals), ("initial", self.initial)):
+            if not isinstance(val, Mapping):
+                raise UsageError(f"{where}: '{key}' must be an object {{name: value}}, got"
+                                 f" {type(val).__name__ if not isinstance(val, list) else 'a list'}")
+        if self.observer_initial is not None and not isinstance(self.observer_initial, Mapping):
+            raise UsageError(f"{where}: 'observer_initial' must be an object {{name: value}}")
+        for key, val in (("initial", self.initial), ("observer_initial", self.observer_initial or {})):
+            for name, v in val.items():
+                if not isinstance(name, str):
+                    raise UsageError(f"{where}: {key}: names must be text, got {name!r}")
+                _finite(where, f"{key} '{name}'", v)
+        for name, spec in self.signals.items():
+            if not isinstance(name, str):
+                raise UsageError(f"{where}: signal names must be text, got {name!r}")
+            _signal_spec(where, name, spec)
+        if self.steps is not None:
+            st = _whole(where, "'steps'", self.steps)
+            if st < 1:
+                raise UsageError(f"{where}: 'steps' must be at least 1, got {st}")
+            object.__setattr__(self, "steps", st)
+        for key in ("t_end", "dt"):
+            v = getattr(self, key)
+            if v is not None:
+                _finite(where, f"'{key}'", v)
+                if not v > 0:
+                    raise UsageError(f"{where}: '{key}' must be > 0, got {v}")
+        if self.t_end is not None and self.dt is not None and self.dt > self.t_end:
+            raise UsageError(f"{where}: 'dt' = {self.dt} is larger than 't_end' = {self.t_end}")
+        seed = _whole(where, "'seed'", self.seed)
+        if seed < 0:
+            raise UsageError(f"{where}: 'seed' must be a non-negative whole number, got {seed}")
+        object.__setattr__(self, "seed", seed)
+
+    def size(self, time: str) -> int:
+        """The number of time points, computed without allocating anything."""
         where = self.source or "scenario"
         if time == "discrete":
             if self.steps is None:
                 raise UsageError(f"{where}: a discrete-time scenario needs 'steps'")
-            return np.arange(int(self.steps), dtype=float)
+            return int(self.steps)
         if self.t_end is None or self.dt is None:
             raise UsageError(f"{where}: a continuous-time scenario needs 't_end' and 'dt'")
-        n = int(round(self.t_end / self.dt))
-        return np.arange(n + 1) * float(self.dt)
+        ratio = self.t_end / self.dt
+        if not math.isfinite(ratio) or ratio > 2 ** 62:
+            raise UsageError(f"{where}: t_end / dt = {self.t_end} / {self.dt} is too many steps")
+        return int(round(ratio)) + 1
+
+    def grid(self, time: str) -> np.ndarray:
+        n = self.size(time)
+        if time == "discrete":
+            return np.arange(n, dtype=float)
+        return np.arange(n) * float(self.dt)
 
 
 def load_scenario(path) -> Scenario:
@@ -68,9 +206,13 @@ def load_scenario(path) -> Scenario:
     if not p.is_file():
         raise UsageError(f"{path}: no such scenario file")
     try:
-        data = json.loads(p.read_text())
+        data = json.loads(p.read_text(encoding="utf-8"))
     except json.JSONDecodeError as exc:
         raise UsageError(f"{path}: not valid JSON: {exc}") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise UsageError(f"{path}: cannot read the scenario: {getattr(exc, 'strerror', None) or exc}") from None
+    except RecursionError:
+        raise UsageError(f"{path}: not valid JSON: nested too deeply") from None
     return scenario_from_dict(data, source=str(path))
 
 
@@ -78,14 +220,58 @@ def scenario_from_dict(data: dict, source: str | None = None) -> Scenario:
     where = source or "scenario"
     if not isinstance(data, dict):
         raise UsageError(f"{where}: a scenario is a JSON object")
-    known = {"steps", "t_end", "dt", "seed", "initial", "observer_initial", "signals", "description"}
     for key in data:
-        if key not in known:
-            raise UsageError(f"{where}: unknown key '{key}' (known: {', '.join(sorted(known))})")
-    return Scenario(signals=dict(data.get("signals", {})), initial=dict(data.get("initial", {})),
+        if key not in _KNOWN_KEYS:
+            raise UsageError(f"{where}: unknown key '{key}' (known: {', '.join(sorted(_KNOWN_KEYS))})")
+    if "description" in data and not isinstance(data["description"], str):
+        raise UsageError(f"{where}: 'description' must be text")
+    return Scenario(signals=data.get("signals", {}), initial=data.get("initial", {}),
                     observer_initial=data.get("observer_initial"), steps=data.get("steps"),
-                    t_end=data.get("t_end"), dt=data.get("dt"), seed=int(data.get("seed", 0)),
+                    t_end=data.get("t_end"), dt=data.get("dt"), seed=data.get("seed", 0),
                     source=source)
+
+
+def memory_limit() -> int:
+    """Bytes one simulation may allocate: ``$OBSERVER_CAD_MEMORY_LIMIT`` (bytes, or with a
+    suffix K, M, G, T) or :data:`DEFAULT_MEMORY_LIMIT` (2 GiB)."""
+    raw = os.environ.get(MEMORY_LIMIT_ENV, "").strip()
+    if not raw:
+        return DEFAULT_MEMORY_LIMIT
+    mult = 1
+    if raw[-1].upper() in "KMGT":
+        mult = 1024 ** ("KMGT".index(raw[-1].upper()) + 1)
+        raw = raw[:-1]
+    try:
+        v = float(raw) * mult
+    except ValueError:
+        v = float("nan")
+    if not (math.isfinite(v) and v > 0):
+        raise UsageError(f"{MEMORY_LIMIT_ENV}={os.environ[MEMORY_LIMIT_ENV]!r}: use a number of"
+                         " bytes, e.g. 4G")
+    return int(v)
+
+
+def check_memory(scenario: Scenario, time: str, *, runs: int, columns: int) -> int:
+    """Refuse (UsageError) a simulation whose arrays would exceed :func:`memory_limit`:
+    runs × time points × columns × 8 bytes. Returns the number of time points."""
+    where = scenario.source or "scenario"
+    n = scenario.size(time)
+    need = int(runs) * n * max(int(columns), 1) * 8
+    limit = memory_limit()
+    if need > limit:
+        raise UsageError(
+            f"{where}: {runs} run(s) × {n} time points × {columns} columns would need about"
+            f" {_human(need)}, above the limit of {_human(limit)}; use fewer steps or a larger"
+            f" dt, or raise the limit with {MEMORY_LIMIT_ENV} (e.g. {MEMORY_LIMIT_ENV}=8G)")
+    return n
+
+
+def _human(n: float) -> str:
+    for unit in ("bytes", "KiB", "MiB", "GiB", "TiB", "PiB", "EiB"):
+        if n < 1024 or unit == "EiB":
+            return f"{n:.0f} {unit}" if unit == "bytes" else f"{n:.1f} {unit}"
+        n /= 1024
+    return f"{n:.1f} EiB"  # pragma: no cover
 
 
 @dataclasses.dataclass(frozen=True)
@@ -95,13 +281,17 @@ class SimulationResult:
     run, (R, N) for ``runs=R``.
 
     ``order`` is the CSV's column order (noise is a column but not in the CSV);
-    ``units`` maps a column to its unit (columns without one are absent, see
-    :func:`column_units`); ``model`` and ``time`` name the simulated plant and its time
-    domain.
+    ``delays``: observer outputs produced late — their last ``delay`` rows are not
+    available (NaN); ``nonfinite``: when non-finite values were kept
+    (``keep_nonfinite=True``), the one-line description of the first; ``units`` maps a
+    column to its unit (columns without one are absent, see :func:`column_units`);
+    ``model`` and ``time`` name the simulated plant and its time domain.
     """
 
     columns: dict
     order: tuple
+    delays: Mapping = dataclasses.field(default_factory=dict)
+    nonfinite: str | None = None
     units: Mapping = dataclasses.field(default_factory=dict)
     model: str | None = None
     time: str | None = None
@@ -201,6 +391,45 @@ def column_units(model: PlantModel, observer: Observer | None, names) -> dict:
     return units
 
 
+def find_nonfinite(columns: Mapping, order, *, t: np.ndarray, delays: Mapping, signals=(),
+                   states=(), outputs=(), observer=()) -> str | None:
+    """The first non-finite value of a simulation, as one line naming the time, the
+    column and a likely cause; None when every value is finite. Columns have shape
+    (R, N); an observer output's last ``delays[name]`` rows (not available) are skipped.
+    Ties at the same step are reported in the order signals, states, outputs, observer."""
+    best = None
+    N = t.shape[-1]
+    groups = (("signal", signals), ("state", states), ("output", outputs), ("observer", observer))
+    for rank, (kind, names) in enumerate(groups):
+        for name in names:
+            v = np.asarray(columns[name])
+            v = v.reshape(-1, N)[:, :N - int(delays.get(name, 0))]
+            bad = ~np.isfinite(v)
+            if not bad.any():
+                continue
+            cols = np.flatnonzero(bad.any(axis=0))
+            i = int(cols[0])
+            run = int(np.flatnonzero(bad[:, i])[0])
+            if best is None or (i, rank) < best[:2]:
+                best = (i, rank, kind, name, run, float(v[run, i]))
+    if best is None:
+        return None
+    i, _, kind, name, run, val = best
+    val_s = "nan" if math.isnan(val) else ("inf" if val > 0 else "-inf")
+    ti = float(np.asarray(t).reshape(-1)[i])
+    at = f"at t = {ti:g}" + (f" (run {run})" if np.asarray(columns[name]).ndim > 1
+                              and np.asarray(columns[name]).shape[0] > 1 else "")
+    cause = {
+        "signal": f"signal '{name}' is {val_s} {at}: its expression is not finite there"
+                  " (a division by zero or an overflow)",
+        "state": f"{name} became {val_s} {at}: the plant left its domain or the input overflowed",
+        "output": f"output {name} became {val_s} {at}: a state or noise value overflowed",
+        "observer": f"observer output {name} became {val_s} {at}: the observer left its domain"
+                    " (e.g. sqrt or log of a negative argument) or diverged",
+    }[kind]
+    return cause
+
+
 def signal_arrays(model: PlantModel, sc: Scenario, t: np.ndarray, runs: int):
     where = sc.source or "scenario"
     names = {s.name: s for s in model.inputs + model.faults + model.disturbances + model.noise}
@@ -211,44 +440,37 @@ def signal_arrays(model: PlantModel, sc: Scenario, t: np.ndarray, runs: int):
     rng = np.random.default_rng(sc.seed)
     out = {}
 
-    def expr_of(spec, what):
-        try:
-            e = sp.sympify(spec, locals={"t": T}) if isinstance(spec, str) else sp.sympify(spec)
-        except (sp.SympifyError, SyntaxError, TypeError) as exc:
-            raise UsageError(f"{where}: {what}: cannot parse {spec!r}: {exc}") from None
-        if isinstance(e, bool):
-            e = sp.true if e else sp.false
-        extra = e.free_symbols - {T}
-        if extra:
-            raise UsageError(f"{where}: {what} uses '{sorted(extra, key=str)[0]}'; only t is allowed")
-        return e
+    def evaluate(e, name):
+        with np.errstate(all="ignore"):
+            try:
+                return sp.lambdify(T, e, "numpy")(t)
+            except (ArithmeticError, ValueError, TypeError) as exc:
+                raise UsageError(f"{where}: signal '{name}': cannot evaluate {e}:"
+                                 f" {type(exc).__name__}") from None
 
     def values(spec, name):
         if isinstance(spec, dict) and set(spec) == {"uniform"}:
-            if not isinstance(spec["uniform"], (list, tuple)) or len(spec["uniform"]) != 2:
-                raise UsageError(f"{where}: signal '{name}': use {{\"uniform\": [low, high]}}")
             lo, hi = (float(v) for v in spec["uniform"])
             return rng.uniform(lo, hi, size=(runs, t.size))
         if isinstance(spec, dict) and set(spec) == {"piecewise"}:
             # [[value spec, condition in t], ...]: the first true condition wins
-            res = np.full((runs, t.size), np.nan)
+            res = np.zeros((runs, t.size))
             taken = np.zeros(t.size, dtype=bool)
             for seg in spec["piecewise"]:
-                if not isinstance(seg, (list, tuple)) or len(seg) != 2:
-                    raise UsageError(f"{where}: signal '{name}': piecewise segments are"
-                                     " [value, condition] pairs")
                 vals = values(seg[0], name)
-                cond = expr_of(seg[1], f"signal '{name}' condition")
-                c = np.broadcast_to(np.asarray(sp.lambdify(T, cond, "numpy")(t), dtype=bool), t.shape)
+                cond = seg[1] if isinstance(seg[1], bool) else parse_expression(
+                    seg[1], {"t": T}, where=f"{where}: signal '{name}' condition", condition=True)
+                cond = sp.true if cond is True else (sp.false if cond is False else cond)
+                c = np.broadcast_to(np.asarray(evaluate(cond, name), dtype=bool), t.shape)
                 use = c & ~taken
                 res[:, use] = vals[:, use]
                 taken |= c
-            return np.where(np.isnan(res), 0.0, res)
-        if isinstance(spec, dict):
-            raise UsageError(f"{where}: signal '{name}': use an expression in t,"
-                             " {\"uniform\": [low, high]} or {\"piecewise\": [[value, condition], ...]}")
-        e = expr_of(spec, f"signal '{name}'")
-        v = np.broadcast_to(np.asarray(sp.lambdify(T, e, "numpy")(t), dtype=float), t.shape)
+            return res
+        if isinstance(spec, str):
+            e = parse_expression(spec, {"t": T}, where=f"{where}: signal '{name}'")
+        else:
+            e = sp.Float(float(spec))
+        v = np.broadcast_to(np.asarray(evaluate(e, name), dtype=float), t.shape)
         return np.broadcast_to(v, (runs, t.size)).copy()
 
     for name in sorted(names):
@@ -286,13 +508,26 @@ def _vector_fn(args, exprs):
 
 
 def simulate(model: PlantModel, observer: Observer | None, scenario: Scenario, *,
-             runs: int | None = None) -> SimulationResult:
-    """Simulate the plant (parameters at their defaults) with the observer attached."""
+             runs: int | None = None, keep_nonfinite: bool = False) -> SimulationResult:
+    """Simulate the plant (parameters at their defaults) with the observer attached.
+
+    Refuses (UsageError) a scenario whose arrays would exceed :func:`memory_limit`
+    before allocating them. A value that is not finite (NaN, ±inf) in a signal, a
+    state, an output or an observer output raises :class:`NonFiniteError` naming the
+    first one (time, column, likely cause) — or, with ``keep_nonfinite=True``, is kept
+    and described in ``result.nonfinite``.
+    """
     m = model.substitute_parameters() if model.parameters else model
-    t = scenario.grid(m.time)
     if observer is not None and observer.time != m.time:
         raise UsageError(f"observer is {observer.time}-time but the model is {m.time}-time")
     R = 1 if runs is None else int(runs)
+    if R < 1:
+        raise UsageError(f"runs must be at least 1, got {runs}")
+    nsig = len(m.inputs) + len(m.faults) + len(m.disturbances) + len(m.noise)
+    ncols = 1 + 2 * len(m.states) + len(m.outputs) + 2 * nsig + (
+        2 * len(observer.states) + len(observer.outputs) if observer is not None else 0)
+    check_memory(scenario, m.time, runs=R, columns=ncols)
+    t = scenario.grid(m.time)
     N = t.size
     sig = signal_arrays(m, scenario, t, R)
     xs = list(m.states)
@@ -334,7 +569,7 @@ def simulate(model: PlantModel, observer: Observer | None, scenario: Scenario, *
             X[len(xs) + j, :, 0] = v
     U = np.stack([sig[s.name] for s in ins]) if ins else np.zeros((0, R, N))
     nx = X.shape[0]
-    with np.errstate(invalid="ignore"):
+    with np.errstate(all="ignore"):  # non-finite values are reported below, not warned
         for i in range(N - 1):
             u = [U[j, :, i] for j in range(len(ins))]
             cur = [X[j, :, i] for j in range(nx)]
@@ -354,7 +589,8 @@ def simulate(model: PlantModel, observer: Observer | None, scenario: Scenario, *
     for j, s in enumerate(xs):
         cols[s.name] = X[j]
     allu = [U[j] for j in range(len(ins))]
-    yv = f_y(*[X[j] for j in range(len(xs))], *allu)
+    with np.errstate(all="ignore"):
+        yv = f_y(*[X[j] for j in range(len(xs))], *allu)
     for name, v in zip(ys, yv):
         cols[str(name)] = np.asarray(v)
     for j, s in enumerate(ins):
@@ -363,12 +599,33 @@ def simulate(model: PlantModel, observer: Observer | None, scenario: Scenario, *
     # of the result but not in the CSV order), then the observer's outputs
     order = ["t"] + [s.name for s in xs] + [str(y) for y in ys] + \
         [s.name for s in ins if s not in m.noise]
+    delays = {}
     if f_out is not None:
-        ov = f_out(*[X[len(xs) + j] for j in range(len(obs_states))], *yv, *allu)
+        with np.errstate(all="ignore"):
+            ov = f_out(*[X[len(xs) + j] for j in range(len(obs_states))], *yv, *allu)
         for (name, _), v in zip(observer.outputs, ov):
-            cols[name] = align_delay(np.array(v, dtype=float), int(observer.delays.get(name, 0)))
+            delays[name] = int(observer.delays.get(name, 0))
+            cols[name] = align_delay(np.array(v, dtype=float), delays[name])
             order.append(name)
+    return finish_result(cols, order, delays, t, m, observer, runs, keep_nonfinite,
+                         where=scenario.source)
+
+
+def finish_result(cols, order, delays, t, model, observer, runs, keep_nonfinite, *,
+                  where=None):
+    """The :class:`SimulationResult` of columns of shape (R, N), after the finiteness
+    check (shared by the reference and the compiled simulator)."""
+    ins = list(model.inputs) + list(model.faults) + list(model.disturbances) + list(model.noise)
+    msg = find_nonfinite(cols, order, t=t, delays=delays, signals=[s.name for s in ins],
+                         states=[s.name for s in model.states],
+                         outputs=[str(y) for y in output_symbols(len(model.outputs))],
+                         observer=[name for name, _ in observer.outputs] if observer else ())
+    if msg is not None:
+        msg = f"{where or 'simulation'}: {msg}"
+        if not keep_nonfinite:
+            raise NonFiniteError(msg)
     if runs is None:
         cols = {k: v[0] for k, v in cols.items()}
-    return SimulationResult(cols, tuple(order), units=column_units(model, observer, cols),
-                            model=model.name, time=model.time)
+    return SimulationResult(cols, tuple(order), dict(delays), msg,
+                            units=column_units(model, observer, cols), model=model.name,
+                            time=model.time)

@@ -33,8 +33,8 @@ import sympy as sp
 
 from ._certificate import certify_design
 from ._design import Condition, Design
-from ..errors import InfeasibleDesignError, ModelError, UsageError
-from ..model import ObserverKind, PlantModel, Task
+from ..errors import ExpressionError, InfeasibleDesignError, ModelError, UsageError
+from ..model import ObserverKind, PlantModel, Task, parse_expression
 from ._nonlinear import substitute_arguments
 from ._poles import default_eigenvalues
 from ._reduced import is_stable, jordan_equations, observer_symbols, output_symbols
@@ -212,9 +212,9 @@ def design_jordan(model: PlantModel, *, observer: str, estimate=None,
         lam_list = []
         for v in lambdas:
             try:
-                lam = sp.sympify(v) if not isinstance(v, sp.Basic) else v
-            except (sp.SympifyError, SyntaxError, TypeError):
-                raise UsageError(f"λ = {v!r} is not a number") from None
+                lam = parse_expression(v, list(work.parameters), where="--lambda", allow_complex=True)
+            except ExpressionError as exc:
+                raise UsageError(f"λ = {v!r} is not a number: {exc.reason}") from None
             if not isinstance(lam, sp.Expr) or lam.free_symbols - set(work.parameters):
                 raise UsageError(f"λ = {v} is not a number (or a declared parameter with --symbolic)")
             if lam.is_number:

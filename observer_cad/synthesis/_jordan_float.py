@@ -38,12 +38,12 @@ import sympy as sp
 from ..numerics import SingleThreadBLAS, np_exact, to_sympy_float
 from ._certificate import certify_design
 from ._design import Condition, Design
-from ..errors import InfeasibleDesignError, UsageError
+from ..errors import ExpressionError, InfeasibleDesignError, UsageError
 from ._poles import default_eigenvalues
 from ._reduced import jordan_equations, observer_symbols, output_symbols
 from ._task import task_for, task_parts
 from ..model import PlantModel, Task
-from ..model import extract_structure
+from ..model import extract_structure, parse_expression
 from ..numerics import default_rtol, float_left_null_space, float_rank
 
 __all__ = ["admissible_lambdas_float", "design_jordan_float", "DEFAULT_RTOL"]
@@ -345,9 +345,11 @@ def _design(model, observer, task, lambdas, rtol):
         lam_list = []
         for v in lambdas:
             try:
-                lam_s = sp.sympify(v) if not isinstance(v, sp.Basic) else v
+                lam_s = parse_expression(v, where="--lambda", allow_complex=True)
                 lam = complex(lam_s)
-            except (sp.SympifyError, SyntaxError, TypeError, ValueError):
+            except ExpressionError as exc:
+                raise UsageError(f"λ = {v!r} is not a number: {exc.reason}") from None
+            except (TypeError, ValueError):
                 raise UsageError(f"λ = {v!r} is not a number") from None
             if abs(lam.imag) > 0:
                 raise UsageError(f"λ = {v} is not real: the Jordan form needs real λ")

@@ -5,6 +5,7 @@ from __future__ import annotations
 import sympy as sp
 
 from ..errors import InfeasibleDesignError, UsageError
+from ..model import parse_number
 
 __all__ = ["default_eigenvalues", "parse_eigenvalues", "place_poles", "require_stable"]
 
@@ -18,12 +19,12 @@ def default_eigenvalues(time: str, k: int):
 
 
 def parse_eigenvalues(values):
+    """Closed-loop eigenvalues from text (read by the safe reader, ``I`` allowed) or
+    sympy numbers; each must be a finite number."""
     out = []
     for v in values:
-        e = sp.sympify(v) if not isinstance(v, sp.Basic) else v
-        e = sp.nsimplify(e, rational=True) if e.is_number else e
-        if not e.is_number:
-            raise UsageError(f"eigenvalue {v!r} is not a number")
+        e = parse_number(v, where="--eigenvalues", allow_complex=True)
+        e = sp.nsimplify(e, rational=True) if e.has(sp.Float) else e
         out.append(e)
     # complex values must come in conjugate pairs for a real gain
     for e in out:

@@ -85,7 +85,7 @@ from ._poles import default_eigenvalues
 from ._reduced import (estimate_outputs, is_stable, named_outputs, observer_symbols,
                        output_symbols, reduced_equations)
 from ..model import PlantModel, resolve_task
-from ..model import extract_structure
+from ..model import extract_structure, parse_expression
 from ..numerics import float_left_null_space, float_rank, rank_from_sv
 
 __all__ = ["design_robust_canonical", "design_robust_jordan", "robust_basis",
@@ -659,8 +659,8 @@ def _jordan_setup(model, estimate, lambdas, decouple):
     if lambdas:
         lams = []
         for val in lambdas:
-            lam = sp.nsimplify(sp.sympify(val), rational=True) if not isinstance(val, sp.Basic) \
-                else val
+            lam = parse_expression(val, where="--lambda", allow_complex=True)
+            lam = sp.nsimplify(lam, rational=True) if lam.has(sp.Float) else lam
             if lam.free_symbols or not lam.is_real:
                 raise UsageError(f"λ = {lam} must be a real number")
             if is_stable(lam, work.time) is False:

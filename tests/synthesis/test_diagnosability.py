@@ -38,6 +38,10 @@ def multi_fault_matrices(n, l, p, m, seed, density):
     for i in range(l):  # no zero output row
         if not any(H[i]):
             H[i][int(rng.integers(n))] = 1
+    for M in (L, D):  # every fault and disturbance enters the plant (a model requirement)
+        for j in range(len(M[0]) if M else 0):
+            if not any(row[j] for row in M):
+                M[int(rng.integers(n))][j] = 1
     return F, H, L, D
 
 

@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 import sympy as sp
 
-from observer_cad import InfeasibleDesignError, PlantModel, UsageError, load_model
+from observer_cad import InfeasibleDesignError, ModelError, PlantModel, UsageError, load_model
 from observer_cad.synthesis import design_canonical
 from observer_cad.synthesis import design_jordan
 from observer_cad.reporting import format_design
@@ -325,7 +325,12 @@ def test_usage_errors(nodec, models_dir):
     drive = load_model(models_dir / "electric_drive.py")
     with pytest.raises(UsageError):
         design_robust_canonical(drive, unknown_input="d", symbolic=True)
-    nothing = _plant("nothing", F=[[-1, 1], [0, -2]], H=[[1, 0]], L=[[0], [0]], D=[0, 1])
+    # a declared disturbance entering no equation is refused when the model is built
+    with pytest.raises(ModelError, match="'r1' is declared but appears in no dynamics"):
+        _plant("unused", F=[[-1, 1], [0, -2]], H=[[1, 0]], L=[[0], [0]], D=[0, 1])
+    x1, x2, d = sp.symbols("x1 x2 d")
+    nothing = PlantModel(name="nothing", time="continuous", states=[x1, x2], outputs=[x1],
+                         dynamics=[-x1 + x2, -2 * x2 + d], faults=[d])
     with pytest.raises(UsageError, match="nothing to decouple"):
         design_robust_canonical(nothing, unknown_input="d")
 

@@ -1,0 +1,386 @@
+"""The one reader of expressions that come from data or the command line.
+
+Scenario signals, ``--estimate``, ``--lambda``, ``--eigenvalues``, ``--gain``,
+``--bound`` and the matrices of a design's JSON are *text*. Text is never evaluated:
+:func:`parse_expression` parses it with Python's :mod:`ast` and builds the sympy
+expression node by node from a whitelist grammar::
+
+    expr     := number | name | constant | expr op expr | -expr | +expr | (expr)
+              | function(expr, ...) | Piecewise((expr, cond), ...)
+    op       := + - * / ** (^ is read as ** too, as sympy's parser does)
+    number   := 2, 0.25, 1e-3 (exact: 0.25 is 1/4), 1/3 is the rational 1/3
+    name     := a declared name (the caller's: t, the states, the parameters, ...)
+    constant := pi, E, and I (the imaginary unit) where complex values are allowed
+    function := sin cos tan asin acos atan atan2 sinh cosh tanh exp log sqrt
+                Abs abs sign floor ceiling Heaviside Min Max
+    cond     := expr < expr (also <=, >, >=, ==, !=, chained) | cond and cond
+              | cond or cond | not cond | cond & cond | cond | cond | True | False
+
+Conditions are allowed only where the caller asks for them (piecewise scenario
+segments) and inside ``Piecewise``. Anything else — attribute access, subscripts,
+calls of other names, keyword arguments, lambdas, strings, comprehensions, ``1j``
+literals, numbers outside the floating-point range, exponents above
+:data:`MAX_EXPONENT`, text longer than :data:`MAX_LENGTH` characters — raises
+:class:`~observer_cad.errors.ExpressionError` (a :class:`UsageError`: one line naming
+``where`` and what was rejected). Nothing is executed: no ``eval``, no ``sympify``,
+no ``parse_expr`` on the text.
+"""
+from __future__ import annotations
+
+import ast
+import math
+from decimal import Decimal, InvalidOperation
+from typing import Iterable, Mapping
+
+import sympy as sp
+
+from ..errors import ExpressionError
+
+__all__ = ["parse_expression", "parse_number", "FUNCTIONS", "MAX_LENGTH", "MAX_EXPONENT"]
+
+#: longest text accepted (characters)
+MAX_LENGTH = 2000
+#: largest |exponent| of a number in ``a**b``; numbers whose result leaves the
+#: floating-point range are refused too
+MAX_EXPONENT = 1000
+_MAX_DEPTH = 100
+_FLOAT_MAX_LOG10 = math.log10(1.7976931348623157e308)
+
+#: function name → (sympy function, allowed argument counts; None = one or more)
+FUNCTIONS: Mapping = {
+    "sin": (sp.sin, (1,)), "cos": (sp.cos, (1,)), "tan": (sp.tan, (1,)),
+    "asin": (sp.asin, (1,)), "acos": (sp.acos, (1,)), "atan": (sp.atan, (1,)),
+    "atan2": (sp.atan2, (2,)),
+    "sinh": (sp.sinh, (1,)), "cosh": (sp.cosh, (1,)), "tanh": (sp.tanh, (1,)),
+    "exp": (sp.exp, (1,)), "log": (sp.log, (1,)), "sqrt": (sp.sqrt, (1,)),
+    "Abs": (sp.Abs, (1,)), "abs": (sp.Abs, (1,)), "sign": (sp.sign, (1,)),
+    "floor": (sp.floor, (1,)), "ceiling": (sp.ceiling, (1,)),
+    "Heaviside": (sp.Heaviside, (1,)),
+    "Min": (sp.Min, None), "Max": (sp.Max, None),
+}
+_CONSTANTS = {"pi": sp.pi, "E": sp.E}
+_BINOPS = {ast.Add: "+", ast.Sub: "-", ast.Mult: "*", ast.Div: "/", ast.Pow: "**"}
+_OPNAMES = {ast.FloorDiv: "'//'", ast.Mod: "'%'", ast.MatMult: "'@'", ast.LShift: "'<<'",
+            ast.RShift: "'>>'", ast.BitAnd: "'&'", ast.BitOr: "'|'"}
+_COMPARE = {ast.Lt: sp.Lt, ast.LtE: sp.Le, ast.Gt: sp.Gt, ast.GtE: sp.Ge, ast.Eq: sp.Eq,
+            ast.NotEq: sp.Ne}
+_NONFINITE = (sp.nan, sp.zoo, sp.oo, -sp.oo)
+
+
+class _Reject(Exception):
+    """Internal: what was rejected (becomes the ExpressionError's reason)."""
+
+
+def _symbol_table(names) -> dict:
+    if names is None:
+        return {}
+    if isinstance(names, Mapping):
+        return {str(k): v for k, v in names.items()}
+    return {str(s): s for s in names}
+
+
+def _describe(node: ast.AST) -> str:
+    kinds = {ast.Attribute: "attribute access", ast.Subscript: "subscript",
+             ast.Lambda: "lambda", ast.ListComp: "comprehension",
+             ast.SetComp: "comprehension", ast.DictComp: "comprehension",
+             ast.GeneratorExp: "comprehension", ast.List: "a list (one expression expected)", ast.Dict: "dict",
+             ast.Set: "set", ast.Tuple: "a tuple (one expression expected)", ast.Starred: "starred argument",
+             ast.NamedExpr: "assignment", ast.IfExp: "if-expression",
+             ast.JoinedStr: "f-string", ast.Await: "await", ast.Yield: "yield",
+             ast.YieldFrom: "yield"}
+    for k, v in kinds.items():
+        if isinstance(node, k):
+            return v
+    return type(node).__name__
+
+
+class _Builder:
+    def __init__(self, text, table, allow_complex, any_name, exact_floats=True):
+        self.exact_floats = exact_floats
+        self.text = text
+        self.table = table
+        self.allow_complex = allow_complex
+        self.any_name = any_name
+        self.depth = 0
+
+    # ------------------------------------------------------------------ expressions
+    def expr(self, node):
+        self.depth += 1
+        if self.depth > _MAX_DEPTH:
+            raise _Reject("too deeply nested")
+        try:
+            return self._expr(node)
+        finally:
+            self.depth -= 1
+
+    def _expr(self, node):
+        if isinstance(node, ast.Constant):
+            return self.number(node)
+        if isinstance(node, ast.Name):
+            return self.name(node.id)
+        if isinstance(node, ast.UnaryOp) and isinstance(node.op, (ast.USub, ast.UAdd)):
+            v = self.expr(node.operand)
+            return -v if isinstance(node.op, ast.USub) else v
+        if isinstance(node, ast.BinOp) and (type(node.op) in _BINOPS or isinstance(node.op, ast.BitXor)):
+            a, b = self.expr(node.left), self.expr(node.right)
+            op = type(node.op)
+            if op is ast.Add:
+                return a + b
+            if op is ast.Sub:
+                return a - b
+            if op is ast.Mult:
+                return a * b
+            if op is ast.Div:
+                if b == 0:
+                    raise _Reject("division by zero")
+                return a / b
+            return self.power(a, b)  # ** (and ^, which sympy's parser also reads as a power)
+        if isinstance(node, ast.BinOp):
+            raise _Reject(f"operator {_OPNAMES.get(type(node.op), type(node.op).__name__)}"
+                          " (allowed: + - * / **)")
+        if isinstance(node, ast.Call):
+            return self.call(node)
+        if isinstance(node, (ast.Compare, ast.BoolOp)) or \
+                (isinstance(node, ast.UnaryOp) and isinstance(node.op, ast.Not)):
+            raise _Reject("a condition where a value is expected")
+        raise _Reject(_describe(node))
+
+    def number(self, node):
+        v = node.value
+        if isinstance(v, bool) or v is None or v is Ellipsis:
+            raise _Reject(f"'{v}' where a number is expected")
+        if isinstance(v, int):
+            if v.bit_length() > 1024:
+                raise _Reject("a number outside the floating-point range")
+            return sp.Integer(v)
+        if isinstance(v, float):
+            seg = ast.get_source_segment(self.text, node) or repr(v)
+            try:
+                dec = Decimal(seg.replace("_", ""))
+            except InvalidOperation:
+                raise _Reject(f"number {seg!r}") from None
+            if not dec.is_finite() or not math.isfinite(v) or \
+                    (dec != 0 and abs(dec.adjusted()) > 330):
+                raise _Reject(f"number {seg} outside the floating-point range")
+            if not self.exact_floats:
+                return sp.Float(seg.replace("_", ""))
+            p, q = dec.as_integer_ratio()
+            return sp.Rational(p, q)
+        if isinstance(v, complex):
+            raise _Reject(f"complex literal {ast.get_source_segment(self.text, node)!s}"
+                          + (" (write the imaginary unit as I, e.g. 1+2*I)" if self.allow_complex
+                             else ""))
+        if isinstance(v, (str, bytes)):
+            raise _Reject("a string")
+        raise _Reject(type(v).__name__)
+
+    def name(self, ident):
+        if ident in self.table:
+            return self.table[ident]
+        if ident in _CONSTANTS:
+            return _CONSTANTS[ident]
+        if ident == "I":
+            if self.allow_complex:
+                return sp.I
+            raise _Reject("the imaginary unit I (complex values are not allowed here)")
+        if ident in FUNCTIONS or ident == "Piecewise":
+            raise _Reject(f"function '{ident}' used without arguments")
+        if self.any_name and not ident.startswith("_"):
+            return sp.Symbol(ident)
+        names = sorted(self.table)
+        known = ", ".join(names[:12]) + (f", … ({len(names)} names)" if len(names) > 12 else "") \
+            if names else "none"
+        raise _Reject(f"unknown name '{ident}' (allowed names: {known})")
+
+    def power(self, a, b):
+        if b.is_number:
+            try:
+                bv = abs(complex(b))
+            except (TypeError, ValueError):
+                bv = math.inf
+            if not bv <= MAX_EXPONENT:
+                raise _Reject(f"exponent {b} (|exponent| ≤ {MAX_EXPONENT})")
+            if a.is_number:
+                if a == 0 and b.is_extended_negative:
+                    raise _Reject("division by zero")
+                try:
+                    av = abs(complex(a))
+                except (TypeError, ValueError):
+                    av = math.inf
+                if av > 0 and bv * abs(math.log10(av)) > _FLOAT_MAX_LOG10:
+                    raise _Reject(f"power {a}**{b} outside the floating-point range")
+        return sp.Pow(a, b)
+
+    def call(self, node):
+        f = node.func
+        if not isinstance(f, ast.Name):
+            raise _Reject(f"call of {_describe(f)}" if not isinstance(f, ast.Attribute)
+                          else f"attribute access '.{f.attr}'")
+        if node.keywords:
+            raise _Reject(f"keyword arguments in {f.id}(...)")
+        if any(isinstance(a, ast.Starred) for a in node.args):
+            raise _Reject(f"starred arguments in {f.id}(...)")
+        if f.id == "Piecewise":
+            return self.piecewise(node)
+        if f.id not in FUNCTIONS:
+            raise _Reject(f"call of '{f.id}' (allowed functions: {', '.join(FUNCTIONS)},"
+                          " Piecewise)")
+        fn, nargs = FUNCTIONS[f.id]
+        if (nargs is None and not node.args) or (nargs is not None and len(node.args) not in nargs):
+            want = "one or more" if nargs is None else " or ".join(map(str, nargs))
+            raise _Reject(f"{f.id}() takes {want} argument(s), got {len(node.args)}")
+        return fn(*(self.expr(a) for a in node.args))
+
+    def piecewise(self, node):
+        if not node.args:
+            raise _Reject("Piecewise() needs (value, condition) pairs")
+        pieces = []
+        for a in node.args:
+            if not isinstance(a, ast.Tuple) or len(a.elts) != 2:
+                raise _Reject("Piecewise takes (value, condition) pairs")
+            pieces.append((self.expr(a.elts[0]), self.cond(a.elts[1])))
+        return sp.Piecewise(*pieces)
+
+    # ------------------------------------------------------------------ conditions
+    def cond(self, node):
+        self.depth += 1
+        if self.depth > _MAX_DEPTH:
+            raise _Reject("too deeply nested")
+        try:
+            return self._cond(node)
+        finally:
+            self.depth -= 1
+
+    def _cond(self, node):
+        if isinstance(node, ast.Constant) and isinstance(node.value, bool):
+            return sp.true if node.value else sp.false
+        if isinstance(node, ast.Compare):
+            parts = []
+            left = self.expr(node.left)
+            for op, right in zip(node.ops, node.comparators):
+                if type(op) not in _COMPARE:
+                    raise _Reject(f"comparison '{type(op).__name__}' (allowed: < <= > >= == !=)")
+                r = self.expr(right)
+                parts.append(_COMPARE[type(op)](left, r))
+                left = r
+            return sp.And(*parts)
+        if isinstance(node, ast.BoolOp):
+            vals = [self.cond(v) for v in node.values]
+            return sp.And(*vals) if isinstance(node.op, ast.And) else sp.Or(*vals)
+        if isinstance(node, ast.UnaryOp) and isinstance(node.op, (ast.Not, ast.Invert)):
+            return sp.Not(self.cond(node.operand))
+        if isinstance(node, ast.BinOp) and isinstance(node.op, (ast.BitAnd, ast.BitOr)):
+            a, b = self.cond(node.left), self.cond(node.right)
+            return sp.And(a, b) if isinstance(node.op, ast.BitAnd) else sp.Or(a, b)
+        raise _Reject("a value where a condition (e.g. t <= 20) is expected")
+
+
+def parse_expression(text, names=None, *, where: str, allow_complex: bool = False,
+                     condition: bool = False, any_name: bool = False,
+                     exact_floats: bool = True) -> sp.Basic:
+    """The sympy expression (or, with ``condition=True``, the sympy boolean) that
+    ``text`` denotes, built from a whitelist grammar (see the module docstring).
+
+    Parameters
+    ----------
+    text : str
+        The expression as written by the user. (A Python int or float, or a sympy
+        expression, is returned as it is after a finiteness check: it is not text.)
+    names : mapping str -> Symbol, or iterable of Symbols, optional
+        The names the text may use (e.g. ``{"t": t}``, the model's states).
+    where : str
+        Where the text came from, for messages (``"scenario.json: signal 'u'"``,
+        ``"--gain"``).
+    allow_complex : bool
+        Whether ``I`` (the imaginary unit) is allowed.
+    condition : bool
+        Parse a condition (``t <= 20``, ``and``/``or``/``not``) instead of a value.
+    any_name : bool
+        Every identifier not otherwise known becomes a Symbol (design JSON files).
+    exact_floats : bool
+        Decimals become exact rationals (``0.2`` → 1/5, the default) or sympy Floats.
+
+    Raises
+    ------
+    ExpressionError
+        One line: ``where``, the text (abridged) and what was rejected.
+    """
+    shown = text if not isinstance(text, str) or len(text) <= 60 else text[:57] + "..."
+
+    def fail(reason):
+        return ExpressionError(f"{where}: cannot read {shown!r}: {reason}", reason=reason)
+
+    if isinstance(text, (int, float, sp.Basic)) and not isinstance(text, bool) and not condition:
+        # a value built in Python (not text): checked, never parsed
+        if isinstance(text, float) and not math.isfinite(text):
+            raise fail("not finite")
+        out = sp.Integer(text) if isinstance(text, int) else (
+            sp.Float(text) if isinstance(text, float) else text)
+        if isinstance(out, sp.Basic) and out.has(*_NONFINITE):
+            raise fail("not finite")
+        return out
+    if not isinstance(text, str):
+        raise fail(f"a {type(text).__name__}, not text")
+    if len(text) > MAX_LENGTH:
+        raise fail(f"longer than {MAX_LENGTH} characters")
+    if not text.strip():
+        raise fail("empty")
+    if "\x00" in text:
+        raise fail("a NUL character")
+    try:
+        tree = ast.parse(text.strip(), mode="eval")
+    except SyntaxError as exc:
+        raise fail(f"not a valid expression ({exc.msg})") from None
+    except (ValueError, RecursionError, MemoryError, OverflowError) as exc:
+        raise fail(f"not a valid expression ({type(exc).__name__})") from None
+    b = _Builder(text.strip(), _symbol_table(names), allow_complex, any_name, exact_floats)
+    try:
+        out = b.cond(tree.body) if condition else b.expr(tree.body)
+    except _Reject as exc:
+        raise fail(str(exc)) from None
+    except RecursionError:
+        raise fail("too deeply nested") from None
+    except (TypeError, ValueError, ArithmeticError) as exc:  # sympy refusing an operand
+        detail = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+        raise fail(f"not a valid expression ({detail})") from None
+    if not condition:
+        if out.has(*_NONFINITE):
+            raise fail("not finite (division by zero or an infinite value)")
+        for atom in out.atoms(sp.Number):
+            if not math.isfinite(float(abs(atom))):
+                raise fail("a number outside the floating-point range")
+    return out
+
+
+def parse_number(text, *, where: str, allow_complex: bool = False) -> sp.Expr:
+    """A finite number (exact where the text is: ``0.2`` is 1/5, ``sqrt(2)`` stays
+    ``sqrt(2)``) read by :func:`parse_expression` without names; real unless
+    ``allow_complex``. Sympy numbers pass through after the same checks."""
+    if isinstance(text, sp.Basic):
+        e = text
+        shown = str(text)
+    elif isinstance(text, bool):
+        raise ExpressionError(f"{where}: {text!r} is not a number", reason="not a number")
+    elif isinstance(text, (int, float)):
+        if isinstance(text, float) and not math.isfinite(text):
+            raise ExpressionError(f"{where}: {text!r} is not finite", reason="not finite")
+        e = parse_expression(repr(text), where=where, allow_complex=allow_complex)
+        shown = repr(text)
+    else:
+        e = parse_expression(text, where=where, allow_complex=allow_complex)
+        shown = text if len(str(text)) <= 60 else str(text)[:57] + "..."
+
+    def fail(reason):
+        return ExpressionError(f"{where}: {shown!r} is {reason}", reason=reason)
+
+    if not isinstance(e, sp.Expr) or not e.is_number:
+        raise fail("not a number")
+    try:
+        v = complex(sp.N(e, 30))
+    except (TypeError, ValueError, OverflowError):
+        raise fail("not a finite number") from None
+    if not (math.isfinite(v.real) and math.isfinite(v.imag)):
+        raise fail("not a finite number")
+    if not allow_complex and (v.imag != 0 or e.is_real is False):
+        raise fail("not real")
+    return e
