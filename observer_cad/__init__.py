@@ -18,6 +18,7 @@ from .model import (NonlinearTerm, ObserverKind, PlantModel, Structure, Task, ex
                     load_model, resolve_task)
 from .synthesis import (Certificate, Condition, Design, DesignMatrices, DesignRequest,
                         certify_reduced_model, design, design_canonical)
+from .synthesis import FaultSensitivity, ResidualBank, design_bank
 from .observers import DremSpec, Observer, build_observer
 from .simulation import Scenario, SimulationResult, load_scenario, simulate
 
@@ -28,6 +29,7 @@ __all__ = [
     "PlantModel", "load_model", "Structure", "NonlinearTerm", "extract_structure",
     "Task", "ObserverKind", "resolve_task",
     "design", "design_canonical", "Design", "DesignMatrices", "DesignRequest", "Condition", "Certificate", "certify_reduced_model",
+    "design_bank", "ResidualBank", "FaultSensitivity",
     "Observer", "build_observer", "DremSpec", "Scenario", "SimulationResult", "load_scenario", "simulate",
     "CompiledSimulator",
     "ObserverCadError", "ModelError", "DimensionError", "InfeasibleDesignError",

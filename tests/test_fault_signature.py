@@ -172,3 +172,14 @@ def test_signature_survives_json_and_is_recomputed(models_dir):
         Design.from_json(data, m)
     del data["signature"]  # older JSON without it: recomputed
     assert Design.from_json(data, m).signature_map == d.signature_map
+
+
+def test_float_design_signature_agrees_with_exact():
+    """The float path (SVD, Float matrices) decides 'nonzero' with a relative tolerance:
+    roundoff in Φ D_j is not a sensitivity."""
+    m = three_tanks()
+    exact = design(m, observer="diagnostic", faults=["f1"], method="exact")
+    flt = design(m, observer="diagnostic", faults=["f1"], method="float")
+    assert flt.method.value == "float"
+    assert flt.signature_map == exact.signature_map == {"f1": True, "f2": True, "f3": False}
+    assert {s.name: s.enters for s in flt.signature}["f3"] is False

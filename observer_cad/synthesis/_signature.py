@@ -57,6 +57,7 @@ class FaultSensitivity:
     response: sp.ImmutableMatrix
     conditions: tuple = ()
     role: str = "assumed zero"
+    enters: bool = False  # Φ D_j ≠ 0 (within the float tolerance for float designs)
 
     @property
     def conditional(self) -> bool:
@@ -67,12 +68,13 @@ class FaultSensitivity:
         if self.sensitive:
             return "sensitive" + (f" if {' and '.join(map(str, self.conditions))}"
                                   if self.conditions else "")
-        if any(e != 0 for e in self.entry):
+        if self.enters:
             return "decoupled (Φ D ≠ 0 but it enters only rows the residual does not read)"
         return "decoupled (Φ D = 0)"
 
     def to_json(self) -> dict:
         return {"name": self.name, "sensitive": bool(self.sensitive), "role": self.role,
+                "enters": bool(self.enters),
                 "entry": [str(e) for e in self.entry],
                 "response": [str(e) for e in self.response],
                 "conditions": [str(c) for c in self.conditions]}
@@ -112,23 +114,26 @@ def fault_sensitivity(Phi, F_star, H_star, column, *, name: str = "d",
     resp = residual_response(Phi, Fs, Hs, column)
     floats = _is_float(Phi) or _is_float(Fs) or _is_float(Hs)
     scale = 1.0
+
+    def norm(M):
+        vals = [abs(float(e)) for e in sp.Matrix(M) if e.is_number]
+        return max(vals) if vals else 1.0
     if floats:  # ‖O‖ ‖Φ‖ ‖D_j‖: the size r would have for a fully seen unit fault
-        def norm(M):
-            vals = [abs(float(e)) for e in sp.Matrix(M) if e.is_number]
-            return max(vals) if vals else 1.0
         scale = norm(Hs) * max(1.0, norm(Fs)) ** max(sp.Matrix(Fs).rows - 1, 0) \
             * norm(Phi) * norm(column)
     nz = [e for e in resp if _nonzero(e, scale, floats)]
+    enters = any(_nonzero(e, norm(Phi) * norm(column) if floats else 1.0, floats)
+                 for e in entry)
     if not nz:
         return FaultSensitivity(name, False, sp.ImmutableMatrix(entry),
-                                sp.ImmutableMatrix(resp), (), role)
+                                sp.ImmutableMatrix(resp), (), role, enters)
     if any(not e.free_symbols for e in nz):
         conds = ()
     else:  # the simplest nonzero entry: its factors nonzero suffice
         best = min((nonzero_conditions(e) for e in nz), key=lambda s: (len(s), str(sorted(s, key=str))))
         conds = tuple(sorted(best, key=str))
     return FaultSensitivity(name, True, sp.ImmutableMatrix(entry), sp.ImmutableMatrix(resp),
-                            conds, role)
+                            conds, role, enters)
 
 
 def _role(task: Task, name: str) -> str:
