@@ -183,3 +183,10 @@ def test_float_design_signature_agrees_with_exact():
     assert flt.method.value == "float"
     assert flt.signature_map == exact.signature_map == {"f1": True, "f2": True, "f3": False}
     assert {s.name: s.enters for s in flt.signature}["f3"] is False
+
+
+def test_float_path_refusal_names_the_fault():
+    m = three_tanks()
+    with pytest.raises(InfeasibleDesignError) as exc:
+        design(m, observer="diagnostic", method="float")
+    assert "f3 is undetectable with rho decoupled" in str(exc.value)

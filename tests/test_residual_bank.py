@@ -234,3 +234,20 @@ model = PlantModel(name="tt3", time="continuous", states=[x1, x2, x3], inputs=[u
     assert rc == 2
     err = capsys.readouterr().err
     assert "f3 is undetectable with rho decoupled" in err and "Φ D_f3 = 0" in err
+
+
+def test_symbolic_bank_assumes_the_fault_gain_nonzero():
+    """f2 enters through a: the residuals that must see f2 hold for a ≠ 0 (an assumption
+    of the bank); the one decoupled from f2 needs nothing."""
+    x1, x2, x3 = sp.symbols("x1:4")
+    u1, u2 = sp.symbols("u1 u2")
+    f1, f2, f3, rho, a = sp.symbols("f1 f2 f3 rho a")
+    m = PlantModel(name="tanks3a", time="continuous", states=[x1, x2, x3], inputs=[u1, u2],
+                   faults=[f1, f2, f3], disturbances=[rho], outputs=[x1, x2, x3],
+                   dynamics=[-x1 + x2 + u1 + f1 + rho, x1 - 2 * x2 + x3 + u2 + a * f2 + rho,
+                             x2 - 2 * x3 + f3 + rho], parameters={a: 2})
+    bank = design_bank(m, symbolic=True)
+    assert bank.structure_matrix == GOS
+    assert bank.assumptions == (sp.Ne(a, 0),)
+    for row, d in zip(bank.structure_matrix, bank.designs):
+        assert (sp.Ne(a, 0) in d.assumptions) == bool(row[1])

@@ -280,6 +280,9 @@ def design_jordan(model: PlantModel, *, observer: str, estimate=None,
 
     # Step 4: fewest rows satisfying the task, one row per λ first
     names = tuple(f.name for f in fault_syms)
+    if observer == "diagnostic" and _blind(names, pool, D):  # no row sees it: say so now
+        raise InfeasibleDesignError(_diagnostic_refusal(where, task, names, pool, D, lam_list,
+                                                        [], n))
     CA = [(j, sp.Matrix(t.row)) for j, t in enumerate(st.terms)]
     tried = []
     chosen = None
@@ -372,12 +375,17 @@ def _with_decoupled(task) -> str:
     return f" with {', '.join(task.decoupled)} decoupled" if task.decoupled else ""
 
 
+def _blind(names, pool, D) -> list:
+    """The targets no candidate row sees (Φ_i D_j = 0 for every row of every λ family)."""
+    return [nm for c, nm in enumerate(names)
+            if all((r[1] * D[:, c]).applyfunc(sp.cancel) == sp.zeros(1, 1) for r in pool)]
+
+
 def _diagnostic_refusal(where, task, names, pool, D, lam_list, tried, n) -> str:
     """Why no residual detects the targets: the faults no row sees, else the faults no
     residual of order < n sees, named (issue 12, item 4)."""
     lams = ", ".join(map(str, lam_list))
-    blind = [nm for c, nm in enumerate(names)
-             if all((r[1] * D[:, c]).applyfunc(sp.cancel) == sp.zeros(1, 1) for r in pool)]
+    blind = _blind(names, pool, D)
     if blind:
         what = ", ".join(blind)
         cols = ", ".join(f"Φ D_{nm} = 0" for nm in blind)
