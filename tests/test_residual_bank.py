@@ -251,3 +251,54 @@ def test_symbolic_bank_assumes_the_fault_gain_nonzero():
     assert bank.assumptions == (sp.Ne(a, 0),)
     for row, d in zip(bank.structure_matrix, bank.designs):
         assert (sp.Ne(a, 0) in d.assumptions) == bool(row[1])
+
+
+def four_tanks():
+    """Four tanks in a row, levels 1, 3, 4 measured, faults in tanks 1-3, a disturbance
+    into tanks 3 and 4: the strongly isolating residuals need k = 2 for two of the rows."""
+    x1, x2, x3, x4 = sp.symbols("x1:5")
+    u1, u2 = sp.symbols("u1 u2")
+    f1, f2, f3, rho = sp.symbols("f1 f2 f3 rho")
+    return PlantModel(name="tanks4", time="continuous", states=[x1, x2, x3, x4],
+                      inputs=[u1, u2], faults=[f1, f2, f3], disturbances=[rho],
+                      outputs=[x1, x3, x4],
+                      dynamics=[-x1 + x2 + u1 + f1, x1 - 2 * x2 + x3 + u2 + f2,
+                                x2 - 2 * x3 + x4 + f3 + rho, x3 - 2 * x4 + rho])
+
+
+def test_bank_with_higher_order_residuals_simulates_its_structure():
+    m = four_tanks()
+    bank = design_bank(m)
+    assert bank.scheme == "generalised observer scheme"
+    assert bank.structure_matrix == GOS
+    assert _oracle_rows(m, bank) == GOS
+    assert max(d.k for d in bank.designs) > 1
+    ob = build_observer(m, bank)
+    assert len(ob.states) == sum(d.k for d in bank.designs)
+    for j, f in enumerate(bank.faults):  # a step in each fault moves its column only
+        sc = scenario_from_dict({"t_end": 8, "dt": 0.01, "signals": {
+            "u1": "0.5*sin(t)", "u2": "0.3", "rho": "0.4*sin(2*t)",
+            f: "Piecewise((0, t < 4), (1, True))"}})
+        res = simulate(m, ob, sc)
+        t = res["t"]
+        for i, row in enumerate(bank.structure_matrix, 1):
+            r = np.asarray(res[f"r{i}"])
+            assert np.max(np.abs(r[t < 4])) < 1e-9
+            late = np.max(np.abs(r[t > 5]))
+            assert (late > 1e-3) == bool(row[j]), (f, i, late)
+
+
+def test_bank_columns_from_named_faults_and_cli_usage_errors(tanks, tmp_path, capsys):
+    m, _ = tanks
+    bank = design_bank(m, faults=["f1", "f2"])
+    assert bank.faults == ("f1", "f2")
+    assert bank.structure_matrix == ((0, 1), (1, 0))
+    with pytest.raises(UsageError, match="both a bank column"):
+        design_bank(m, faults=["f1", "f2"], disturbances=["f2"])
+    model = str(_write_model(tmp_path))
+    assert main(["design", model, "--observer", "virtual-sensor", "--estimate", "x1",
+                 "--isolate"]) == 2
+    assert "use --observer diagnostic" in capsys.readouterr().err
+    assert main(["design", model, "--observer", "diagnostic", "--isolate", "--form",
+                 "canonical"]) == 2
+    assert "--form canonical does not apply to --isolate" in capsys.readouterr().err

@@ -146,14 +146,22 @@ class ResidualBank:
     def certified(self) -> bool:
         return all(d.certificate.passed for d in self.designs)
 
-    @property
-    def observer(self) -> str:  # what the CLI asks of a design
-        return "diagnostic"
-
     def __repr__(self) -> str:
         rows = ",".join(_row_text(r) for r in self.structure_matrix)
         return (f"<ResidualBank for {self.model_name}: {len(self.designs)} residuals over"
                 f" ({', '.join(self.faults)}), structure {rows}, {self.scheme}>")
+
+    def _repr_markdown_(self) -> str:
+        """Notebook view: the structure matrix as a table, the isolable pairs."""
+        lines = [f"**Residual bank** for `{self.model_name}` — {self.scheme}", "",
+                 "| | " + " | ".join(self.faults) + " | k |",
+                 "|---" * (len(self.faults) + 2) + "|"]
+        for i, (row, d) in enumerate(zip(self.structure_matrix, self.designs), 1):
+            lines.append(f"| r{i} | " + " | ".join(map(str, row)) + f" | {d.k} |")
+        if len(self.faults) > 1:
+            lines += ["", "Isolable: " + ", ".join(f"{a}/{b} {'yes' if ok else 'no'}"
+                                                  for (a, b), ok in self.isolable)]
+        return "\n".join(lines)
 
     def to_json(self) -> dict:
         return {

@@ -331,6 +331,9 @@ class Design:
             mark = "✅" if c.holds else ("❌" if c.required else "—")
             detail = c.detail.replace("|", "\\|")
             lines.append(f"| {mark} | {c.name} | {detail} |")
+        if self.signature:
+            lines += ["", "Fault signature (1 = the residual responds): " + ", ".join(
+                f"`{f.name}` {int(bool(f.sensitive))}" for f in self.signature)]
         if self.assumptions:
             lines += ["", "Assumptions: " + ", ".join(f"${sp.latex(a)}$" for a in self.assumptions)]
         return "\n".join(lines)
