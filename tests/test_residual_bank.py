@@ -302,3 +302,15 @@ def test_bank_columns_from_named_faults_and_cli_usage_errors(tanks, tmp_path, ca
     assert main(["design", model, "--observer", "diagnostic", "--isolate", "--form",
                  "canonical"]) == 2
     assert "--form canonical does not apply to --isolate" in capsys.readouterr().err
+
+
+@pytest.mark.skipif(CC is None, reason="no C compiler 'cc' on PATH")
+def test_compiled_simulator_runs_the_bank_like_the_reference(tanks, tmp_path, monkeypatch):
+    monkeypatch.setenv("OBSERVER_CAD_CACHE", str(tmp_path / "cache"))
+    from observer_cad import CompiledSimulator
+    m, bank = tanks
+    ob = build_observer(m, bank)
+    sc = scenario_from_dict(STEP_F2)
+    ref, fast = simulate(m, ob, sc), CompiledSimulator(m, ob).simulate(sc)
+    for name in ("r1", "r2", "r3"):
+        assert np.max(np.abs(np.asarray(ref[name]) - np.asarray(fast[name]))) < 1e-10, name
