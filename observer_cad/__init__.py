@@ -19,6 +19,7 @@ from .model import (NonlinearTerm, ObserverKind, PlantModel, Structure, Task, ex
 from .synthesis import (Certificate, Condition, Design, DesignMatrices, DesignRequest,
                         certify_reduced_model, design, design_canonical)
 from .synthesis import Analysis, analyze
+from .synthesis import FaultSensitivity, ResidualBank, design_bank
 from .observers import DremSpec, Observer, build_observer
 from .simulation import Scenario, SimulationResult, load_scenario, simulate
 
@@ -30,6 +31,7 @@ __all__ = [
     "Task", "ObserverKind", "resolve_task",
     "design", "design_canonical", "analyze", "Analysis", "Design", "DesignMatrices", "DesignRequest",
     "Condition", "Certificate", "certify_reduced_model",
+    "design_bank", "ResidualBank", "FaultSensitivity",
     "Observer", "build_observer", "DremSpec", "Scenario", "SimulationResult", "load_scenario", "simulate",
     "CompiledSimulator",
     "ObserverCadError", "ModelError", "DimensionError", "InfeasibleDesignError",

@@ -174,6 +174,14 @@ def _add_design_options(p) -> None:
     p.add_argument("--robust", action="store_true",
                    help="when exact decoupling is impossible, give the best approximate design "
                         "(METHOD §2d), reported as APPROXIMATE with its residual norm")
+    p.add_argument("--isolate", action="store_true",
+                   help="diagnostic: a bank of residual generators that isolates the faults "
+                        "(--fault names the columns, default every fault): the structure given "
+                        "by --structure, else the generalised observer scheme, else the "
+                        "dedicated scheme, else the best achievable rows; residuals r1 … rm")
+    p.add_argument("--structure", metavar="ROWS",
+                   help="with --isolate: the structure matrix to realise, one row per residual "
+                        "and one digit per fault (1 = sensitive), e.g. 110,101,011")
     p.add_argument("--bound", metavar="NAME=LOW,HIGH", action="append", default=[],
                    help="override a declared bound, e.g. rho=-0.2,0.2 (repeatable): used by "
                         "interval observers and unknown-input estimators")
@@ -264,6 +272,10 @@ def _design_from_args(args):
     if args.observer == "drem":
         return _drem_from_args(args)
     model = _parse_bounds(load_model(args.model), getattr(args, "bound", None))
+    if getattr(args, "structure", None) and not getattr(args, "isolate", False):
+        raise UsageError("--structure applies to residual banks: add --isolate")
+    if getattr(args, "isolate", False):
+        return model, _bank_from_args(args, model)
     result = design(model, observer=args.observer, faults=args.fault,
                     disturbances=args.disturbance, estimate=args.estimate, form=args.form,
                     lambdas=args.lambdas, eigenvalues=args.eigenvalues, variant=args.variant,
@@ -272,9 +284,42 @@ def _design_from_args(args):
     return model, result
 
 
+def _bank_from_args(args, model):
+    from ..synthesis import design_bank
+    if args.observer != "diagnostic":
+        raise UsageError("--isolate builds a bank of residual generators: use --observer diagnostic")
+    for flag, used in (("--form canonical", args.form == "canonical"), ("--robust", args.robust),
+                       ("--lambda", bool(args.lambdas)), ("--eigenvalues", bool(args.eigenvalues)),
+                       ("--variant", args.variant != "plain"), ("--gain", bool(args.gain))):
+        if used:
+            raise UsageError(f"{flag} does not apply to --isolate (each residual is a minimal"
+                             " Jordan-form design)")
+    return design_bank(model, structure=args.structure, faults=args.fault or None,
+                       disturbances=args.disturbance, symbolic=args.symbolic,
+                       method=args.method, rtol=args.rtol)
+
+
+def _cmd_bank(args, model, bank) -> int:
+    from ..reporting import format_bank
+    observer = None
+    if not args.symbolic:
+        from ..observers import build_observer
+        observer = build_observer(model, bank)
+    if args.json:
+        out = bank.to_json()
+        if observer is not None:
+            out["observer_equations"] = observer.to_json()
+        print(json.dumps(out, indent=2))
+    else:
+        print(format_bank(bank))
+    return 0
+
+
 def _cmd_design(args) -> int:
     from ..reporting import format_design, format_observer, format_observer_conditions
     model, result = _design_from_args(args)
+    if getattr(args, "isolate", False):
+        return _cmd_bank(args, model, result)
     if args.observer == "drem":
         if args.json:
             out = result.to_json(equations=False)

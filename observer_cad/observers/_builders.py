@@ -10,16 +10,17 @@ import dataclasses
 
 import sympy as sp
 
-from ..synthesis import Design, DesignMatrices
+from ..synthesis import Design, DesignMatrices, ResidualBank
 from ..errors import UsageError
 from ..model import PlantModel
 from ._drem import DremDesign
 from ._interval import interval_observer_nonlinear
 from ._observer import Observer, estimate_name, output_symbols
 from ._sliding import sliding_observer
-from ._uio import unknown_input_observer
+from ._uio import combine_observers, unknown_input_observer
 
-__all__ = ["build_observer", "virtual_sensor_observer", "diagnostic_observer", "interval_observer"]
+__all__ = ["build_observer", "virtual_sensor_observer", "diagnostic_observer", "interval_observer",
+           "bank_observer"]
 
 
 def _signals(model: PlantModel, l: int):
@@ -65,6 +66,26 @@ def diagnostic_observer(model: PlantModel, design: Design) -> Observer:
         description="residual generator r = R* y − H* x*")
 
 
+def bank_observer(model: PlantModel, bank: ResidualBank) -> Observer:
+    """A residual bank as one observer: the residual generators side by side, their states
+    prefixed (``r1_xs1``), their residuals named ``r1 … rm`` in the order of the bank's
+    structure matrix, so that simulation writes one column per residual and code
+    generation exports the whole bank as one step function."""
+    if not isinstance(bank, ResidualBank) or not bank.designs:
+        raise UsageError("bank_observer needs a ResidualBank with at least one residual")
+    parts = {}
+    for i, d in enumerate(bank.designs, 1):
+        o = diagnostic_observer(model, d)
+        (_, r), = o.outputs
+        parts[f"r{i}"] = dataclasses.replace(o, outputs=((f"r{i}", r),))
+    rows = ", ".join("".join(map(str, r)) for r in bank.structure_matrix)
+    ob = combine_observers(parts, name=f"{model.name}_bank")
+    return dataclasses.replace(
+        ob, kind="diagnostic",
+        description=(f"residual bank over ({', '.join(bank.faults)}), structure matrix"
+                     f" {rows} ({bank.scheme}); r_i = R*_i y − H*_i x*_i"))
+
+
 def interval_observer(model: PlantModel, design: Design, **options) -> Observer:
     """Interval observer for z = M x (METHOD §3): see
     :func:`observer_cad.interval.interval_observer_nonlinear`, which handles linear and
@@ -89,9 +110,12 @@ def interval_observer(model: PlantModel, design: Design, **options) -> Observer:
 
 
 def build_observer(model: PlantModel, design: Design, **options) -> Observer:
-    """The observer for a design; ``options`` go to the kind's builder (gains, bounds)."""
+    """The observer for a design (or a :class:`ResidualBank`: one observer with outputs
+    r1 … rm); ``options`` go to the kind's builder (gains, bounds)."""
     if isinstance(design, DremDesign):  # DREM designs carry their observer
         return design.observer
+    if isinstance(design, ResidualBank):  # r1 … rm side by side
+        return bank_observer(model, design)
     kind = design.observer
     if kind == "virtual-sensor":
         return virtual_sensor_observer(model, design)

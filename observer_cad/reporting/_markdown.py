@@ -264,6 +264,13 @@ def design_section(*, anchor: str, heading: str, paper: str, command: str, model
     out += ["**Matrices**", "", latex_block([v.replace(" = ", " &= ", 1)
                                              for v in design_matrices_latex(design).values()]), ""]
     out += ["**Conditions**", "", conditions_table(design.conditions), ""]
+    if getattr(design, "signature", ()):
+        out += ["**Fault signature** (every declared fault against the residual; 1 = r moves):",
+                "", "| fault | r | role | Φ D |", "|---|---|---|---|"]
+        out += [f"| {md_escape(s.name)} | {int(bool(s.sensitive))} | {md_escape(s.role)}"
+                f"{' (if ' + md_escape(' and '.join(map(str, s.conditions))) + ')' if s.conditions else ''}"
+                f" | ${sp.latex(sp.Matrix(s.entry).T)}$ |" for s in design.signature]
+        out += [""]
     if observer is not None:
         extra = [c for c in observer.conditions if c not in design.conditions]
         if extra:

@@ -7,7 +7,7 @@ from ..synthesis import Design
 from ..model import Structure
 
 __all__ = ["format_matrix", "format_structure", "format_design", "structure_to_json",
-           "format_observer", "format_observer_conditions"]
+           "format_observer", "format_observer_conditions", "format_signature", "format_bank"]
 
 
 def format_matrix(name: str, M, indent: str = "  ") -> str:
@@ -85,7 +85,7 @@ def format_structure(st: Structure) -> str:
 def _title(d: Design) -> str:
     what = {
         "unknown-input": f"estimate {d.unknown_input}",
-        "diagnostic": f"diagnostic observer (residual) for fault(s) {d.unknown_input}",
+        "diagnostic": f"diagnostic observer (residual) for fault(s) {', '.join(d.task.targets)}",
         "virtual-sensor": f"virtual sensor for z = {d.estimate}",
         "interval": f"interval observer for z = {d.estimate}",
     }.get(d.observer, d.observer)
@@ -121,12 +121,65 @@ def format_design(d: Design) -> str:
     for c in d.conditions:
         out.append(f"  {_mark(c.holds, c.required)} {c.name}: {c.detail}"
                    + (f"  [{c.reference}]" if c.reference else ""))
+    if d.signature:
+        out.append("\n" + format_signature(d.signature))
     none = (": none (numeric design; the decoupling is APPROXIMATE, see the residual norm)"
             if d.approximate else ": none (exact for all parameter values)")
     out.append("\nAssumptions" + ("" if d.assumptions else none))
     for a in d.assumptions:
         out.append(f"  {a}")
     out.append(f"\nChoice\n  {d.choice}")
+    return "\n".join(out)
+
+
+def format_signature(signature, indent: str = "  ") -> str:
+    """The "Fault signature" section: every declared fault, sensitive or decoupled, with
+    Φ D_j, what the design does with it and the relations a sensitivity needs."""
+    out = ["Fault signature (every declared fault against the residual r; 1 = r moves)"]
+    width = max(len(s.name) for s in signature)
+    for s in signature:
+        note = ""
+        if s.sensitive and s.role in ("assumed zero", "decoupled"):
+            note = f"  — not a target ({s.role}), yet a nonzero {s.name} moves r"
+        elif not s.sensitive and s.role in ("detected", "estimated"):
+            note = "  — a target the residual does NOT see"
+        out.append(f"{indent}{s.name.ljust(width)}  {int(bool(s.sensitive))}  {s.describe()}"
+                   f"  [{s.role}; Φ D = {list(s.entry)}]{note}")
+    return "\n".join(out)
+
+
+def format_bank(bank) -> str:
+    """A residual bank: its structure matrix, which pairs it isolates, then each residual
+    generator's design (with its fault signature)."""
+    faults = list(bank.faults)
+    w = max(len(f) for f in faults)
+    out = [f"Residual bank for {bank.model_name}: {len(bank.designs)} residual generator(s) over"
+           f" faults ({', '.join(faults)}) — {bank.scheme}"
+           + (f"; every residual also decoupled from {', '.join(bank.disturbances)}"
+              if bank.disturbances else ""), "",
+           "Structure matrix (row = residual, column = fault; 1 = the residual responds,"
+           " recomputed from O Φ D_j)"]
+    head = "        " + "  ".join(f.rjust(w) for f in faults)
+    out.append(head)
+    for i, (row, d) in enumerate(zip(bank.structure_matrix, bank.designs), 1):
+        out.append(f"  r{i}".ljust(8) + "  ".join(str(c).rjust(w) for c in row)
+                   + f"    (k = {d.k}, λ = ({', '.join(map(str, d.lambdas))}))")
+    out.append("\nDetectable: " + ", ".join(f"{f} {'yes' if ok else 'NO'}"
+                                              for f, ok in bank.detectable.items()))
+    if len(faults) > 1:
+        out.append("Isolable pairs (both detected, columns differ): " + ", ".join(
+            f"{a}/{b} {'yes' if ok else 'NO'}" for (a, b), ok in bank.isolable))
+    out.append(f"\nChoice\n  {bank.choice}")
+    if bank.refused:
+        out.append("\nRows tried and not achievable")
+        for row, why in bank.refused:
+            out.append(f"  {row}: {why}")
+    out.append("\nAssumptions" + ("" if bank.assumptions else ": none"))
+    for a in bank.assumptions:
+        out.append(f"  {a}")
+    for i, d in enumerate(bank.designs, 1):
+        out += ["", f"== residual r{i} (row {''.join(map(str, bank.structure_matrix[i - 1]))}) ==",
+                format_design(d)]
     return "\n".join(out)
 
 

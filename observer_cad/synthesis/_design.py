@@ -20,6 +20,7 @@ from ..errors import UsageError
 from ..model import ObserverKind, PlantModel, Structure, Task, extract_structure
 from ._certificate import Certificate, Identity, certify_design
 from ._expr import parse_json_expression
+from ._signature import fault_signature
 
 __all__ = ["Condition", "Design", "DesignMatrices", "DesignRequest", "Form", "Method",
            "NonlinearSubstitution", "MATRIX_ORDER"]
@@ -261,6 +262,7 @@ class Design:
     residual_norm: float | None = None
     parameters: Mapping = dataclasses.field(default_factory=dict)  # observer gains: symbol → value
     request: DesignRequest | None = None
+    signature: tuple = ()  # of FaultSensitivity: every declared fault vs the residual
 
     def __post_init__(self):
         if isinstance(self.matrices, Mapping):
@@ -290,6 +292,21 @@ class Design:
     def ordered_matrices(self):
         return self.matrices.items()
 
+    @property
+    def signature_map(self) -> dict:
+        """Fault name → True (the residual is sensitive to it) / False (decoupled)."""
+        return {s.name: bool(s.sensitive) for s in self.signature}
+
+    def with_signature(self) -> "Design":
+        """The same design with its full fault signature (:func:`fault_signature`) computed
+        from its matrices and structure; the relations a detected or estimated fault's
+        sensitivity needs join the assumptions."""
+        sig = fault_signature(self.matrices, self.structure, self.task)
+        extra = [c for s in sig if s.role in ("detected", "estimated") for c in s.conditions
+                 if c not in self.assumptions]
+        assumptions = tuple(self.assumptions) + tuple(sorted(set(extra), key=str))
+        return dataclasses.replace(self, signature=sig, assumptions=assumptions)
+
     def with_task(self, **changes) -> "Design":
         """The same design with its task changed (e.g. the observer kind it serves)."""
         return dataclasses.replace(self, task=dataclasses.replace(self.task, **changes))
@@ -314,6 +331,9 @@ class Design:
             mark = "✅" if c.holds else ("❌" if c.required else "—")
             detail = c.detail.replace("|", "\\|")
             lines.append(f"| {mark} | {c.name} | {detail} |")
+        if self.signature:
+            lines += ["", "Fault signature (1 = the residual responds): " + ", ".join(
+                f"`{f.name}` {int(bool(f.sensitive))}" for f in self.signature)]
         if self.assumptions:
             lines += ["", "Assumptions: " + ", ".join(f"${sp.latex(a)}$" for a in self.assumptions)]
         return "\n".join(lines)
@@ -362,6 +382,8 @@ class Design:
             "task": self.task.to_json(),
             "parameters": {str(p): str(v) for p, v in self.parameters.items()},
             "request": self.request.to_json() if self.request is not None else None,
+            "signature": self.signature_map,
+            "signature_detail": [s.to_json() for s in self.signature],
         }
 
     @classmethod
@@ -464,7 +486,11 @@ class Design:
         request = None
         if data.get("request") is not None:
             request = DesignRequest.from_json(data["request"], names)
-        return cls(
+        recorded = data.get("signature")
+        if recorded is not None and (not isinstance(recorded, dict) or not all(
+                isinstance(k, str) and isinstance(v, bool) for k, v in recorded.items())):
+            raise UsageError("a design's 'signature' must map fault names to true/false")
+        made = cls(
             model_name=work.name, task=task, structure=st, form=data["form"], k=k,
             matrices=mats, conditions=conditions,
             assumptions=tuple(expr(a, "assumptions") for a in data.get("assumptions", [])),
@@ -482,3 +508,13 @@ class Design:
             approximate=approximate,
             residual_norm=data.get("residual_norm") if approximate else None,
             parameters=params, request=request)
+        # the signature is recomputed from the matrices, never read: a recorded one must agree
+        sig = fault_signature(made.matrices, st, task)
+        if recorded:
+            mine = {s.name: bool(s.sensitive) for s in sig}
+            for name, val in recorded.items():
+                if name in mine and mine[name] != val:
+                    raise UsageError(f"the design's recorded signature says {name} is "
+                                     f"{'sensitive' if val else 'decoupled'}, but its matrices"
+                                     f" make the residual {'sensitive' if mine[name] else 'decoupled'}")
+        return dataclasses.replace(made, signature=sig)

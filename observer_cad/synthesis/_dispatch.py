@@ -111,7 +111,15 @@ def design(model: PlantModel, *, observer: str, faults: Sequence[str] = (),
                      if form == "canonical" and d.matrices.K is not None else None),
         variant=variant, robust=robust, symbolic=symbolic,
         method=method if d.approximate else d.method.value, rtol=rtol)
-    return dataclasses.replace(d, request=request)
+    # the full fault signature: every declared fault against the residual (issue 12)
+    d = dataclasses.replace(d, request=request).with_signature()
+    blind = [s for s in d.signature if s.role == "detected" and not s.sensitive]
+    if blind:  # a residual generator must respond to what it is meant to detect
+        s = blind[0]
+        raise InfeasibleDesignError(
+            f"{model.where}: the residual found does not respond to {s.name}: Φ D_{s.name} ="
+            f" {list(s.entry)} enters only rows r does not read (H* (sI − F*)⁻¹ Φ D = 0)")
+    return d
 
 
 def _exact(model: PlantModel, task: Task, faults, disturbances, estimate, form, lambdas,

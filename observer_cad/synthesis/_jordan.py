@@ -38,6 +38,7 @@ from ..model import ObserverKind, PlantModel, Task, parse_expression
 from ._nonlinear import substitute_arguments
 from ._poles import default_eigenvalues
 from ._reduced import is_stable, jordan_equations, observer_symbols, output_symbols
+from ._signature import residual_response
 from ._task import task_for, task_parts
 from ._jordan_float import design_jordan_float
 from ._canonical import FLOAT_AUTO_N
@@ -201,8 +202,9 @@ def design_jordan(model: PlantModel, *, observer: str, estimate=None,
     else:
         L0 = sp.eye(n)
     if L0.rows == 0:
-        raise InfeasibleDesignError(f"{where}: the disturbances span the whole state space;"
-                                    " no decoupled observer exists")
+        raise InfeasibleDesignError(f"{where}: the decoupled inputs ({', '.join(task.decoupled)})"
+                                    " span the whole state space: no row Φ has Φ L = 0, so no"
+                                    " decoupled observer exists")
     adm = admissible_lambdas(F, H, L0)
     conds = [Condition("admissible λ", adm.generic or bool(adm.values),
                        f"{adm.describe()}; {adm.evidence}"
@@ -241,13 +243,19 @@ def design_jordan(model: PlantModel, *, observer: str, estimate=None,
             unusable = [v for v in adm.values if v.has(sp.CRootOf)]
             why = (" (the stable ones are roots of an irreducible factor of degree ≥ 3, which"
                    " exact synthesis does not use)" if unusable else "")
+            lead = ""
+            if observer == "diagnostic":
+                lead = (f"{', '.join(task.targets)} cannot be detected"
+                        f"{_with_decoupled(task)}: no stable λ gives a row Φ with Φ L = 0"
+                        " (a reduced model of order < n); ")
             raise InfeasibleDesignError(
-                f"{where}: no stable admissible λ{why}: {adm.describe()} ({adm.evidence})",
+                f"{where}: {lead}no stable admissible λ{why}: {adm.describe()} ({adm.evidence})",
                 (adm.evidence,))
 
     # Step 3: for every λ the whole family of rows: Φ = c N_λ L0, J* = c J_λ
     fam = {}
     pool = []
+    sums = []  # diagnostic: one generic member per λ family (Σ basis rows), tried last
     for lam in lam_list:
         P = _pencil(F, H, L0, lam)
         basis, _ = left_null_space(P)
@@ -264,17 +272,29 @@ def design_jordan(model: PlantModel, *, observer: str, estimate=None,
             if observer == "diagnostic":  # rows inside rowspace(H): a residual with k = 1
                 for extra in _rows_in_rowspace(fam[lam], H):
                     pool.append((lam,) + extra)
+                if len(rows_phi) > 1:  # a row that sees what each basis row sees
+                    sums.append((lam, sum(rows_phi[1:], rows_phi[0]).applyfunc(sp.cancel),
+                                 sum(rows_j[1:], rows_j[0]).applyfunc(sp.cancel)))
     if not pool:
         raise InfeasibleDesignError(f"{where}: no nonzero row Φ_i for λ in {lam_list}")
 
     # Step 4: fewest rows satisfying the task, one row per λ first
+    names = tuple(f.name for f in fault_syms)
+    if observer == "diagnostic" and _blind(names, pool, D):  # no row sees it: say so now
+        raise InfeasibleDesignError(_diagnostic_refusal(where, task, names, pool, D, lam_list,
+                                                        [], n))
     CA = [(j, sp.Matrix(t.row)) for j, t in enumerate(st.terms)]
     tried = []
     chosen = None
     if M is not None:  # directed: M ∈ rowspace(H) + Σ_λ rowspace(N_λ L0), one row per λ
-        chosen = _directed_rows(fam, lam_list, H, M, n, observer, D, st, tried)
+        chosen = _directed_rows(fam, lam_list, H, M, n, observer, D, st, tried, names)
     if chosen is None:
-        chosen = _combination_rows(pool, n, observer, H, D, M, st, tried)
+        chosen = _combination_rows(pool, n, observer, H, D, M, st, tried, names)
+    if chosen is None and sums:  # the basis rows alone do not do it: generic members too
+        chosen = _combination_rows(pool + sums, n, observer, H, D, M, st, tried, names)
+    if chosen is None and observer == "diagnostic":
+        raise InfeasibleDesignError(_diagnostic_refusal(where, task, names, pool, D, lam_list,
+                                                        tried, n), tuple(tried))
     if chosen is None:
         raise InfeasibleDesignError(
             f"{where}: no Jordan-form {observer} with fewer than n = {n} rows for λ in"
@@ -287,13 +307,10 @@ def design_jordan(model: PlantModel, *, observer: str, estimate=None,
     J = sp.Matrix.vstack(*[r[2] for r in chosen])
     mats = {"Phi": Phi, "F_star": sp.diag(*lams), "J_star": J, "G_star": Phi * G}
     if observer == "diagnostic":
-        nb, _ = left_null_space(sp.Matrix.vstack(H, Phi))
-        nb = [v for v in echelon_rows(nb) if v[:, l:] != sp.zeros(1, k)]
-        if not nb:  # pragma: no cover - excluded by the rank test
+        pair = _residual_pair(Phi, H)
+        if pair is None:  # pragma: no cover - excluded by the rank test
             raise InfeasibleDesignError(f"{where}: (R*, -H*)[H; Phi] = 0 has no solution")
-        v = nb[0]
-        mats["R_star"] = v[:, :l]
-        mats["H_star"] = -v[:, l:]
+        mats["R_star"], mats["H_star"] = pair
         mats["D_star"] = Phi * D
     if decoupled:
         if L.cols:
@@ -344,12 +361,60 @@ def design_jordan(model: PlantModel, *, observer: str, estimate=None,
         observer_states=tuple(xs), outputs=tuple(outputs))
 
 
-def _check_rows(rows, size, observer, H, D, M, st, tried):
+def _residual_pair(Phi, H):
+    """(R*, H*) with R* H = H* Φ, H* ≠ 0: the first such member (reduced echelon), or None."""
+    l, k = H.rows, Phi.rows
+    nb, _ = left_null_space(sp.Matrix.vstack(H, Phi))
+    nb = [v for v in echelon_rows(nb) if v[:, l:] != sp.zeros(1, k)]
+    if not nb:
+        return None
+    return nb[0][:, :l], -nb[0][:, l:]
+
+
+def _with_decoupled(task) -> str:
+    return f" with {', '.join(task.decoupled)} decoupled" if task.decoupled else ""
+
+
+def _blind(names, pool, D) -> list:
+    """The targets no candidate row sees (Φ_i D_j = 0 for every row of every λ family)."""
+    return [nm for c, nm in enumerate(names)
+            if all((r[1] * D[:, c]).applyfunc(sp.cancel) == sp.zeros(1, 1) for r in pool)]
+
+
+def _diagnostic_refusal(where, task, names, pool, D, lam_list, tried, n) -> str:
+    """Why no residual detects the targets: the faults no row sees, else the faults no
+    residual of order < n sees, named (issue 12, item 4)."""
+    lams = ", ".join(map(str, lam_list))
+    blind = _blind(names, pool, D)
+    if blind:
+        what = ", ".join(blind)
+        cols = ", ".join(f"Φ D_{nm} = 0" for nm in blind)
+        return (f"{where}: {what} {'is' if len(blind) == 1 else 'are'} undetectable"
+                f"{_with_decoupled(task)}: every row Φ with Φ L = 0 (λ in {{{lams}}}) has"
+                f" {cols}")
+    steps = "; ".join(tried[:6])
+    what = ", ".join(names)
+    return (f"{where}: {what} cannot be detected{' together' if len(names) > 1 else ''}"
+            f"{_with_decoupled(task)} by a residual of order < n = {n}: no set of rows Φ with"
+            f" Φ L = 0 (λ in {{{lams}}}) gives a residual r = R* y − H* x* that responds to"
+            f" {what} (tried: {steps})")
+
+
+def _check_rows(rows, size, observer, H, D, M, st, tried, names=()):
     """True when the rows are independent and satisfy the task; records why not."""
     Phi = sp.Matrix.vstack(*[r[1] for r in rows])
     if _rank(Phi) < size:
         return False
-    ok, why = _task_ok(observer, Phi, H, D, M, st)
+    ok, why = _task_ok(observer, Phi, H, D, M, st, names)
+    if ok and observer == "diagnostic":  # the residual itself must respond to every target
+        Rs, Hs = _residual_pair(Phi, H)
+        Fs = sp.diag(*[r[0] for r in rows])
+        for c in range(D.cols):
+            if residual_response(Phi, Fs, Hs, D[:, c]) == sp.zeros(Hs.rows * Fs.rows, 1):
+                nm = names[c] if c < len(names) else f"column {c + 1}"
+                ok, why = False, (f"{nm} enters only rows the residual does not read"
+                                  " (H* (sI − F*)⁻¹ Φ D = 0)")
+                break
     if not ok and len(tried) < 12:
         tried.append(f"k={size}, λ = ({', '.join(str(r[0]) for r in rows)}): {why}")
     return ok
@@ -371,7 +436,7 @@ def _rows_in_rowspace(family, H):
     return out
 
 
-def _directed_rows(fam, lam_list, H, M, n, observer, D, st, tried):
+def _directed_rows(fam, lam_list, H, M, n, observer, D, st, tried, names=()):
     """Sets of distinct λ, smallest first: solve M = Σ c_λ N_λ L0 + Q H for one row per λ."""
     lams = [lam for lam in lam_list if lam in fam]
     for size in range(1, n):
@@ -390,12 +455,12 @@ def _directed_rows(fam, lam_list, H, M, n, observer, D, st, tried):
                     rows.append((lam, Phi_i, (c * JB).applyfunc(sp.cancel)))
             if len(rows) != size:
                 continue  # a smaller set does it (found earlier unless the task failed)
-            if _check_rows(rows, size, observer, H, D, M, st, tried):
+            if _check_rows(rows, size, observer, H, D, M, st, tried, names):
                 return rows
     return None
 
 
-def _combination_rows(pool, n, observer, H, D, M, st, tried):
+def _combination_rows(pool, n, observer, H, D, M, st, tried, names=()):
     """Fewest rows from the pool; sets with distinct λ before sets that repeat one."""
     for size in range(1, n):
         for distinct in (True, False):
@@ -404,18 +469,19 @@ def _combination_rows(pool, n, observer, H, D, M, st, tried):
                 lams = [r[0] for r in rows]
                 if (len(set(lams)) == len(lams)) != distinct:
                     continue
-                if _check_rows(rows, size, observer, H, D, M, st, tried):
+                if _check_rows(rows, size, observer, H, D, M, st, tried, names):
                     return rows
     return None
 
 
-def _task_ok(observer, Phi, H, D, M, st):
+def _task_ok(observer, Phi, H, D, M, st, names=()):
     PH = sp.Matrix.vstack(Phi, H)
     rPH = _rank(PH)
     if observer == "diagnostic":
         for c in range(D.cols):
             if (Phi * D[:, c]).applyfunc(sp.cancel) == sp.zeros(Phi.rows, 1):
-                return False, f"fault column {c + 1} is not seen (Φ D = 0)"
+                nm = names[c] if c < len(names) else f"fault column {c + 1}"
+                return False, f"{nm} is not seen (Φ D_{nm} = 0)"
         if not rPH < _rank(Phi) + _rank(H):
             return False, f"rank [Φ; H] = {rPH} is not < rank Φ + rank H (no residual)"
     if M is not None:

@@ -397,6 +397,20 @@ def _design(model, observer, task, lambdas, rtol):
             chosen = _directed_rows_float(fam, lam_list, H, Mn, n, tol, res_tol, tried, budget)
     except _Budget:
         chosen = None
+    if chosen is None and observer == "diagnostic":  # name the faults no row sees
+        blind = []
+        for c, f in enumerate(fault_syms):
+            col = D[:, c]
+            if all(np.linalg.norm(fam[lam][0] @ col) <= res_tol * np.linalg.norm(fam[lam][0])
+                   * max(np.linalg.norm(col), 1e-300) for lam in fam):
+                blind.append(f.name)
+        if blind:
+            dec_txt = f" with {', '.join(task.decoupled)} decoupled" if task.decoupled else ""
+            raise InfeasibleDesignError(
+                f"{where}: {', '.join(blind)} {'is' if len(blind) == 1 else 'are'} undetectable"
+                f"{dec_txt}: every row Φ with Φ L = 0 (λ in {{{', '.join(map(_fmt, lam_list))}}})"
+                f" has " + ", ".join(f"Φ D_{b} ≈ 0" for b in blind) + " (float path)",
+                tuple(tried))
     if chosen is None:
         raise InfeasibleDesignError(
             f"{where}: no Jordan-form {observer} with fewer than n = {n} rows for λ in"
