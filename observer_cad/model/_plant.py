@@ -25,7 +25,7 @@ import sympy as sp
 from ..errors import DimensionError, ExpressionError, ModelError
 from ._expressions import parse_number
 
-__all__ = ["PlantModel", "load_model", "to_rational"]
+__all__ = ["PlantModel", "load_model", "load_model_module", "model_from_module", "to_rational"]
 
 TIME_DOMAINS = ("continuous", "discrete")
 
@@ -432,11 +432,11 @@ def _units(raw: Any, roles: dict, where: str) -> dict:
     return out
 
 
-def load_model(path: str | Path) -> PlantModel:
-    """Import a model file (a plain Python module defining ``model``) and return it.
+def load_model_module(path: str | Path):
+    """Execute a model file (a plain Python module) and return its namespace.
 
-    Errors (missing file, import failure, no ``model``, wrong type, invalid model)
-    are :class:`ModelError` with a one-line message naming the file.
+    Errors (missing file, import failure, a ModelError raised while building) are
+    :class:`ModelError` with a one-line message naming the file (and the line).
     """
     p = Path(path)
     if not p.is_file():
@@ -469,6 +469,20 @@ def load_model(path: str | Path) -> PlantModel:
         raise ModelError(f"{path}: failed to import{lineno}: {type(exc).__name__}: {detail}") from None
     finally:
         sys.modules.pop(modname, None)
+    return module
+
+
+def load_model(path: str | Path) -> PlantModel:
+    """Import a model file (a plain Python module defining ``model``) and return it.
+
+    Errors (missing file, import failure, no ``model``, wrong type, invalid model)
+    are :class:`ModelError` with a one-line message naming the file.
+    """
+    return model_from_module(load_model_module(path), path)
+
+
+def model_from_module(module, path) -> PlantModel:
+    """The ``model`` an executed model file defines (see :func:`load_model_module`)."""
     model = getattr(module, "model", None)
     if model is None:
         raise ModelError(f"{path}: the model file defines no 'model'")

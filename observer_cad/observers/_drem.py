@@ -121,9 +121,7 @@ IEEE TAC 62(7) 2017 (DREM).
 from __future__ import annotations
 
 import dataclasses
-import importlib.util
 import math
-import sys
 from pathlib import Path
 from typing import Mapping, Sequence
 
@@ -132,7 +130,7 @@ import sympy as sp
 
 from ..synthesis import Condition, parse_json_expression
 from ..errors import ModelError, ObserverCadError, UsageError
-from ..model import PlantModel, load_model, to_rational
+from ..model import PlantModel, load_model_module, model_from_module, to_rational
 from ._observer import Observer, output_symbols
 
 __all__ = ["shift_matrix", "DremSpec", "DremTerm", "DremClass", "DremDesign", "ExcitationReport",
@@ -411,17 +409,8 @@ def analyse(model: PlantModel, spec: DremSpec) -> DremClass:
 
 def load_drem(path) -> tuple:
     """``(model, spec)`` from a model file defining ``model`` and ``drem``."""
-    model = load_model(path)
-    p = Path(path)
-    modname = f"_observer_cad_drem_{abs(hash(str(p.resolve())))}"
-    ispec = importlib.util.spec_from_file_location(modname, p)
-    module = importlib.util.module_from_spec(ispec)
-    try:
-        ispec.loader.exec_module(module)
-    except ModelError as exc:
-        raise ModelError(f"{path}: {exc}") from None
-    finally:
-        sys.modules.pop(modname, None)
+    module = load_model_module(path)  # the file runs once, for both
+    model = model_from_module(module, path)
     spec = getattr(module, "drem", None)
     if spec is None:
         raise ModelError(f"{path}: the model file declares no 'drem' (a DremSpec) for the DREM observer")
