@@ -2,11 +2,14 @@
 never half-written (a temporary file in the same folder, then ``os.replace``)."""
 from __future__ import annotations
 
+import json
 import os
 import tempfile
 from pathlib import Path
 
-__all__ = ["atomic_write_text"]
+from .errors import UsageError
+
+__all__ = ["atomic_write_text", "read_json_file"]
 
 
 def atomic_write_text(path: Path, text: str) -> None:
@@ -23,3 +26,20 @@ def atomic_write_text(path: Path, text: str) -> None:
         except OSError:
             pass
         raise
+
+
+def read_json_file(path, what: str):
+    """The JSON value in a file, or a one-line :class:`UsageError` naming the file: missing,
+    unreadable, not UTF-8, not valid JSON, or nested too deeply."""
+    p = Path(path)
+    if not p.is_file():
+        raise UsageError(f"{path}: no such {what} file")
+    try:
+        return json.loads(p.read_text(encoding="utf-8"))
+    except json.JSONDecodeError as exc:
+        raise UsageError(f"{path}: not valid JSON: {exc}") from None
+    except RecursionError:
+        raise UsageError(f"{path}: not valid JSON: nested too deeply") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise UsageError(f"{path}: cannot read the {what}:"
+                         f" {getattr(exc, 'strerror', None) or type(exc).__name__}") from None

@@ -22,7 +22,7 @@ from pathlib import Path
 
 import sympy as sp
 
-from ..files import atomic_write_text
+from ..files import atomic_write_text, read_json_file
 from ..synthesis import Design
 from ..errors import UsageError
 from ..model import parse_expression
@@ -174,16 +174,7 @@ def write_design_json(design: Design, path) -> Path:
 
 def read_design_json(path) -> dict:
     """The object :func:`write_design_json` wrote; one-line error for a missing or bad file."""
-    p = Path(path)
-    if not p.is_file():
-        raise UsageError(f"{path}: no such design file")
-    try:
-        data = json.loads(p.read_text(encoding="utf-8"))
-    except json.JSONDecodeError as exc:
-        raise UsageError(f"{path}: not valid JSON: {exc}") from None
-    except (OSError, UnicodeDecodeError, RecursionError) as exc:
-        raise UsageError(f"{path}: cannot read the design:"
-                         f" {getattr(exc, 'strerror', None) or type(exc).__name__}") from None
+    data = read_json_file(path, "design")
     if not isinstance(data, dict) or not isinstance(data.get("matrices"), dict):
         raise UsageError(f"{path}: not a design (no 'matrices')")
     return data

@@ -39,6 +39,7 @@ import numpy as np
 import sympy as sp
 
 from ..errors import NonFiniteError, UsageError
+from ..files import read_json_file
 from ..model import PlantModel, parse_expression
 from ..observers import Observer, output_symbols
 
@@ -202,17 +203,7 @@ class Scenario:
 
 def load_scenario(path) -> Scenario:
     """Read a scenario JSON file; errors name the file and the key."""
-    p = Path(path)
-    if not p.is_file():
-        raise UsageError(f"{path}: no such scenario file")
-    try:
-        data = json.loads(p.read_text(encoding="utf-8"))
-    except json.JSONDecodeError as exc:
-        raise UsageError(f"{path}: not valid JSON: {exc}") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise UsageError(f"{path}: cannot read the scenario: {getattr(exc, 'strerror', None) or exc}") from None
-    except RecursionError:
-        raise UsageError(f"{path}: not valid JSON: nested too deeply") from None
+    data = read_json_file(path, "scenario")
     return scenario_from_dict(data, source=str(path))
 
 
