@@ -11,6 +11,7 @@ import sys
 from pathlib import Path
 
 from ..errors import ObserverCadError, UsageError
+from ..progress import report, reporting
 from ..version import package_version
 
 __all__ = ["main", "build_parser"]
@@ -214,13 +215,26 @@ def _design_from_args(args):
         raise UsageError(f"--rtol {args.rtol}: a relative tolerance must lie in (0, 1)")
     if args.observer == "drem":
         return _drem_from_args(args)
+    report(f"reading the model {args.model}", stage=True)
     model = _parse_bounds(load_model(args.model), getattr(args, "bound", None))
+    report(f"designing the {args.observer} observer for {model.name}"
+           f" ({len(model.states)} states, {len(model.outputs)} outputs)", stage=True)
     result = design(model, observer=args.observer, faults=args.fault,
                     disturbances=args.disturbance, estimate=args.estimate, form=args.form,
                     lambdas=args.lambdas, eigenvalues=args.eigenvalues, variant=args.variant,
                     robust=args.robust, symbolic=args.symbolic, method=args.method,
                     rtol=args.rtol)
+    _warn_conditioning(result)
+    report(f"design done (k = {getattr(result, 'k', '?')})", stage=True)
     return model, result
+
+
+def _warn_conditioning(result) -> None:
+    """One stderr line when the design is ill-conditioned (README "Conditioning")."""
+    cond = getattr(result, "conditioning", None)
+    if cond is not None and not cond.holds:
+        print(f"{PROG}: warning: ill-conditioned design: {cond.detail}"
+              " (see 'Conditioning' in the README)", file=sys.stderr)
 
 
 def _cmd_design(args) -> int:
@@ -241,6 +255,7 @@ def _cmd_design(args) -> int:
         # build it here exactly as simulate and codegen do: a design whose observer cannot
         # be built, or whose observer fails a required condition, is refused now
         from ..observers import build_observer
+        report("building the observer", stage=True)
         observer = build_observer(model, result, **_observer_options(args, result))
     if args.json:
         out = result.to_json()
@@ -253,6 +268,7 @@ def _cmd_design(args) -> int:
             out["observer_conditions"] = [c.to_json() for c in observer.own_conditions]
         print(json.dumps(out, indent=2))
     else:
+        report("formatting the design", stage=True)
         print(format_design(result))
         if observer is not None and observer.kind in ("interval", "unknown-input", "sliding-mode"):
             print(format_observer(observer))
@@ -281,8 +297,10 @@ def _cmd_simulate(args) -> int:
         raise UsageError("simulate needs numeric parameters: drop --symbolic")
     model, result = _design_from_args(args)
     scenario = load_scenario(args.scenario)
+    report("building the observer", stage=True)
     observer = build_observer(model, result, **_observer_options(args, result))
     _refuse_failed(observer)
+    report("simulating", stage=True)
     res = simulate(model, observer, scenario)
     path = write_signals_csv(res, args.out)
     print(f"wrote {path} ({len(res['t'])} rows, columns: {', '.join(res.order)})")
@@ -308,6 +326,7 @@ def _cmd_codegen(args) -> int:
     if args.symbolic:
         raise UsageError("codegen needs numeric parameters: drop --symbolic")
     model, result = _design_from_args(args)
+    report("building the observer", stage=True)
     observer = build_observer(model, result, **_observer_options(args, result))
     _refuse_failed(observer)
     try:
@@ -333,8 +352,12 @@ def main(argv=None) -> int:
         if args.command is None:
             parser.print_help()
             return 2
-        return {"show": _cmd_show, "design": _cmd_design, "simulate": _cmd_simulate,
-                "codegen": _cmd_codegen, "demo": _cmd_demo}[args.command](args)
+        run = {"show": _cmd_show, "design": _cmd_design, "simulate": _cmd_simulate,
+               "codegen": _cmd_codegen, "demo": _cmd_demo}[args.command]
+        if args.command == "demo":  # the demo prints its own progress
+            return run(args)
+        with reporting():  # stage lines on stderr after 2 s, on a terminal (progress.py)
+            return run(args)
     except ObserverCadError as exc:
         msg = " / ".join(part.strip() for part in str(exc).splitlines() if part.strip())
         print(f"{PROG}: error: {msg}", file=sys.stderr)

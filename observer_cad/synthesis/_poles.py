@@ -5,10 +5,11 @@ from __future__ import annotations
 import sympy as sp
 
 from ..errors import InfeasibleDesignError, UsageError
+from ..numerics import rationalize_floats
 
 __all__ = ["default_eigenvalues", "parse_eigenvalues", "place_poles", "require_stable"]
 
-S = sp.Symbol("s")
+S = sp.Dummy("s")  # never a model parameter named s
 
 
 def default_eigenvalues(time: str, k: int):
@@ -48,7 +49,7 @@ def place_poles(Fs, Hs, eigenvalues):
     if not sol:
         raise InfeasibleDesignError(
             "the requested eigenvalues cannot be placed: (F*, H*) is not observable")
-    K = K.xreplace({s: sp.nsimplify(sp.expand(sol[0].get(s, 0)).xreplace({t: 0 for t in Ks}))
+    K = K.xreplace({s: rationalize_floats(sp.expand(sol[0].get(s, 0)).xreplace({t: 0 for t in Ks}))
                     for s in Ks})
     K = K.applyfunc(lambda e: sp.expand(e.xreplace({t: 0 for t in Ks})))
     # exact re-check of the closed-loop characteristic polynomial
