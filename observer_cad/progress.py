@@ -12,7 +12,9 @@ in it). A reporter prints a line only
 
 and, for the steps of a loop, at most one line per ``every`` seconds (default 1), so
 a loop over k cannot flood the terminal (a change of stage, ``stage=True``, always
-prints). Lines read ``observer-cad: designing: k = 3 of at most 299 (12.4 s)``.
+prints). A background heartbeat repeats the latest message when nothing was printed
+for ``heartbeat`` seconds (default 5), so a long silent step — loading a large model
+file, one expensive rank decision — still shows that the run is alive. Lines read ``observer-cad: designing: k = 3 of at most 299 (12.4 s)``.
 The reporter lives in a :class:`contextvars.ContextVar`: no global state to reset.
 """
 from __future__ import annotations
@@ -21,6 +23,7 @@ import contextlib
 import contextvars
 import os
 import sys
+import threading
 import time
 from typing import Callable, TextIO
 
@@ -35,7 +38,8 @@ class Reporter:
     ``every`` seconds; see the module docstring. ``clock`` is injectable for tests."""
 
     def __init__(self, stream: TextIO | None = None, *, after: float = 2.0,
-                 every: float = 1.0, enabled: bool | None = None, prefix: str = "observer-cad",
+                 every: float = 1.0, heartbeat: float | None = 5.0,
+                 enabled: bool | None = None, prefix: str = "observer-cad",
                  clock: Callable[[], float] = time.monotonic):
         self.stream = stream if stream is not None else sys.stderr
         if enabled is None:
@@ -43,21 +47,43 @@ class Reporter:
             enabled = bool(isatty and isatty()) or os.environ.get(PROGRESS_ENV) == "1"
         self.enabled = enabled
         self.after, self.every, self.prefix, self.clock = after, every, prefix, clock
+        self.heartbeat = heartbeat
         self.start = clock()
         self.last: float | None = None
+        self.pending: str | None = None  # the latest message (what a heartbeat repeats)
         self.lines: list = []  # what was printed (for tests and summaries)
+        self._lock = threading.Lock()
 
     def __call__(self, message: str, *, stage: bool = False) -> None:
         if not self.enabled:
             return
-        now = self.clock()
-        elapsed = now - self.start
-        if elapsed < self.after:
-            return
-        if not stage and self.last is not None and now - self.last < self.every:
-            return
+        with self._lock:
+            self.pending = message
+            now = self.clock()
+            elapsed = now - self.start
+            if elapsed < self.after:
+                return
+            if not stage and self.last is not None and now - self.last < self.every:
+                return
+            self._print(message, now)
+
+    def beat(self) -> None:
+        """Repeat the latest message when nothing was printed for ``heartbeat`` seconds
+        (a long step inside one stage, or a slow first stage such as loading the model)."""
+        with self._lock:
+            if not self.enabled or self.pending is None or self.heartbeat is None:
+                return
+            now = self.clock()
+            if now - self.start < self.after:
+                return
+            if self.last is not None and now - self.last < self.heartbeat:
+                return
+            self._print(self.pending + (", still running" if self.last is not None else ""),
+                        now)
+
+    def _print(self, message: str, now: float) -> None:
         self.last = now
-        line = f"{self.prefix}: {message} ({elapsed:.1f} s)"
+        line = f"{self.prefix}: {message} ({now - self.start:.1f} s)"
         self.lines.append(line)
         try:
             print(line, file=self.stream, flush=True)
@@ -82,7 +108,18 @@ def reporting(reporter: Reporter | None = None, **options):
     """Make ``reporter`` (default: ``Reporter(**options)`` on stderr) active in the block."""
     rep = reporter if reporter is not None else Reporter(**options)
     token = _current.set(rep)
+    stop = threading.Event()
+    beater = None
+    if rep.enabled and rep.heartbeat is not None:  # a daemon: never keeps the process alive
+        def loop():
+            while not stop.wait(0.5):
+                rep.beat()
+        beater = threading.Thread(target=loop, name="observer-cad-progress", daemon=True)
+        beater.start()
     try:
         yield rep
     finally:
+        stop.set()
+        if beater is not None:
+            beater.join(timeout=1.0)
         _current.reset(token)

@@ -60,3 +60,27 @@ def test_cli_stderr_stays_clean(models_dir, capsys, monkeypatch):
                "--fault", "d"])
     assert rc == 0
     assert capsys.readouterr().err == ""
+
+
+def test_heartbeat_repeats_the_latest_message_when_silent():
+    clock, out = _Clock(), io.StringIO()
+    rep = Reporter(out, after=2.0, every=1.0, heartbeat=5.0, enabled=True, clock=clock)
+    rep("reading the model big.py", stage=True)  # t = 0: before the threshold
+    rep.beat()                                    # still before the threshold
+    clock.t = 2.1
+    rep.beat()                                    # nothing printed yet: the pending message
+    clock.t = 4.0
+    rep.beat()                                    # printed 1.9 s ago: quiet
+    clock.t = 7.2
+    rep.beat()                                    # 5.1 s of silence: repeated
+    assert [l.split(" (")[0] for l in rep.lines] == [
+        "observer-cad: reading the model big.py",
+        "observer-cad: reading the model big.py, still running"]
+
+
+def test_reporting_starts_and_stops_its_heartbeat_thread():
+    import threading
+    before = {t.name for t in threading.enumerate()}
+    with reporting(Reporter(io.StringIO(), enabled=True)):
+        assert "observer-cad-progress" in {t.name for t in threading.enumerate()}
+    assert "observer-cad-progress" not in {t.name for t in threading.enumerate()} - before
