@@ -40,7 +40,7 @@ def place_poles(Fs, Hs, eigenvalues):
     k = Fs.rows
     if len(eigenvalues) != k:
         raise UsageError(f"{k} eigenvalues needed (k = {k}), got {len(eigenvalues)}")
-    Ks = sp.symbols(f"K1:{k + 1}")
+    Ks = tuple(sp.Dummy(f"K{i}") for i in range(1, k + 1))  # never a model parameter
     K = sp.Matrix(Ks)
     target = sp.Poly(sp.expand(sp.prod([S - mu for mu in eigenvalues])), S)
     cp = sp.Poly((S * sp.eye(k) - Fs + K * Hs).det(method="berkowitz"), S)
