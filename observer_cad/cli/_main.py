@@ -12,6 +12,7 @@ import sys
 from pathlib import Path
 
 from ..errors import NonFiniteError, ObserverCadError, UsageError
+from ..progress import report, reporting
 from ..version import package_version
 
 __all__ = ["main", "build_parser"]
@@ -271,7 +272,10 @@ def _design_from_args(args):
         raise UsageError(f"--rtol {args.rtol}: a relative tolerance must lie in (0, 1)")
     if args.observer == "drem":
         return _drem_from_args(args)
+    report(f"reading the model {args.model}", stage=True)
     model = _parse_bounds(load_model(args.model), getattr(args, "bound", None))
+    report(f"designing the {args.observer} observer for {model.name}"
+           f" ({len(model.states)} states, {len(model.outputs)} outputs)", stage=True)
     if getattr(args, "structure", None) and not getattr(args, "isolate", False):
         raise UsageError("--structure applies to residual banks: add --isolate")
     if getattr(args, "isolate", False):
@@ -281,6 +285,8 @@ def _design_from_args(args):
                     lambdas=args.lambdas, eigenvalues=args.eigenvalues, variant=args.variant,
                     robust=args.robust, symbolic=args.symbolic, method=args.method,
                     rtol=args.rtol)
+    _warn_conditioning(result)
+    report(f"design done (k = {getattr(result, 'k', '?')})", stage=True)
     return model, result
 
 
@@ -315,6 +321,14 @@ def _cmd_bank(args, model, bank) -> int:
     return 0
 
 
+def _warn_conditioning(result) -> None:
+    """One stderr line when the design is ill-conditioned (README "Conditioning")."""
+    cond = getattr(result, "conditioning", None)
+    if cond is not None and not cond.holds:
+        print(f"{PROG}: warning: ill-conditioned design: {cond.detail}"
+              " (see 'Conditioning' in the README)", file=sys.stderr)
+
+
 def _cmd_design(args) -> int:
     from ..reporting import format_design, format_observer, format_observer_conditions
     model, result = _design_from_args(args)
@@ -336,6 +350,7 @@ def _cmd_design(args) -> int:
         # build it here exactly as simulate and codegen do: a design whose observer cannot
         # be built, or whose observer fails a required condition, is refused now
         from ..observers import build_observer
+        report("building the observer", stage=True)
         observer = build_observer(model, result, **options)
     if args.json:
         out = result.to_json()
@@ -348,6 +363,7 @@ def _cmd_design(args) -> int:
             out["observer_conditions"] = [c.to_json() for c in observer.own_conditions]
         print(json.dumps(out, indent=2))
     else:
+        report("formatting the design", stage=True)
         print(format_design(result))
         if observer is not None and observer.kind in ("interval", "unknown-input", "sliding-mode"):
             print(format_observer(observer))
@@ -376,8 +392,10 @@ def _cmd_simulate(args) -> int:
         raise UsageError("simulate needs numeric parameters: drop --symbolic")
     scenario = load_scenario(args.scenario)  # validated before the design's work
     model, result = _design_from_args(args)
+    report("building the observer", stage=True)
     observer = build_observer(model, result, **_observer_options(args, result))
     _refuse_failed(observer)
+    report("simulating", stage=True)
     res = simulate(model, observer, scenario, keep_nonfinite=args.keep_nonfinite)
     path = write_signals_csv(res, args.out)
     print(f"wrote {path} ({len(res['t'])} rows, columns: {', '.join(res.order)})")
@@ -411,6 +429,7 @@ def _cmd_codegen(args) -> int:
     if args.symbolic:
         raise UsageError("codegen needs numeric parameters: drop --symbolic")
     model, result = _design_from_args(args)
+    report("building the observer", stage=True)
     observer = build_observer(model, result, **_observer_options(args, result))
     _refuse_failed(observer)
     try:
@@ -450,9 +469,13 @@ def main(argv=None) -> int:
         if args.command is None:
             parser.print_help()
             return 2
-        return {"show": _cmd_show, "design": _cmd_design, "simulate": _cmd_simulate,
-                "codegen": _cmd_codegen, "analyze": _cmd_analyze,
-                "demo": _cmd_demo}[args.command](args)
+        run = {"show": _cmd_show, "design": _cmd_design, "simulate": _cmd_simulate,
+               "codegen": _cmd_codegen, "analyze": _cmd_analyze,
+               "demo": _cmd_demo}[args.command]
+        if args.command == "demo":  # the demo prints its own progress
+            return run(args)
+        with reporting():  # stage lines on stderr after 2 s, on a terminal (progress.py)
+            return run(args)
     except ObserverCadError as exc:
         msg = " / ".join(part.strip() for part in str(exc).splitlines() if part.strip())
         print(f"{PROG}: error: {msg}", file=sys.stderr)

@@ -25,16 +25,25 @@ none is below n) — the k a design is expected to find for a random plant.
 """
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 import sympy as sp
+from sympy.core.add import Add
+from sympy.core.basic import Basic, ordering_of_classes
+from sympy.core.mul import Mul
 
 from ._plant import PlantModel
 
 __all__ = ["random_matrices", "random_model", "random_structure", "generic_k"]
 
 
-def _rational(v: float, den: int = 1000) -> sp.Rational:
-    return sp.Rational(int(round(v * den)), den)
+def _rational(v: float, den: int = 1000, _cache: dict = {}) -> sp.Rational:  # noqa: B006
+    key = (int(round(v * den)), den)
+    r = _cache.get(key)
+    if r is None:
+        r = _cache[key] = sp.Rational(*key)
+    return r
 
 
 def random_matrices(n: int, l: int, p: int, *, seed: int, m: int = 1,  # noqa: E741
@@ -81,12 +90,48 @@ def random_matrices(n: int, l: int, p: int, *, seed: int, m: int = 1,  # noqa: E
     return out
 
 
+def _term(c, s):
+    """c·s for a number c and a symbol s, built in sympy's canonical form directly."""
+    if c is sp.S.One:
+        return s
+    return Mul._from_args((c, s))
+
+
+@functools.lru_cache(maxsize=65536)
+def _canonical_key(e):
+    """A sort key equivalent to ``Basic.compare`` (the order ``Add`` keeps its terms in):
+    class rank, then the hashable content, element by element. Computed once per term
+    instead of once per comparison (``Add(*terms)`` spends 0.3 s sorting a 300-term row;
+    this 0.01 s). ``tests/test_random_systems`` checks it gives ``Add``'s own order."""
+    if isinstance(e, Basic):
+        name = type(e).__name__
+        try:
+            rank, tie = ordering_of_classes.index(name), ""
+        except ValueError:
+            rank, tie = len(ordering_of_classes) + 1, name
+        content = e._hashable_content()
+        return (rank, tie, len(content), tuple(_canonical_key(a) for a in content))
+    if isinstance(e, frozenset):
+        return _canonical_key(Basic(*e))
+    return e
+
+
+def _sum(terms: list):
+    """Add(*terms) for distinct terms c·s, without re-flattening: the terms sorted as
+    ``Add`` sorts them, so the result is the canonical expression (equal to
+    ``Add(*terms)``, the same args in the same order) at a small fraction of the cost."""
+    if not terms:
+        return sp.Integer(0)
+    if len(terms) == 1:
+        return terms[0]
+    return Add._from_args(sorted(terms, key=_canonical_key))
+
+
 def _linear_forms(M: sp.Matrix, syms) -> list:
     """The rows of M applied to the symbols, built as flat sums (no expansion needed)."""
-    forms = []
-    for i in range(M.rows):
-        forms.append(sp.Add(*[M[i, j] * s for j, s in enumerate(syms) if M[i, j] != 0]))
-    return forms
+    entries = M.tolist()
+    zero = sp.S.Zero
+    return [_sum([_term(c, s) for c, s in zip(row, syms) if c is not zero]) for row in entries]
 
 
 def random_model(n: int, l: int, p: int, *, seed: int, m: int = 1,  # noqa: E741
@@ -117,7 +162,8 @@ def random_model(n: int, l: int, p: int, *, seed: int, m: int = 1,  # noqa: E741
     Fx = _linear_forms(F, xs)
     Gu = _linear_forms(G, us) if m else [sp.Integer(0)] * n
     Lr = _linear_forms(L, rhos) if p else [sp.Integer(0)] * n
-    dynamics = [sp.Add(Fx[i], Gu[i], D[i, 0] * d, Lr[i]) for i in range(n)]
+    dynamics = [_sum([t for part in (Fx[i], Gu[i], D[i, 0] * d, Lr[i])
+                      for t in sp.Add.make_args(part) if t != 0]) for i in range(n)]
     outputs = _linear_forms(H, xs)
     kind = ("int" if integer else "gauss") + (f"_d{density:g}" if density < 1.0 else "")
     return PlantModel(

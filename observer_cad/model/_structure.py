@@ -21,6 +21,7 @@ import dataclasses
 
 import sympy as sp
 
+from ..progress import report
 from ..errors import ModelError
 from ._plant import PlantModel
 
@@ -136,6 +137,28 @@ def _split(t, varset):
     return sp.Integer(1), t
 
 
+def _number_times_variable(e, where: dict):
+    """``[((matrix, column), number), …]`` when every term of e is a number times one
+    variable in ``where`` (or the variable alone), else None (then the general path
+    decides). Linear equations with numeric coefficients are read off without
+    ``expand`` or ``free_symbols`` (a 300-state model: 0.2 s instead of 30 s)."""
+    out = []
+    for t in sp.Add.make_args(e):
+        if t.is_Symbol:
+            slot = where.get(t)
+            if slot is None:
+                return None
+            out.append((slot, sp.Integer(1)))
+        elif t.is_Mul and len(t.args) == 2 and t.args[0].is_Number and t.args[1].is_Symbol:
+            slot = where.get(t.args[1])
+            if slot is None:
+                return None
+            out.append((slot, t.args[0]))
+        else:
+            return None
+    return out
+
+
 def _is_const(e, variables) -> bool:
     return not (e.free_symbols & variables)
 
@@ -182,10 +205,17 @@ def extract_structure(model: PlantModel) -> Structure:
     ds, rs = model.faults, model.disturbances
     variables = set(xs) | set(us) | set(ds) | set(rs) | set(model.noise)
     n = len(xs)
-    F = sp.zeros(n, n)
-    G = sp.zeros(n, len(us))
-    D = sp.zeros(n, len(ds))
-    L = sp.zeros(n, len(rs))
+    zero = sp.Integer(0)
+    # filled entry by entry as lists (a sympy Matrix's item assignment costs ~0.1 ms,
+    # 10 s for a 300-state model), made matrices after the loop
+    F = [[zero] * n for _ in range(n)]
+    G = [[zero] * len(us) for _ in range(n)]
+    D = [[zero] * len(ds) for _ in range(n)]
+    L = [[zero] * len(rs) for _ in range(n)]
+    simple = {}  # variable -> (matrix, column) for the fast path of linear equations
+    for mat, syms in ((F, xs), (G, us), (D, ds), (L, rs)):
+        for k, v in enumerate(syms):
+            simple[v] = (mat, k)
     xu_set = set(xs) | set(us)
     x_pos = {x: k for k, x in enumerate(xs)}
     u_pos = {u: k for k, u in enumerate(us)}
@@ -196,7 +226,13 @@ def extract_structure(model: PlantModel) -> Structure:
 
     for i, (x_i, f) in enumerate(zip(xs, model.dynamics)):
         eq = f"dynamics equation {i + 1} (for {x_i})"
+        report(f"extracting the structure of {model.name}: equation {i + 1} of {n}")
 
+        lin = _number_times_variable(f, simple)
+        if lin is not None:  # fast path: every term is a number times one variable
+            for (mat, k), c in lin:
+                mat[i][k] += c
+            continue
         terms = sp.Add.make_args(sp.expand(f, deep=False))
         fsyms = f.free_symbols
 
@@ -227,7 +263,7 @@ def extract_structure(model: PlantModel) -> Structure:
                     f"{where}: {eq}: {role} '{sym}' enters with the coefficient {c}, which"
                     f" depends on state '{sorted(bad, key=str)[0]}'; it must be constant")
             idx = (ds if role == "fault" else rs).index(sym)
-            mat[i, idx] = c
+            mat[i][idx] = c
         # every term with d or ρ is c·d (checked above): the rest is what remains
         unknown = set(ds) | set(rs)
         rest_terms = [t for t in terms if not (t.free_symbols & unknown)]
@@ -240,9 +276,9 @@ def extract_structure(model: PlantModel) -> Structure:
                 if not _is_const(coef, variables):  # pragma: no cover - guarded by _split
                     raise ModelError(f"{where}: {eq}: term {t} is not linear")
                 if m in x_pos:
-                    F[i, x_pos[m]] += coef
+                    F[i][x_pos[m]] += coef
                 else:
-                    G[i, u_pos[m]] += coef
+                    G[i][u_pos[m]] += coef
                 continue
             if m.free_symbols & (set(ds) | set(rs)):  # pragma: no cover - caught in step 1
                 raise ModelError(f"{where}: {eq} is not affine in the unknown inputs: {t}")
@@ -278,6 +314,8 @@ def extract_structure(model: PlantModel) -> Structure:
             j = index[m]
             coeffs[(i, j)] = coeffs.get((i, j), 0) + coef
 
+    F, G, D, L = (sp.ImmutableMatrix(n, len(v), [e for row in M for e in row])
+                  for M, v in ((F, xs), (G, us), (D, ds), (L, rs)))
     q = len(funcs)
     C = sp.zeros(n, q)
     for (i, j), c in coeffs.items():
@@ -315,20 +353,28 @@ def extract_structure(model: PlantModel) -> Structure:
             info[j][0] = -info[j][0]
 
     # Outputs: y = H x + W w (term by term: cheap for long outputs)
-    H = sp.zeros(len(model.outputs), n)
-    W = sp.zeros(len(model.outputs), len(model.noise))
+    H = [[zero] * n for _ in model.outputs]
+    W = [[zero] * len(model.noise) for _ in model.outputs]
     xidx = {x: k for k, x in enumerate(xs)}
     widx = {w: k for k, w in enumerate(model.noise)}
+    out_simple = {x: (H, k) for x, k in xidx.items()}
+    out_simple.update({w: (W, k) for w, k in widx.items()})
+    xw_set = set(xs) | set(model.noise)
     for i, h in enumerate(model.outputs):
         name = f"y{i + 1}"
+        lin = _number_times_variable(h, out_simple)
+        if lin is not None:
+            for (mat, k), c in lin:
+                mat[i][k] += c
+            continue
         for t in sp.Add.make_args(sp.expand(h)):
             if t == 0:
                 continue
-            coef, m = _split(t, set(xs) | set(model.noise))
+            coef, m = _split(t, xw_set)
             if m in xidx and _is_const(coef, variables):
-                H[i, xidx[m]] += coef
+                H[i][xidx[m]] += coef
             elif m in widx and _is_const(coef, variables):
-                W[i, widx[m]] += coef
+                W[i][widx[m]] += coef
             elif m == 1:
                 raise ModelError(f"{where}: output {name} = {h} has a constant offset {t}")
             elif m.free_symbols & set(xs):
@@ -337,6 +383,8 @@ def extract_structure(model: PlantModel) -> Structure:
                 w = sorted(m.free_symbols & set(model.noise), key=str)[0]
                 raise ModelError(f"{where}: output {name} = {h} is not linear in the noise '{w}'")
 
+    H = sp.ImmutableMatrix(len(model.outputs), n, [e for row in H for e in row])
+    W = sp.ImmutableMatrix(len(model.outputs), len(model.noise), [e for row in W for e in row])
     terms = tuple(NonlinearTerm(fn, s, sp.ImmutableMatrix([row]))
                   for fn, s, row in info)
     st = Structure(model, *(sp.ImmutableMatrix(M) for M in (F, G, H, C, D, L, W)), terms)

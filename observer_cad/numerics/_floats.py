@@ -1,11 +1,13 @@
 """Float helpers shared by the float synthesis paths: correctly rounded conversion of
-exact matrices to numpy, float arrays back to sympy, and single-threaded BLAS."""
+exact matrices to numpy, float arrays back to sympy, floats to rationals without touching
+exact numbers, and single-threaded BLAS."""
 from __future__ import annotations
 
 import numpy as np
 import sympy as sp
 
-__all__ = ["np_exact", "to_sympy_float", "SingleThreadBLAS"]
+__all__ = ["np_exact", "to_sympy_float", "SingleThreadBLAS", "rationalize_floats",
+           "rational_approximation"]
 
 
 def _to_np(M):
@@ -42,6 +44,63 @@ def to_sympy_float(A) -> sp.Matrix:
     zero = sp.Integer(0)
     return sp.Matrix(r, c, [zero if x == 0.0 else sp.Float(float(x)) for x in A.ravel()])
 
+
+
+def _float_rational(f: sp.Float) -> sp.Expr:
+    if not f.is_finite:
+        return f
+    # a double: its shortest round-trip decimal (0.1 -> 1/10); more precise Floats: all
+    # the digits they carry
+    text = repr(float(f)) if f._prec <= 53 else str(f)
+    return sp.Rational(text)
+
+
+def rationalize_floats(expr):
+    """``expr`` with every floating-point number replaced by the rational its decimal
+    string denotes (``0.1`` → 1/10, ``2.5e-3`` → 1/400); exact numbers — rationals of
+    any size, ``sqrt(2)``, π — are returned untouched.
+
+    This is what ``sympy.nsimplify`` must never be used for: ``nsimplify`` guesses a
+    "simple" closed form, and for an exact rational with large terms it returns a product
+    of irrational powers (``nsimplify(313319610133/450092401851)`` =
+    ``2**(20/101)*3**(37/707)*5**(354/707)*7**(611/707)/21``). Python ``float`` and
+    ``int`` are accepted; infinities and NaN stay as they are.
+    """
+    if isinstance(expr, bool):
+        raise TypeError("rationalize_floats: a bool is not a number")
+    if isinstance(expr, float):
+        return _float_rational(sp.Float(expr))
+    if isinstance(expr, int):
+        return sp.Integer(expr)
+    e = sp.sympify(expr)
+    if isinstance(e, sp.MatrixBase):
+        return e.applyfunc(rationalize_floats)
+    if isinstance(e, sp.Float):
+        return _float_rational(e)
+    floats = e.atoms(sp.Float) if isinstance(e, sp.Basic) else set()
+    if not floats:
+        return e
+    return e.xreplace({f: _float_rational(f) for f in floats})
+
+
+def rational_approximation(x, tolerance: float) -> sp.Rational:
+    """The simplest rational within ``tolerance`` (relative to max(1, |x|)) of a float
+    ``x`` — for floats that stand for a simple value (a pole from ``nroots``). An exact
+    number is returned unchanged."""
+    e = sp.sympify(x)
+    if not isinstance(e, sp.Float):
+        if e.is_Rational or not e.is_number or e.atoms(sp.Float) == set():
+            return e
+    from fractions import Fraction
+    v = float(e)
+    scale = max(1.0, abs(v))
+    f = Fraction(v)
+    den = 1
+    while True:  # smallest denominator whose best approximation is within the tolerance
+        g = f.limit_denominator(den)
+        if abs(float(g) - v) <= tolerance * scale or den >= 10 ** 15:
+            return sp.Rational(g.numerator, g.denominator)
+        den *= 2
 
 
 class SingleThreadBLAS:

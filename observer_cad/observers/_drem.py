@@ -131,6 +131,7 @@ import sympy as sp
 from ..synthesis import Condition, parse_json_expression
 from ..errors import ModelError, ObserverCadError, UsageError
 from ..model import PlantModel, load_model_module, model_from_module, to_rational
+from ..numerics import rational_approximation
 from ._observer import Observer, output_symbols
 
 __all__ = ["shift_matrix", "DremSpec", "DremTerm", "DremClass", "DremDesign", "ExcitationReport",
@@ -690,7 +691,8 @@ def drem_design(model: PlantModel, spec: DremSpec, *, poles=None, gains=None, ga
                                               sp.Symbol("s")).nroots()]
             if max(v.real for v in ev) >= 0:
                 raise UsageError(f"gain K = {list(K)}: A − K Cᵀ is not Hurwitz (poles {ev})")
-            pole_sets.append(tuple(sp.nsimplify(v.real) if abs(v.imag) < 1e-12 else v for v in ev))
+            pole_sets.append(tuple(rational_approximation(v.real, 1e-12) if abs(v.imag) < 1e-12
+                                   else v for v in ev))  # nroots' floats, within 1e-12
     else:
         pole_sets = [tuple(ps) for ps in (poles if poles is not None else default_poles(N, l))]
         for ps in pole_sets:

@@ -49,7 +49,7 @@ from ..synthesis import Condition, Design
 from ..errors import InfeasibleDesignError, ModelError, UsageError
 from ..model import PlantModel
 from ._observer import Observer, output_symbols
-from ..numerics import box_max, box_min, neg, pos
+from ..numerics import box_max, box_min, neg, pos, rationalize_floats
 from ..model import extract_structure
 from ..synthesis import Domain, RangeAnalyzer, argument_range, derivative_range, format_number, interval_scale, lipschitz, nonlinear_conditions, range_sign, reduced_nonlinearity
 
@@ -145,7 +145,7 @@ def interval_observer_nonlinear(model: PlantModel, design: Design, *, margin=Non
     # ---- unknown inputs entering the reduced model: Φ L ρ + Φ D d
     unk = [s for s in work.disturbances] + [s for s in work.faults]
     Bu = Phi * sp.Matrix.hstack(sp.Matrix(st.L), sp.Matrix(st.D)) if unk else sp.zeros(k, 0)
-    Bu = Bu.applyfunc(sp.nsimplify)
+    Bu = Bu.applyfunc(rationalize_floats)  # floats (float designs) only: exact stays exact
     used = [j for j in range(Bu.cols) if any(Bu[i, j] != 0 for i in range(k))]
     Bu = Bu.extract(list(range(k)), used) if used else sp.zeros(k, 0)
     unk = [unk[j] for j in used]
@@ -228,7 +228,7 @@ def interval_observer_nonlinear(model: PlantModel, design: Design, *, margin=Non
         vals = list(margin) if isinstance(margin, (list, tuple)) else [margin] * k
         if len(vals) != k:
             raise UsageError(f"margin: give one value or {k} values")
-        user = [sp.nsimplify(v) for v in vals]
+        user = [rationalize_floats(v) for v in vals]
 
     upd_l, upd_u, signs_all, how_rows, margins, notes = [], [], [], [], [], []
     sampled_only = False
@@ -310,7 +310,7 @@ def interval_observer_nonlinear(model: PlantModel, design: Design, *, margin=Non
         margins.append("exact worst case per term (each φ_j monotone in its argument)")
 
     # ---- outputs
-    M = (Hz * Phi + Q * H).applyfunc(sp.nsimplify)
+    M = (Hz * Phi + Q * H).applyfunc(rationalize_floats)
     Hp, Hm = pos(Hz), neg(Hz)
     QW = Q * W
     if QW.cols:

@@ -343,6 +343,19 @@ def _bound_symbols(sym):
     return sp.Symbol(f"{sym.name}_min"), sp.Symbol(f"{sym.name}_max")
 
 
+def _solve_affine(lhs, rhs, v) -> list:
+    """``[{v: solution}]`` of lhs = rhs when it is affine in v with a coefficient free
+    of v (the case here: D* d enters linearly): −b/a directly, exact numbers kept exact.
+    Anything else goes to ``sympy.solve`` (which for large float models spends seconds
+    converting every float to a rational and back)."""
+    expr = sp.expand(lhs - rhs)
+    a = expr.coeff(v)
+    b = expr.xreplace({v: 0})
+    if a != 0 and not a.has(v) and sp.expand(a * v + b - expr) == 0:
+        return [{v: -b / a}]
+    return sp.solve(sp.Eq(lhs, rhs), v, dict=True, simplify=False, check=False)
+
+
 def _derive(model, red: _Reduced, *, _lambda=None) -> Derivation:
     k, r = red.k, red.row
     m = r + 1
@@ -424,7 +437,7 @@ def _derive_core(model, red, k, r, m, l, inputs, _lambda):
     if present:
         lhs = ALPHA * E.xreplace({s: XU[0][i + 1] for i, s in enumerate(unknown)}) + \
             (1 - ALPHA) * E.xreplace({s: XL[0][i + 1] for i, s in enumerate(unknown)})
-    sols = sp.solve(sp.Eq(lhs, rhs), d0, dict=True, simplify=False, check=False)
+    sols = _solve_affine(lhs, rhs, d0)
     if len(sols) != 1 or d0 not in sols[0]:
         raise UsageError(f"{red.target}: the α identity has no unique solution for"
                          f" {red.target}(t): {sols}")
@@ -445,7 +458,7 @@ def _derive_core(model, red, k, r, m, l, inputs, _lambda):
         # the direct inversion: the model with the measured y*(t), solved for d(t)
         Em = E.xreplace({ALPHA_PREV: 0}) if not jordan else \
             E.xreplace({ALPHA_PREV: alpha_prev})
-        direct = sp.solve(sp.Eq(Em, ystar[m]), d0, simplify=False, check=False)[0]
+        direct = _solve_affine(Em, ystar[m], d0)[0][d0]
         if jordan:
             direct = sp.cancel(sp.together(direct))
         # the derived formula with α (and α(t)) and the unrolled bounds substituted

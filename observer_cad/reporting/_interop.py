@@ -26,6 +26,7 @@ from ..files import atomic_write_text, read_json_file
 from ..synthesis import Design
 from ..errors import UsageError
 from ..model import parse_expression
+from ..numerics import rationalize_floats
 from ..observers import Observer
 from ._markdown import design_equations_latex, design_matrices_latex
 
@@ -86,7 +87,7 @@ def linear_matrices(observer: Observer, *, constant_input: bool = False):
         if c0.free_symbols:
             raise UsageError(f"observer {observer.name}: the {what} has symbols without a value:"
                              f" {sorted(map(str, c0.free_symbols))}")
-        rows.append([sp.nsimplify(c) if isinstance(c, sp.Float) else c for c in jac])
+        rows.append([rationalize_floats(c) for c in jac])  # floats only; exact stays exact
         consts.append(c0)
     n, m = len(xs), len(ss)
     J = sp.Matrix(rows) if rows else sp.zeros(0, n + m)

@@ -44,6 +44,7 @@ from typing import Sequence
 import numpy as np
 import sympy as sp
 
+from ..progress import report
 from ..numerics import SingleThreadBLAS, np_exact, to_sympy_float
 from ._certificate import certify_design, certify_reduced_model
 from ._design import Condition, Design
@@ -265,6 +266,7 @@ def _design_exact(model, st, task, target, dec, D, L, *, symbolic, single_row) -
     minimality: set = set()
     chosen = None
     for k in range(1, n):
+        report(f"designing (exact, canonical form): k = {k} of at most {n - 1}")
         W, Lk = krylov_blocks(F, H, L, k)
         M = sp.Matrix.hstack(W, Lk)
         basis, rk = left_null_space(M)
@@ -624,6 +626,7 @@ def _design_float_core(model, st, task, target, dec, D, L, *, single_row, rtol) 
     attempts = []
     chosen = None
     for k in range(1, n):
+        report(f"designing (float, canonical form): k = {k} of at most {n - 1}")
         while len(P) <= k:
             P.append(P[-1] @ F)
             PL.append(P[-1] @ Ln)

@@ -111,6 +111,19 @@ def certify_reduced_model(*, F, G, H, C, D, L, Phi, F_star, J_star, R_star, H_st
     return cert
 
 
+def _floats(M) -> np.ndarray:
+    """A numeric matrix as a float array (exact rationals correctly rounded)."""
+    M = sp.ImmutableMatrix(M)
+    r, c = M.shape
+    if r == 0 or c == 0:
+        return np.zeros((r, c))
+    rep = getattr(M, "_rep", None)
+    dom = getattr(rep, "domain", None)
+    if dom is not None and (dom.is_ZZ or dom.is_QQ or dom.is_RR):
+        return np.array([float(v) for v in rep.to_list_flat()], dtype=float).reshape(r, c)
+    return np.array(M.evalf(), dtype=float)
+
+
 class _Arr:
     """numpy matrix wrapper so that ``*`` is the matrix product, as in sympy."""
 
@@ -139,28 +152,35 @@ def certify_design(plant: dict, mats: dict, *, M=None, substitutions=(), decoupl
     - ``M − H_z Φ − Q H`` for an estimated z = M x;
     - ``A_j − A*_1j Φ − A*_2j H`` for each argument substitution (A_j, A*_1j, A*_2j).
     """
-    P = {k: sp.Matrix(v) for k, v in plant.items()}
-    X = {k: sp.Matrix(v) for k, v in mats.items()}
+    if exact:
+        P = {k: sp.Matrix(v) for k, v in plant.items()}
+        X = {k: sp.Matrix(v) for k, v in mats.items()}
+        mat = sp.Matrix
+    else:  # float designs: the products in numpy (sympy Float products cost minutes at n = 300)
+        P = {k: _Arr(_floats(v)) for k, v in plant.items()}
+        X = {k: _Arr(_floats(v)) for k, v in mats.items() if v is not None}
+        mat = lambda v: _Arr(_floats(v))  # noqa: E731
     Phi = X["Phi"]
+    cols = lambda A: A.a.shape[1] if isinstance(A, _Arr) else A.cols  # noqa: E731
     checks = [("Phi F - F* Phi - J* H", Phi * P["F"] - X["F_star"] * Phi - X["J_star"] * P["H"])]
     if "R_star" in X and "H_star" in X:
         checks.append(("H* Phi - R* H", X["H_star"] * Phi - X["R_star"] * P["H"]))
-    if "G_star" in X and P["G"].cols:
+    if "G_star" in X and cols(P["G"]):
         checks.append(("Phi G - G*", Phi * P["G"] - X["G_star"]))
-    if "D_star" in X and P["D"].cols:
+    if "D_star" in X and cols(P["D"]):
         checks.append(("Phi D - D*", Phi * P["D"] - X["D_star"]))
-    if P["L"].cols:
+    if cols(P["L"]):
         if decoupled:
             checks.append(("Phi L", Phi * P["L"]))
         elif "L_star" in X:
             checks.append(("Phi L - L*", Phi * P["L"] - X["L_star"]))
-    if "C_star" in X and P["C"].cols:
+    if "C_star" in X and cols(P["C"]):
         checks.append(("Phi C - C*", Phi * P["C"] - X["C_star"]))
     if M is not None:
-        checks.append(("M - Hz Phi - Q H", sp.Matrix(M) - X["Hz"] * Phi - X["Q"] * P["H"]))
+        checks.append(("M - Hz Phi - Q H", mat(M) - X["Hz"] * Phi - X["Q"] * P["H"]))
     for j, A, A1, A2 in substitutions:
         checks.append((f"A_{j} - A*_1,{j} Phi - A*_2,{j} H",
-                       sp.Matrix(A) - sp.Matrix(A1) * Phi - sp.Matrix(A2) * P["H"]))
+                       mat(A) - mat(A1) * Phi - mat(A2) * P["H"]))
     ids = []
     if exact:
         for name, res in checks:
@@ -168,7 +188,7 @@ def certify_design(plant: dict, mats: dict, *, M=None, substitutions=(), decoupl
         cert = Certificate(tuple(ids), True, None)
     else:
         for name, res in checks:
-            r = np.array(res.evalf(), dtype=float) if res.shape[0] and res.shape[1] else np.zeros(1)
+            r = res.a if res.a.size else np.zeros(1)
             rel = float(np.linalg.norm(r))
             ids.append(Identity(name, rel <= tolerance, f"{rel:.2e}"))
         cert = Certificate(tuple(ids), False, tolerance)

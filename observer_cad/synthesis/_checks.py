@@ -50,6 +50,7 @@ import sympy as sp
 
 from ._design import Condition
 from ..errors import UsageError
+from ..numerics import rationalize_floats
 
 __all__ = ["interval_scale", "range_sign", "format_number", "Domain", "RangeAnalyzer", "LipschitzResult", "MonotoneResult", "StabilityResult", "lipschitz", "is_monotone",
            "is_cooperative", "stability_condition", "argument_range", "derivative_range",
@@ -340,7 +341,7 @@ class Domain:
         # dual certificate: y ≥ 0, Gᵀ y = c·sense  ⇒  min ≥ hᵀ y;  primal x feasible ⇒ min ≤ c·x
         y = sp.Matrix([_rat(-v) for v in res.ineqlin.marginals])
         x = sp.Matrix([_rat(v) for v in res.x])
-        dual_ok = all(v >= 0 for v in y) and (self.G.T * y - cs).applyfunc(sp.nsimplify) == sp.zeros(n, 1)
+        dual_ok = all(v >= 0 for v in y) and (self.G.T * y - cs).applyfunc(rationalize_floats) == sp.zeros(n, 1)
         primal_ok = all(v >= 0 for v in (self.G * x - self.h))
         if dual_ok and primal_ok:
             lo = (self.h.T * y)[0, 0]
@@ -824,9 +825,9 @@ def lipschitz(expr_vector, variables, domain_relations=(), *, definitions=None, 
                 for i in range(J.rows):
                     for k in range(J.cols):
                         if p[4][i, k]:
-                            vals[i, k] += sp.nsimplify(p[4][i, k], rational=True) * val
+                            vals[i, k] += rationalize_floats(p[4][i, k]) * val
             exact_const = sp.sqrt(sum(v ** 2 for v in vals))
-            exact_const = sp.nsimplify(exact_const) if exact_const.is_number else exact_const
+            exact_const = sp.radsimp(exact_const) if exact_const.is_number else exact_const
             if abs(float(exact_const) - best) > 1e-9 * (1 + best):
                 exact_const = None
     tight = lower is not None and lower >= upper * (1 - 1e-4)

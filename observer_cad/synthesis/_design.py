@@ -18,7 +18,10 @@ import sympy as sp
 
 from ..errors import UsageError
 from ..model import ObserverKind, PlantModel, Structure, Task, extract_structure
+from ._assumptions import complete_assumptions
 from ._certificate import Certificate, Identity, certify_design
+from ._conditioning import (CONDITIONING_NAME, CONDITIONING_REFERENCE, conditioning_numbers,
+                            conditioning_verdict)
 from ._expr import parse_json_expression
 from ._signature import fault_signature
 
@@ -270,6 +273,47 @@ class Design:
         object.__setattr__(self, "form", Form(self.form))
         object.__setattr__(self, "method", Method(self.method))
         object.__setattr__(self, "parameters", MappingProxyType(dict(self.parameters)))
+        object.__setattr__(self, "assumptions", self._complete_assumptions())
+        object.__setattr__(self, "conditions", self._with_conditioning())
+
+    def _with_conditioning(self) -> tuple:
+        """The designer's conditions with the conditioning condition (scale of Φ, noise
+        gain; required=False) recomputed for these matrices and put last
+        (:mod:`observer_cad.synthesis._conditioning`)."""
+        conds = tuple(c for c in self.conditions if c.name != CONDITIONING_NAME)
+        if self.structure is None:
+            return conds
+        params = dict(self.structure.model.parameters)
+        nums = conditioning_numbers(self.task.observer.value, self.matrices, self.structure.H,
+                                    params)
+        holds, detail = conditioning_verdict(nums, at_defaults=bool(params))
+        return conds + (Condition(CONDITIONING_NAME, holds, detail, CONDITIONING_REFERENCE,
+                                  required=False),)
+
+    @property
+    def conditioning(self) -> "Condition":
+        """The conditioning condition (always present; see README "Conditioning")."""
+        return next(c for c in self.conditions if c.name == CONDITIONING_NAME)
+
+    def _complete_assumptions(self) -> tuple:
+        """The designer's assumptions (pivots, D* ≠ 0, rank Φ = k, minimality) plus the
+        nonzero condition of every denominator in the model's parameters of everything
+        the design reports: every matrix, the nonlinear substitutions, the observer
+        equations and outputs, the gains, λ and the closed-loop eigenvalues (see
+        :mod:`observer_cad.synthesis._assumptions`). Every design passes through here,
+        so no designer can forget one."""
+        params = tuple(self.structure.model.parameters) if self.structure is not None else ()
+        if not params:
+            return tuple(self.assumptions)
+        mats = [M for _, M in self.matrices.items()]
+        for ns in self.nonlinear:
+            mats += [ns.A1, ns.A2]
+        exprs = list(self.equations) + [e for _, e in self.outputs]
+        exprs += list(self.parameters.values()) + list(self.lambdas)
+        exprs += list(self.closed_loop_eigenvalues)
+        exprs += [ns.argument for ns in self.nonlinear]
+        return complete_assumptions(self.assumptions, matrices=mats, expressions=exprs,
+                                    parameters=params)
 
     # -- what the task says, for convenience
     @property

@@ -23,7 +23,7 @@ from ._poles import default_eigenvalues, parse_eigenvalues, place_poles, require
 
 __all__ = ["design_diagnostic_canonical", "observer_equations"]
 
-S = sp.Symbol("s")
+S = sp.Dummy("s")  # never a model parameter named s
 
 
 def observer_equations(mats, inputs, k: int, l: int, with_feedback: bool = True,
@@ -51,7 +51,7 @@ def design_diagnostic_canonical(model: PlantModel, *, fault: str, decouple: Sequ
     K = place_poles(mats["F_star"], mats["H_star"], eigs)
     mats["K"] = K
     Fcl = sp.Matrix(mats["F_star"]) - K * sp.Matrix(mats["H_star"])
-    roots = sp.roots(sp.Poly(Fcl.charpoly(S).as_expr(), S))
+    roots = sp.roots(Fcl.charpoly(S))
     cl = []
     for rt, mult in roots.items():
         cl += [rt] * mult

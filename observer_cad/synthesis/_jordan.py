@@ -31,6 +31,7 @@ from typing import Sequence
 
 import sympy as sp
 
+from ..progress import report
 from ._certificate import certify_design
 from ._design import Condition, Design
 from ..errors import ExpressionError, InfeasibleDesignError, ModelError, UsageError
@@ -44,6 +45,7 @@ from ._jordan_float import design_jordan_float
 from ._canonical import FLOAT_AUTO_N
 from ..model import Structure, extract_structure
 from ..numerics import denominator_conditions, echelon_rows, exact_rank, left_null_space, nonzero_conditions, solve_left
+from ..numerics import rationalize_floats
 
 __all__ = ["Admissible", "admissible_lambdas", "design_jordan", "design_jordan_unknown_input"]
 
@@ -170,17 +172,26 @@ def design_jordan(model: PlantModel, *, observer: str, estimate=None,
                     estimate=estimate)
     if method not in ("auto", "exact", "float"):
         raise UsageError(f"method must be 'auto', 'exact' or 'float', got {method!r}")
+    numeric_st = None  # the substituted model's structure, extracted once for both paths
     if method == "auto":  # large numeric linear models: the pencil numerically (with evidence)
         big = len(model.states) > FLOAT_AUTO_N and not (symbolic and model.parameters)
-        method = "float" if big and extract_structure(
-            model.substitute_parameters() if model.parameters else model).is_linear else "exact"
+        if big:
+            numeric_st = extract_structure(
+                model.substitute_parameters() if model.parameters else model)
+        method = "float" if big and numeric_st.is_linear else "exact"
     if method == "float":
         if symbolic and model.parameters:
             raise UsageError("the float path needs numeric parameters: design without --symbolic")
         return design_jordan_float(model, observer=observer, estimate=estimate, faults=faults,
-                                   decouple=decouple, lambdas=lambdas, rtol=rtol, task=task)
+                                   decouple=decouple, lambdas=lambdas, rtol=rtol, task=task,
+                                   structure=numeric_st)
     work = model if symbolic else model.substitute_parameters()
-    st = structure if (structure is not None and symbolic) else extract_structure(work)
+    if structure is not None and symbolic:
+        st = structure
+    elif numeric_st is not None and not (symbolic and model.parameters):
+        st = numeric_st  # the same substituted model: already extracted above
+    else:
+        st = extract_structure(work)
     where = model.where
     F, G, H, C = (sp.Matrix(M) for M in (st.F, st.G, st.H, st.C))
     n, l = st.n, st.l
@@ -196,8 +207,10 @@ def design_jordan(model: PlantModel, *, observer: str, estimate=None,
                              f"{sp.expand((X0 * sp.Matrix(output_symbols(l)))[0, 0])}; no observer is needed")
 
     # Step 2: L0 (maximal rank, L0 L = 0) and the admissible λ
+    pivots: set = set()  # the pivots of the null spaces the design is built from
     if decoupled and L.cols:
-        basis, _ = left_null_space(L)
+        basis, rkL = left_null_space(L)
+        pivots |= rkL.conditions
         L0 = sp.Matrix.vstack(*basis) if basis else sp.zeros(0, n)
     else:
         L0 = sp.eye(n)
@@ -222,7 +235,7 @@ def design_jordan(model: PlantModel, *, observer: str, estimate=None,
             if lam.is_number:
                 if lam.is_real is False:
                     raise UsageError(f"λ = {v} is not real: the Jordan form needs real λ")
-                lam = sp.nsimplify(lam, rational=True) if lam.is_Float else lam
+                lam = rationalize_floats(lam)  # a float λ by its decimal string; exact stays
             if not adm.contains(lam):
                 raise InfeasibleDesignError(
                     f"{where}: λ = {lam} is not admissible: [L0(F − λI); H] has full row rank"
@@ -256,9 +269,12 @@ def design_jordan(model: PlantModel, *, observer: str, estimate=None,
     fam = {}
     pool = []
     sums = []  # diagnostic: one generic member per λ family (Σ basis rows), tried last
-    for lam in lam_list:
+    lam_pivots = {}
+    for i_lam, lam in enumerate(lam_list):
+        report(f"designing (Jordan form): null space for λ = {lam} ({i_lam + 1} of {len(lam_list)})")
         P = _pencil(F, H, L0, lam)
-        basis, _ = left_null_space(P)
+        basis, rkP = left_null_space(P)
+        lam_pivots[lam] = rkP.conditions
         rows_phi, rows_j = [], []
         for v in echelon_rows(basis):
             S, J = v[:, :L0.rows], -v[:, L0.rows:]
@@ -305,9 +321,13 @@ def design_jordan(model: PlantModel, *, observer: str, estimate=None,
     lams = tuple(r[0] for r in chosen)
     Phi = sp.Matrix.vstack(*[r[1] for r in chosen])
     J = sp.Matrix.vstack(*[r[2] for r in chosen])
+    if work.parameters:  # the rank decisions of the task on the chosen Φ (rank Φ = k, …)
+        PH = sp.Matrix.vstack(Phi, H)
+        for R in (Phi, PH) + ((sp.Matrix.vstack(PH, M),) if M is not None else ()):
+            pivots |= exact_rank(R).conditions
     mats = {"Phi": Phi, "F_star": sp.diag(*lams), "J_star": J, "G_star": Phi * G}
     if observer == "diagnostic":
-        pair = _residual_pair(Phi, H)
+        pair = _residual_pair(Phi, H, pivots)
         if pair is None:  # pragma: no cover - excluded by the rank test
             raise InfeasibleDesignError(f"{where}: (R*, -H*)[H; Phi] = 0 has no solution")
         mats["R_star"], mats["H_star"] = pair
@@ -341,7 +361,9 @@ def design_jordan(model: PlantModel, *, observer: str, estimate=None,
               f" {len(pool)} candidate row(s) for λ in {{{', '.join(map(str, lam_list))}}};"
               f" the fewest rows that satisfy the {observer} conditions"
               + (f" (smaller sets rejected: {'; '.join(tried[:4])})" if tried else ""))
-    assumptions = set()
+    assumptions = set(pivots)
+    for lam in set(lams):
+        assumptions |= lam_pivots.get(lam, frozenset())
     for Mx in mats.values():
         for e in Mx:
             assumptions |= denominator_conditions(e)
@@ -361,10 +383,13 @@ def design_jordan(model: PlantModel, *, observer: str, estimate=None,
         observer_states=tuple(xs), outputs=tuple(outputs))
 
 
-def _residual_pair(Phi, H):
-    """(R*, H*) with R* H = H* Φ, H* ≠ 0: the first such member (reduced echelon), or None."""
+def _residual_pair(Phi, H, pivots: set | None = None):
+    """(R*, H*) with R* H = H* Φ, H* ≠ 0: the first such member (reduced echelon), or None;
+    the rank decision's pivot conditions are added to ``pivots`` when given."""
     l, k = H.rows, Phi.rows
-    nb, _ = left_null_space(sp.Matrix.vstack(H, Phi))
+    nb, rk = left_null_space(sp.Matrix.vstack(H, Phi))
+    if pivots is not None:
+        pivots |= rk.conditions
     nb = [v for v in echelon_rows(nb) if v[:, l:] != sp.zeros(1, k)]
     if not nb:
         return None
@@ -440,6 +465,7 @@ def _directed_rows(fam, lam_list, H, M, n, observer, D, st, tried, names=()):
     """Sets of distinct λ, smallest first: solve M = Σ c_λ N_λ L0 + Q H for one row per λ."""
     lams = [lam for lam in lam_list if lam in fam]
     for size in range(1, n):
+        report(f"designing (Jordan form): {size} row(s) of at most {n - 1}")
         for combo in itertools.combinations(lams, size):
             B = sp.Matrix.vstack(*[fam[lam][0] for lam in combo])
             X = solve_left(sp.Matrix.vstack(B, H), M)
@@ -463,6 +489,7 @@ def _directed_rows(fam, lam_list, H, M, n, observer, D, st, tried, names=()):
 def _combination_rows(pool, n, observer, H, D, M, st, tried, names=()):
     """Fewest rows from the pool; sets with distinct λ before sets that repeat one."""
     for size in range(1, n):
+        report(f"designing (Jordan form): {size} row(s) of at most {n - 1}")
         for distinct in (True, False):
             for combo in itertools.combinations(range(len(pool)), size):
                 rows = [pool[i] for i in combo]

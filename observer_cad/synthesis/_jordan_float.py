@@ -35,6 +35,7 @@ import numpy as np
 import scipy.linalg
 import sympy as sp
 
+from ..progress import report
 from ..numerics import SingleThreadBLAS, np_exact, to_sympy_float
 from ._certificate import certify_design
 from ._design import Condition, Design
@@ -42,7 +43,7 @@ from ..errors import ExpressionError, InfeasibleDesignError, UsageError
 from ._poles import default_eigenvalues
 from ._reduced import jordan_equations, observer_symbols, output_symbols
 from ._task import task_for, task_parts
-from ..model import PlantModel, Task
+from ..model import PlantModel, Structure, Task
 from ..model import extract_structure, parse_expression
 from ..numerics import default_rtol, float_left_null_space, float_rank
 
@@ -286,29 +287,31 @@ def _fmt(v: float) -> str:
 def design_jordan_float(model: PlantModel, *, observer: str, estimate=None,
                         faults: Sequence[str] | None = None, decouple: Sequence[str] = (),
                         lambdas: Sequence | None = None, rtol: float | None = None,
-                        task: Task | None = None) -> Design:
+                        task: Task | None = None, structure: Structure | None = None) -> Design:
     """Jordan-form design in floating point (numeric linear models).
 
     Same semantics as :func:`observer_cad.jordan.design_jordan` for ``"virtual-sensor"``,
     ``"interval"`` and ``"diagnostic"``; parameters are replaced by their defaults;
     nonlinear terms raise :class:`UsageError`. ``rtol``: relative tolerance of the rank
-    decisions on P(λ) (default :data:`DEFAULT_RTOL`). Returns a :class:`Design` with
-    ``method="float"`` and a float certificate.
+    decisions on P(λ) (default :data:`DEFAULT_RTOL`). ``structure``: the structure of the
+    model with its parameters substituted, when the caller has it already (it is not
+    extracted again). Returns a :class:`Design` with ``method="float"`` and a float
+    certificate.
     """
     if observer not in ("diagnostic", "virtual-sensor", "interval"):
         raise UsageError(f"Jordan form supports diagnostic, virtual-sensor and interval, not {observer!r}")
     task = task_for(model, task, observer=observer, faults=faults, disturbances=decouple,
                     estimate=estimate)
     with SingleThreadBLAS():
-        return _design(model, observer, task, lambdas, rtol)
+        return _design(model, observer, task, lambdas, rtol, structure)
 
 
-def _design(model, observer, task, lambdas, rtol):
+def _design(model, observer, task, lambdas, rtol, structure=None):
     work = model.substitute_parameters()
     where = model.where
     if work.parameters:
         raise UsageError("the float Jordan path needs numeric parameters (defaults for all)")
-    st = extract_structure(work)
+    st = structure if structure is not None else extract_structure(work)
     if st.terms or st.C.cols:
         raise UsageError(f"{where}: the float Jordan path handles linear models only (the model"
                          " has nonlinear terms); use the exact path")
@@ -378,14 +381,16 @@ def _design(model, observer, task, lambdas, rtol):
 
     # Step 3: the row families
     fam, fam_ev = {}, {}
-    for lam in lam_list:
+    for i_lam, lam in enumerate(lam_list):
+        report(f"designing (float, Jordan form): null space for λ = {lam}"
+               f" ({i_lam + 1} of {len(lam_list)})")
         PhiB_S, JB, fr = _family(A, B, lam, m0, tol)
         fam_ev[lam] = fr.evidence()
         if PhiB_S is not None:
             fam[lam] = (PhiB_S @ L0, JB)
     if not fam:
         raise InfeasibleDesignError(
-            f"{where}: no nonzero row Φ_i for λ in {{{', '.join(map(_fmt, lam_list))}}}")
+            f"{where}: no nonzero row Φ_i for λ in {_lam_set(lam_list)}")
 
     # Step 4: the rows
     tried = []
@@ -414,7 +419,7 @@ def _design(model, observer, task, lambdas, rtol):
     if chosen is None:
         raise InfeasibleDesignError(
             f"{where}: no Jordan-form {observer} with fewer than n = {n} rows for λ in"
-            f" {{{', '.join(map(_fmt, lam_list))}}} (float path): " + "; ".join(tried),
+            f" {_lam_set(lam_list)} (float path): " + "; ".join(tried),
             tuple(tried))
     rows, extra = chosen
 
@@ -508,7 +513,7 @@ def _design(model, observer, task, lambdas, rtol):
                            f" {_CERT_RTOL:.0e} × {scale:.2e}, the largest norm of the compared products)",
                            "METHOD §2"))
     choice = (f"k = {k}: rows with λ = ({', '.join(map(_fmt, lams))}) from the numerical left"
-              f" null spaces of P(λ) for λ in {{{', '.join(map(_fmt, lam_list))}}}; the fewest"
+              f" null spaces of P(λ) for λ in {_lam_set(lam_list)}; the fewest"
               f" rows that satisfy the {observer} conditions (float path, rtol {tol:.0e},"
               f" residual tolerance {res_tol:.0e})"
               + (f" (smaller sets rejected: {'; '.join(tried[:4])})" if tried else ""))
@@ -518,6 +523,15 @@ def _design(model, observer, task, lambdas, rtol):
         method="float", choice=choice, attempts=tuple(tried), time=work.time,
         lambdas=tuple(sp.Float(v) for v in lams), nonlinear=(), equations=equations,
         observer_states=tuple(xs), outputs=tuple(outputs))
+
+
+def _lam_set(lams) -> str:
+    """{λ1, λ2, …} for messages; long lists (the n default λ of a large model) abridged."""
+    shown = [_fmt(v) for v in lams[:6]]
+    more = f", … ({len(lams)} values)" if len(lams) > 8 else ""
+    if not more:
+        shown = [_fmt(v) for v in lams]
+    return "{" + ", ".join(shown) + more + "}"
 
 
 class _Budget(Exception):

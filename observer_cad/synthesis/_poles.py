@@ -6,10 +6,11 @@ import sympy as sp
 
 from ..errors import InfeasibleDesignError, UsageError
 from ..model import parse_number
+from ..numerics import rationalize_floats
 
 __all__ = ["default_eigenvalues", "parse_eigenvalues", "place_poles", "require_stable"]
 
-S = sp.Symbol("s")
+S = sp.Dummy("s")  # never a model parameter named s
 
 
 def default_eigenvalues(time: str, k: int):
@@ -40,7 +41,7 @@ def place_poles(Fs, Hs, eigenvalues):
     k = Fs.rows
     if len(eigenvalues) != k:
         raise UsageError(f"{k} eigenvalues needed (k = {k}), got {len(eigenvalues)}")
-    Ks = sp.symbols(f"K1:{k + 1}")
+    Ks = tuple(sp.Dummy(f"K{i}") for i in range(1, k + 1))  # never a model parameter
     K = sp.Matrix(Ks)
     target = sp.Poly(sp.expand(sp.prod([S - mu for mu in eigenvalues])), S)
     cp = sp.Poly((S * sp.eye(k) - Fs + K * Hs).det(method="berkowitz"), S)
@@ -49,7 +50,7 @@ def place_poles(Fs, Hs, eigenvalues):
     if not sol:
         raise InfeasibleDesignError(
             "the requested eigenvalues cannot be placed: (F*, H*) is not observable")
-    K = K.xreplace({s: sp.nsimplify(sp.expand(sol[0].get(s, 0)).xreplace({t: 0 for t in Ks}))
+    K = K.xreplace({s: rationalize_floats(sp.expand(sol[0].get(s, 0)).xreplace({t: 0 for t in Ks}))
                     for s in Ks})
     K = K.applyfunc(lambda e: sp.expand(e.xreplace({t: 0 for t in Ks})))
     # exact re-check of the closed-loop characteristic polynomial

@@ -76,6 +76,7 @@ from typing import Sequence
 import numpy as np
 import sympy as sp
 
+from ..progress import report
 from ._canonical import krylov_blocks
 from ._task import task_parts
 from ._certificate import certify_design
@@ -87,6 +88,7 @@ from ._reduced import (estimate_outputs, is_stable, named_outputs, observer_symb
 from ..model import PlantModel, resolve_task
 from ..model import extract_structure, parse_expression
 from ..numerics import float_left_null_space, float_rank, rank_from_sv
+from ..numerics import rationalize_floats
 
 __all__ = ["design_robust_canonical", "design_robust_jordan", "robust_basis",
            "jordan_candidates", "TASK_RTOL"]
@@ -418,6 +420,7 @@ def _search(work, st, D, L, M, rtol):
     n = st.n
     attempts, found = [], None
     for k in range(1, n):
+        report(f"designing (robust, canonical form): k = {k} of at most {n - 1}")
         W, Lk = krylov_blocks(ctx.Fs, ctx.Hs, ctx.Ls, k)
         Wf, Lkf = _np(W), _np(Lk)
         N, fr = _null_rows(Wf, ctx, k)
@@ -442,6 +445,7 @@ def _exact_check(ctx, n):
     """For every k < n: does (W⁽ᵏ⁾ L⁽ᵏ⁾) have a member meeting the task? (evidence per k)"""
     lines, exact_k = [], None
     for k in range(1, n):
+        report(f"checking exact decoupling: k = {k} of at most {n - 1}")
         W, Lk = krylov_blocks(ctx.Fs, ctx.Hs, ctx.Ls, k)
         Lkf = _np(Lk)
         Mat = np.hstack([_np(W), Lkf])
@@ -660,7 +664,7 @@ def _jordan_setup(model, estimate, lambdas, decouple):
         lams = []
         for val in lambdas:
             lam = parse_expression(val, where="--lambda", allow_complex=True)
-            lam = sp.nsimplify(lam, rational=True) if lam.has(sp.Float) else lam
+            lam = rationalize_floats(lam)  # a float λ by its decimal string; exact stays
             if lam.free_symbols or not lam.is_real:
                 raise UsageError(f"λ = {lam} must be a real number")
             if is_stable(lam, work.time) is False:

@@ -106,6 +106,7 @@ from ..model import PlantModel, Task
 from ._nonlinear import substitute_arguments
 from ..model import extract_structure
 from ..numerics import echelon_rows, exact_rank, left_null_space
+from ..numerics import rationalize_floats
 
 __all__ = ["K1", "EPS", "TAU", "design_sliding", "sliding_pencil", "admissible_sliding_lambdas",
            "GainBound", "GainTerm", "gain_bound", "reaching_time", "RK4_STABILITY"]
@@ -375,7 +376,7 @@ def design_sliding(model: PlantModel, *, fault: str | None = None, lam=None, k1=
                            adm.generic or bool(adm.values), f"{adm.describe()}; {adm.evidence}",
                            "derived from seed 002 eq. (2.5) with Φ_1 = R* H"))
     if lam is not None:
-        lv = sp.nsimplify(sp.sympify(lam), rational=True) if not isinstance(lam, sp.Basic) else lam
+        lv = rationalize_floats(sp.sympify(lam)) if not isinstance(lam, sp.Basic) else lam
         if not adm.contains(lv):
             raise InfeasibleDesignError(f"{where}: λ = {lv} is not admissible for a measured"
                                         f" sliding row (admissible: {adm.describe()})")

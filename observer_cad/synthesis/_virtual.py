@@ -23,6 +23,7 @@ from typing import Sequence
 
 import sympy as sp
 
+from ..progress import report
 from ._canonical import shift_matrix
 from ._poles import default_eigenvalues, parse_eigenvalues, place_poles, require_stable
 from ._certificate import certify_design
@@ -37,7 +38,7 @@ from ..numerics import echelon_rows, exact_rank, left_null_space, solve_left
 
 __all__ = ["design_virtual_sensor_canonical"]
 
-S = sp.Symbol("s")
+S = sp.Dummy("s")  # never a model parameter named s
 
 
 def _blocks(F, H1, H0, L, k):
@@ -102,24 +103,29 @@ def design_virtual_sensor_canonical(model: PlantModel, *, estimate, variant: str
     H0 = sp.Matrix.vstack(H, M) if variant == "004" else H
 
     attempts = []
+    pivots: set = set()  # the rank decisions' pivots: smaller k impossible, then the chosen k
     chosen = None
     for k in range(1, n):
+        report(f"designing (virtual sensor, canonical form): k = {k} of at most {n - 1}")
         W, Lk = _blocks(F, H, H0, L, k)
         basis, rk = left_null_space(sp.Matrix.hstack(W, Lk))
         need = W.rows
         if not basis:
             attempts.append(f"k={k}: rank condition (3.3) fails: rank (W L) = {rk.rank} = {need} rows")
+            pivots |= rk.conditions
             continue
         members = echelon_rows(basis)
         cands = list(members) + [a + b for i, a in enumerate(members) for b in members[i + 1:]]
         why = "no member"
         for v in cands:
             R0, J0, Phi = _member(v, F, H, H0, k)
-            if exact_rank(Phi).rank < k:
+            rPhi = exact_rank(Phi)
+            if rPhi.rank < k:
                 why = "every member is degenerate (rank Φ < k)"
                 continue
             PH = sp.Matrix.vstack(Phi, H)
-            if exact_rank(PH).rank != exact_rank(sp.Matrix.vstack(PH, M)).rank:
+            rPH, rPHM = exact_rank(PH), exact_rank(sp.Matrix.vstack(PH, M))
+            if rPH.rank != rPHM.rank:
                 why = "no member satisfies the virtual-sensor condition rank [Φ; H] = rank [Φ; H; M]"
                 continue
             ok, why_nl, idents, subs = substitute_arguments(st, Phi, observer_symbols(k),
@@ -129,9 +135,11 @@ def design_virtual_sensor_canonical(model: PlantModel, *, estimate, variant: str
                 continue
             chosen = (k, v, R0, J0, Phi, idents, subs)
             chosen_rank = (rk.rank, need, len(members))
+            pivots |= rk.conditions | rPhi.conditions | rPH.conditions | rPHM.conditions
             break
         if chosen:
             break
+        pivots |= rk.conditions
         attempts.append(f"k={k}: rank condition (3.3) holds (rank (W L) = {rk.rank} < {need} rows),"
                         f" but {why}")
     if chosen is None:
@@ -163,7 +171,7 @@ def design_virtual_sensor_canonical(model: PlantModel, *, estimate, variant: str
     plant = dict(F=F, G=G, H=H, C=sp.Matrix(st.C), D=sp.zeros(n, 0), L=L)
     cert = certify_design(plant, mats, M=M, substitutions=idents)
     Fcl = (mats["F_star"] - K * mats["H_star"]).applyfunc(sp.cancel)
-    cl = sp.roots(sp.Poly(Fcl.charpoly(S).as_expr(), S))
+    cl = sp.roots(Fcl.charpoly(S))
     cl_list = []
     for root, mult in cl.items():
         cl_list += [root] * mult
@@ -231,7 +239,7 @@ def design_virtual_sensor_canonical(model: PlantModel, *, estimate, variant: str
                   f" satisfies the virtual-sensor condition; R* = {list(mats['R_star'])}")
     return Design(
         model_name=work.name, form="canonical", k=k, matrices=mats, conditions=tuple(conds),
-        assumptions=(), certificate=cert, task=task, structure=st,
+        assumptions=tuple(sorted(pivots, key=str)), certificate=cert, task=task, structure=st,
         symbolic=bool(work.parameters), method="exact",
         choice=chosen_txt + (" (seed-004 variant: driven by y and y_v = z)" if variant == "004" else ""),
         attempts=tuple(attempts), time=work.time,
