@@ -1,21 +1,30 @@
 #!/usr/bin/env python3
 """Diagnosability-analysis benchmark (issue 12 item 7): ``analyze`` on a 20-state,
-6-fault random model, target < 2 s.
+6-fault model, target < 2 s.
 
-    python3 benchmarks/bench_analyze.py [--runs 5] [--l 8] [--p 1] [--seed 0] [--gauss]
+    python3 benchmarks/bench_analyze.py            # measure, print the table
+    python3 benchmarks/bench_analyze.py --write    # ... and update benchmarks/README.md
 
-The model: F, H, L from ``observer_cad.model.random_matrices(n=20, l, p, seed)`` (small
-integers in −2..2, or with ``--gauss`` N(0, 1)-based rationals with denominator 1000) and
-six fault columns drawn from the same kind of distribution with ``seed + 1``. Timed:
-``analyze(model)`` as a user calls it (structure extraction included, every pair, all
-63 structure-matrix rows), the median of ``--runs`` calls in one process, and the first
-call separately. Prints one line per number; the benchmark tables are not updated.
+The models: F, H, L from ``observer_cad.model.random_matrices(n=20, l, p, seed)`` and six
+fault columns drawn from the same kind of distribution with ``seed + 1``, in two
+variants: small integers in −2..2, and dense rationals (N(0, 1) entries, F scaled by
+1/√n, rounded to multiples of 1/1000 and kept exact). Each is analysed on the exact path
+(``method="exact"``, rational arithmetic) and on the float path (``method="float"``, SVD
+rank decisions); at n = 20 ``method="auto"`` takes the exact path (the float path is
+automatic above ``FLOAT_AUTO_N`` = 20 states). Timed: ``analyze(model, method=...)`` as a
+user calls it (structure extraction included, every pair, all 63 structure-matrix rows;
+building the sympy model is not timed) — the first call in the process, then the median
+of ``--runs`` further calls, wall-clock and process CPU time. The float answers are
+compared with the exact ones (detectability, minimal orders, isolability, structure rows).
 """
 from __future__ import annotations
 
 import argparse
+import os
+import platform
 import statistics
 import sys
+import tempfile
 import time
 from pathlib import Path
 
@@ -28,7 +37,18 @@ from observer_cad import PlantModel  # noqa: E402
 from observer_cad.model import random_matrices  # noqa: E402
 from observer_cad.synthesis import analyze  # noqa: E402
 
+README = Path(__file__).resolve().parent / "README.md"
+BEGIN = "<!-- BEGIN ANALYSIS RESULTS (bench_analyze.py --write) -->"
+END = "<!-- END ANALYSIS RESULTS -->"
 TARGET = 2.0
+
+#: (label of the entries, integer entries?, method)
+CASES = (
+    ("small integers in −2..2", True, "exact"),
+    ("small integers in −2..2", True, "float"),
+    ("dense rationals (N(0, 1), denominator 1000)", False, "float"),
+    ("dense rationals (N(0, 1), denominator 1000)", False, "exact"),
+)
 
 
 def fault_model(n=20, l=8, p=1, m=6, seed=0, integer=True):  # noqa: E741
@@ -51,31 +71,155 @@ def fault_model(n=20, l=8, p=1, m=6, seed=0, integer=True):  # noqa: E741
                       outputs=outs, dynamics=dyn)
 
 
+def _answers(a) -> tuple:
+    """What the float path must agree with the exact one on."""
+    return (a.detectable, a.min_order,
+            tuple((p.faults, p.a_from_b, p.b_from_a) for p in a.pairs),
+            frozenset(tuple(sorted(s.sensitive)) for s in a.structure))
+
+
+def _timed(model, method):
+    t, c = time.perf_counter(), time.process_time()
+    a = analyze(model, method=method)
+    return time.perf_counter() - t, time.process_time() - c, a
+
+
+def measure(case, runs: int, l: int, p: int, seed: int) -> dict:  # noqa: E741
+    label, integer, method = case
+    model = fault_model(l=l, p=p, seed=seed, integer=integer)
+    first, first_cpu, a = _timed(model, method)
+    walls, cpus = [], []
+    for _ in range(runs):
+        w, c, a = _timed(model, method)
+        walls.append(w)
+        cpus.append(c)
+    return {"label": label, "integer": integer, "method": method, "model": model.name,
+            "first": first, "first_cpu": first_cpu,
+            "median": statistics.median(walls), "median_cpu": statistics.median(cpus),
+            "analysis": a}
+
+
+# ---------------------------------------------------------------- machine
+def _machine() -> dict:
+    cpu = platform.processor() or "?"
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                cpu = line.split(":", 1)[1].strip()
+                break
+    except OSError:
+        pass
+    try:
+        nproc = len(os.sched_getaffinity(0))
+    except AttributeError:  # pragma: no cover - not Linux
+        nproc = os.cpu_count()
+    return {"nproc": nproc, "cpu": cpu, "python": platform.python_version(),
+            "sympy": sp.__version__, "numpy": np.__version__, "platform": platform.platform()}
+
+
+def _load() -> str:
+    try:
+        return " ".join(f"{x:.2f}" for x in os.getloadavg())
+    except OSError:  # pragma: no cover
+        return "?"
+
+
+# ---------------------------------------------------------------- report
+def _fmt(t: float) -> str:
+    return f"{t * 1e3:.0f} ms" if t < 1 else f"{t:.2f} s"
+
+
+def _row(r) -> str:
+    a = r["analysis"]
+    worst = max(r["median"], r["first"])
+    mark = "ok" if worst < TARGET else "**MISSED**"
+    orders = sorted(set(k for k in a.min_order.values() if k is not None))
+    return (f"| {r['label']} | {r['method']} |"
+            f" {sum(a.detectable.values())}/{len(a.faults)} (k = {', '.join(map(str, orders)) or '—'}),"
+            f" {sum(p.isolable for p in a.pairs)}/{len(a.pairs)}, {len(a.structure)} |"
+            f" {_fmt(r['first'])} ({_fmt(r['first_cpu'])}) |"
+            f" {_fmt(r['median'])} ({_fmt(r['median_cpu'])}) |"
+            f" {TARGET:g} s | {worst / TARGET:.2f} ({mark}) |")
+
+
+def run(runs: int, l: int, p: int, seed: int) -> str:  # noqa: E741
+    info = _machine()
+    load0 = _load()
+    started = time.strftime("%Y-%m-%d %H:%M")
+    results = []
+    for case in CASES:
+        r = measure(case, runs, l, p, seed)
+        results.append(r)
+        print(_row(r), flush=True)
+    load1 = _load()
+
+    agree = []
+    for integer in (True, False):
+        by = {r["method"]: r for r in results if r["integer"] == integer}
+        if "exact" in by and "float" in by:
+            same = _answers(by["exact"]["analysis"]) == _answers(by["float"]["analysis"])
+            agree.append(f"{by['exact']['label']}: the float answers "
+                         + ("equal the exact ones" if same else "**differ from the exact ones**"))
+    loads = [float(x) for x in (load0 + " " + load1).split() if x != "?"]
+    busy = max(loads) if loads else 0.0
+    warn = ([f"**The machine was busy** (load average up to {busy:.1f} on {info['nproc']}"
+             " CPUs; other work ran beside the benchmark): wall-clock times are inflated and"
+             " noisy, the CPU times in parentheses are the better guide; re-run on a quiet"
+             " machine before comparing with the target.", ""]
+            if busy > 0.75 * info["nproc"] else [])
+    model = results[0]["model"]
+    head = warn + [
+        f"Measured {started} by `python3 benchmarks/bench_analyze.py --write`:"
+        f" {info['nproc']} CPUs ({info['cpu']}), Python {info['python']}, sympy {info['sympy']},"
+        f" numpy {info['numpy']}, {info['platform']}. Load average (1, 5, 15 min) {load0} at"
+        f" the start, {load1} at the end. Model {model} (n = 20 states, l = {l} outputs,"
+        f" p = {p} disturbance, 6 faults; the same seed for both kinds of entries)."
+        f" First: the first `analyze` call in the process; median: of {runs} further calls;"
+        " wall-clock, CPU time of the process in parentheses. Ratio: the slower of the two"
+        " wall-clock times over the target.",
+        "",
+        "| entries | path | detectable (k), isolable pairs, structure rows | first call | median |"
+        " target | ratio |",
+        "|---|---|---|---|---|---|---|",
+    ]
+    tail = ["", "Float against exact: " + "; ".join(agree) + "." if agree else ""]
+    return "\n".join(head + [_row(r) for r in results] + tail).rstrip()
+
+
+def write_readme(table: str) -> None:
+    text = README.read_text() if README.exists() else ""
+    if BEGIN not in text or END not in text:
+        raise SystemExit(f"{README}: the markers {BEGIN!r} and {END!r} are missing")
+    before, rest = text.split(BEGIN, 1)
+    _, after = rest.split(END, 1)
+    new = before + BEGIN + "\n" + table + "\n" + END + after
+    fd, tmp = tempfile.mkstemp(dir=README.parent, prefix=".README.", suffix=".tmp")
+    try:
+        with os.fdopen(fd, "w") as fh:
+            fh.write(new)
+        os.replace(tmp, README)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+        raise
+
+
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--runs", type=int, default=5)
-    ap.add_argument("--l", type=int, default=8)
-    ap.add_argument("--p", type=int, default=1)
-    ap.add_argument("--seed", type=int, default=0)
-    ap.add_argument("--gauss", action="store_true")
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--write", action="store_true",
+                    help="update the 'Analysis time' table in benchmarks/README.md")
+    ap.add_argument("--runs", type=int, default=5,
+                    help="calls per case after the first (median; default 5)")
+    ap.add_argument("--l", type=int, default=8, help="outputs (default 8)")
+    ap.add_argument("--p", type=int, default=1, help="disturbances (default 1)")
+    ap.add_argument("--seed", type=int, default=0, help="seed of the model (default 0)")
     args = ap.parse_args(argv)
-    model = fault_model(l=args.l, p=args.p, seed=args.seed, integer=not args.gauss)
-    times = []
-    for i in range(args.runs):
-        t0 = time.perf_counter()
-        a = analyze(model)
-        times.append(time.perf_counter() - t0)
-        if i == 0:
-            first = times[0]
-    med = statistics.median(times)
-    print(f"model: {model.name} ({'gauss' if args.gauss else 'integer'} entries)")
-    print(f"detectable: {a.detectable}")
-    print(f"min_order: {a.min_order}")
-    print(f"isolable pairs: {sum(p.isolable for p in a.pairs)}/{len(a.pairs)};"
-          f" achievable structure rows: {len(a.structure)}")
-    print(f"analyze first call: {first:.3f} s")
-    print(f"analyze median of {args.runs}: {med:.3f} s (target < {TARGET:.0f} s:"
-          f" {'met' if med < TARGET else 'NOT met'})")
+    table = run(args.runs, args.l, args.p, args.seed)
+    print()
+    print(table)
+    if args.write:
+        write_readme(table)
+        print(f"\nwrote {README}")
     return 0
 
 

@@ -14,7 +14,7 @@ from pathlib import Path
 
 import pytest
 
-from observer_cad.cli import CASES, EXAMPLES_DIR, run_demo
+from observer_cad.cli import CASES, DIAGNOSABILITY, EXAMPLES_DIR, run_demo
 from observer_cad.errors import UsageError
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -41,6 +41,10 @@ def test_every_demo_model_and_scenario_is_an_example():
         assert (EXAMPLES_DIR / case.model).is_file(), case.model
         for run in case.runs:
             assert (EXAMPLES_DIR / "scenarios" / f"{run.scenario}.json").is_file(), run.scenario
+    # the diagnosability example (issue 12): the analysed model, the bank's model and scenario
+    for model in (DIAGNOSABILITY.analysis_model, DIAGNOSABILITY.bank_model):
+        assert (EXAMPLES_DIR / model).is_file(), model
+    assert (EXAMPLES_DIR / "scenarios" / f"{DIAGNOSABILITY.scenario}.json").is_file()
 
 
 def test_demo_without_its_examples_is_a_one_line_error(tmp_path):

@@ -14,7 +14,12 @@ What runs (see :data:`CASES`):
 * linear three-tank (seeds 001 §7 and 004 §5): virtual sensors for x1 (canonical form,
   plain and seed 004's variant; Jordan form) and interval observers for x1 (001 methods
   1 and 2, Fig. 2);
-* the sliding-mode example (this project's model, seed 002 §5).
+* the sliding-mode example (this project's model, seed 002 §5);
+* diagnosability (issue 12, :data:`DIAGNOSABILITY`): the analysis of
+  ``three_tank_faults.py`` (which faults can be detected with ρ decoupled, which pairs
+  isolated, the achievable structure matrix, the reasons and suggestions), and an
+  isolating residual bank for ``three_tank_isolation.py`` (every level measured),
+  compiled, simulated with a step fault in tank 2 and plotted (:data:`BANK_FIGURE`).
 
 Each design is printed with its conditions (short form; the full text goes to the
 report), compiled into one C trajectory function with the plant
@@ -30,6 +35,7 @@ LaTeX, :mod:`observer_cad.interop`).
 from __future__ import annotations
 
 import dataclasses
+import json
 import os
 import platform
 import sys
@@ -46,7 +52,8 @@ from ..reporting import format_design, format_observer, format_structure
 from ..model import extract_structure
 from ..synthesis import design as make_design
 
-__all__ = ["CASES", "EXAMPLES_DIR", "FIGURES", "Case", "Run", "run_demo"]
+__all__ = ["CASES", "EXAMPLES_DIR", "FIGURES", "Case", "Run", "run_demo",
+           "DIAGNOSABILITY", "BANK_FIGURE", "DiagnosabilityExample"]
 
 R = sp.Rational
 
@@ -182,6 +189,45 @@ CASES = (
 )
 
 
+@dataclasses.dataclass(frozen=True)
+class DiagnosabilityExample:
+    """The worked example of issue 12 in the report: the analysis of one model, and an
+    isolating residual bank (:func:`~observer_cad.synthesis.design_bank`, best scheme)
+    for another, simulated on ``scenario``."""
+
+    analysis_model: str
+    bank_model: str
+    scenario: str
+    analysis_cli: str = ""
+    bank_cli: str = ""
+    analysis_note: str = ""
+    note: str = ""
+
+
+DIAGNOSABILITY = DiagnosabilityExample(
+    "three_tank_faults.py", "three_tank_isolation.py", "three_tank_isolation",
+    analysis_cli="observer-cad analyze models/three_tank_faults.py",
+    bank_cli="observer-cad analyze models/three_tank_isolation.py\n"
+             "observer-cad design models/three_tank_isolation.py --observer diagnostic --isolate\n"
+             "observer-cad simulate models/three_tank_isolation.py --observer diagnostic --isolate"
+             " --scenario models/scenarios/three_tank_isolation.json --out out/bank",
+    analysis_note="f3 enters tank 3 exactly as ρ does, so no residual decoupled from ρ can see it,"
+                  " whatever is measured. f1 and f2 are each detected by an order-2 residual (the"
+                  " k = 2 of seed 001 §7), but with two outputs, one disturbance and one more fault"
+                  " to decouple there is no room left to tell them apart; measuring x1 as well would"
+                  " give an order-1 residual for each direction. The bank below is built on such a"
+                  " plant.",
+    note="The same three tanks with the third level sensor added (x1 measured too) and the"
+         " disturbance ρ entering every tank alike (a common supply line): no fault enters as ρ"
+         " does, and each can be decoupled together with ρ.")
+
+#: the figure of the residual bank (r1 … rm under a step fault), under ``figures/``
+BANK_FIGURE = "three_tank_isolation_residuals.png"
+#: the analysis and the bank as JSON (``analyze --json``, ``design --isolate --json``), under ``designs/``
+ANALYSIS_JSON = "three_tank_faults_analysis.json"
+BANK_JSON = "three_tank_isolation_bank.json"
+
+
 # ---------------------------------------------------------------- running the cases
 @dataclasses.dataclass
 class Outcome:
@@ -312,6 +358,199 @@ def _run_case(i: int, n: int, case: Case, models_dir: Path, models: dict, engine
         out.error = f"internal error: {type(exc).__name__}: {str(exc).splitlines()[0] if str(exc) else ''}"
         log(f"        FAILED: {out.error}")
     return out
+
+
+# ---------------------------------------------------------------- diagnosability (issue 12)
+@dataclasses.dataclass
+class DiagOutcome:
+    example: DiagnosabilityExample
+    analysis: object = None
+    analysis_model: object = None
+    bank_model: object = None
+    bank_analysis: object = None
+    bank: object = None
+    observer: object = None
+    sim: object = None
+    engine: str = ""
+    analysis_time: float = 0.0
+    timings: dict = dataclasses.field(default_factory=dict)  # of the bank
+    error: str | None = None
+    figure: tuple | None = None  # (name, caption)
+
+
+def _count(items, word="of") -> str:
+    return f"{sum(1 for ok in items if ok)} {word} {len(items)}"
+
+
+def _run_diagnosability(ex: DiagnosabilityExample, models_dir: Path, engine: _Engine,
+                        log) -> DiagOutcome:
+    """Analyse ``ex.analysis_model``; design, compile and simulate the residual bank of
+    ``ex.bank_model``. Errors are recorded, not raised (one broken step must not stop
+    the demo)."""
+    from ..observers import build_observer
+    from ..simulation import load_scenario
+    from ..synthesis import analyze, design_bank
+    out = DiagOutcome(ex)
+    step = "analysis"
+    try:
+        model = out.analysis_model = load_model(models_dir / ex.analysis_model)
+        log(f"[diagnosability 1/2] Analysis of {model.name}: faults"
+            f" {', '.join(f.name for f in model.faults)};"
+            f" decoupled: {', '.join(d.name for d in model.disturbances) or 'nothing'}"
+            "  (issue 12 worked example)")
+        t0 = time.perf_counter()
+        a = out.analysis = analyze(model)
+        out.analysis_time = time.perf_counter() - t0
+        det = [f"{r.fault} (k = {r.min_order})" for r in a.fault_results if r.detectable]
+        log(f"        analysed in {out.analysis_time:.2f} s: detectable"
+            f" {', '.join(det) or 'none'}; isolable pairs {_count([p.isolable for p in a.pairs])};"
+            f" {len(a.structure)} achievable structure row(s)")
+        for r in a.fault_results:
+            if not r.detectable:
+                log(f"          {_short(r.reason, 140)}")
+        for s_ in a.suggestions:
+            log(f"          suggestion: {s_.goal}: measure {s_.measurement} (k = {s_.min_order})")
+
+        step = "residual bank"
+        bm = out.bank_model = load_model(models_dir / ex.bank_model)
+        log(f"[diagnosability 2/2] Isolating residual bank for {bm.name}: faults"
+            f" {', '.join(f.name for f in bm.faults)};"
+            f" decoupled: {', '.join(d.name for d in bm.disturbances) or 'nothing'}")
+        t0 = time.perf_counter()
+        out.bank_analysis = analyze(bm)
+        out.timings["analyze"] = time.perf_counter() - t0
+        t0 = time.perf_counter()
+        bank = out.bank = design_bank(bm)
+        out.timings["design"] = time.perf_counter() - t0
+        rows = ", ".join("".join(map(str, r)) for r in bank.structure_matrix)
+        log(f"        {bank.scheme}: {len(bank.designs)} residuals, structure matrix {rows}"
+            f" (columns {', '.join(bank.faults)}); isolated pairs"
+            f" {_count([ok for _, ok in bank.isolable])}; designed in {out.timings['design']:.2f} s;"
+            f" certificates {'PASSED' if bank.certified else 'FAILED'}")
+        t0 = time.perf_counter()
+        ob = out.observer = build_observer(bm, bank)
+        out.timings["observer"] = time.perf_counter() - t0
+        t0 = time.perf_counter()
+        sim = engine.prepare(bm, ob)
+        if sim is not None:
+            out.timings["compile"] = time.perf_counter() - t0
+            out.engine = "compiled C" + (" (cache hit)" if sim.cached else "")
+            log(f"        build observer {out.timings['observer']:.2f} s · compile {out.timings['compile']:.2f} s"
+                f" ({'from the cache' if sim.cached else 'C compiled now'})")
+        else:
+            out.engine = "reference simulator (numpy)"
+            log(f"        build observer {out.timings['observer']:.2f} s · not compiled: {engine.reason}")
+        t0 = time.perf_counter()
+        sc = load_scenario(models_dir / "scenarios" / f"{ex.scenario}.json")
+        out.sim = engine.run(sim, bm, ob, sc)
+        out.timings["simulate"] = time.perf_counter() - t0
+        log(f"        simulate {out.timings['simulate'] * 1e3:.0f} ms ({out.engine}):"
+            f" {ex.scenario} ({len(out.sim['t'])} steps)")
+        if not bank.certified:
+            out.error = "a residual of the bank is not certified"
+    except ObserverCadError as exc:
+        out.error = f"{step}: {str(exc).splitlines()[0]}"
+        log(f"        FAILED: {out.error}")
+    except Exception as exc:  # noqa: BLE001 - a broken step must not stop the demo
+        out.error = (f"{step}: internal error: {type(exc).__name__}:"
+                     f" {str(exc).splitlines()[0] if str(exc) else ''}")
+        log(f"        FAILED: {out.error}")
+    return out
+
+
+def _fault_onset(res, faults):
+    """(fault, first t where it is nonzero) of the first fault that acts, or (None, None)."""
+    for f in faults:
+        v = np.asarray(res[f], dtype=float)
+        nz = np.flatnonzero(np.abs(v) > 0)
+        if nz.size:
+            return f, float(np.asarray(res["t"])[nz[0]])
+    return None, None
+
+
+def fig_bank_residuals(diag: DiagOutcome, path):
+    """The fault and the disturbance, then one panel per residual r_i: the residuals of
+    the faulty column move, the others stay at rounding level."""
+    plt = _plt()
+    bank, res = diag.bank, diag.sim
+    faults = list(bank.faults)
+    t = np.asarray(res["t"], dtype=float)
+    fault, t_f = _fault_onset(res, faults)
+    if fault is None:
+        raise ValueError("the scenario applies no fault: nothing to isolate")
+    col = [int(r[faults.index(fault)]) for r in bank.structure_matrix]
+    m = len(bank.designs)
+    fig, axes = plt.subplots(m + 1, 1, sharex=True, figsize=(8, 2.0 + 1.45 * m),
+                             height_ratios=[1.6] + [1] * m)
+    a = axes[0]
+    a.plot(t, res[fault], color="tab:red", lw=1.8, label=f"fault {fault} (tank {faults.index(fault) + 1})")
+    for dist in diag.bank_model.disturbances:
+        a.plot(t, res[dist.name], color="0.5", lw=1.0,
+               label=f"disturbance ${SIGNAL_TEX.get(dist.name, dist.name)}$ (decoupled)")
+    a.set_ylabel(f"{fault}, " + ", ".join(f"${SIGNAL_TEX.get(d.name, d.name)}$"
+                                          for d in diag.bank_model.disturbances))
+    rows = ", ".join("".join(map(str, r)) for r in bank.structure_matrix)
+    a.set_title(f"Residual bank for {bank.model_name}: {bank.scheme} (structure {rows})")
+    a.legend(loc="upper left", ncols=2, fontsize=8)
+    lo, hi = float(np.min(res[fault])), float(np.max(res[fault]))
+    a.set_ylim(min(lo, -0.25) - 0.05, hi + 0.35)
+    before_mask, after_mask = t < t_f, t >= t_f + 2.0
+    moved, stats = [], []
+    scale = max(float(np.max(np.abs(res[f"r{i}"]))) for i in range(1, m + 1))
+    for i, ax in enumerate(axes[1:], 1):
+        r = np.asarray(res[f"r{i}"], dtype=float)
+        sees = col[i - 1]
+        before = float(np.max(np.abs(r[before_mask]))) if before_mask.any() else 0.0
+        after = float(np.max(np.abs(r[t >= t_f])))
+        moved.append(after > 1e-6 * max(scale, 1e-12))
+        stats.append((before, after))
+        ax.plot(t, r, color="tab:purple" if sees else "tab:green", lw=1.5,
+                label=f"r{i}  (row {''.join(map(str, bank.structure_matrix[i - 1]))})")
+        ax.axhline(0, color="k", lw=0.6)
+        ax.axvline(t_f, color="tab:red", ls=":", lw=1.0)
+        ax.set_ylim(-1.15 * scale, 1.15 * scale)
+        ax.set_ylabel(f"$r_{{{i}}}$")
+        ax.legend(loc="upper left")
+        _box(ax, (f"sees {fault} (S = 1): max|r{i}| = {after:.3g} after t = {t_f:g}" if sees else
+                  f"decoupled from {fault} (S = 0): max|r{i}| = {_sci(after)}")
+             + f"\nbefore the fault: max|r{i}| = {_sci(before)}",
+             "upper right" if r[-1] < 0 else "lower right")
+    axes[-1].set_xlabel("t [s]" if bank.time == "continuous" else "t [steps]")
+    agree = all(bool(mv) == bool(c) for mv, c in zip(moved, col))
+    moving = [f"r{i}" for i, mv in enumerate(moved, 1) if mv]
+    still = [f"r{i}" for i, mv in enumerate(moved, 1) if not mv]
+    caption = (f"Isolating residual bank ({bank.scheme}) for {bank.model_name}: a step fault in"
+               f" {fault} at t = {t_f:g} while the disturbance acts. {fault}'s column of the"
+               f" structure matrix is ({', '.join(map(str, col))}):"
+               f" {', '.join(moving) or 'none'} {'moves' if len(moving) == 1 else 'move'}"
+               f" (max |r| = {max(s[1] for s in stats):.3g}),"
+               f" {', '.join(still) or 'none'} {'stays' if len(still) == 1 else 'stay'} at rounding"
+               f" level ({max([s[1] for s, mv in zip(stats, moved) if not mv] or [0.0]):.1e})"
+               f" — {'as the structure matrix predicts' if agree else 'NOT as the structure matrix predicts'};"
+               f" before the fault every residual is at most {max(s[0] for s in stats):.1e}.")
+    if not agree:
+        raise ValueError(caption)
+    return fig, caption
+
+
+def _diag_figure(diag: DiagOutcome, fig_dir: Path, log, failed: list) -> None:
+    from ..reporting import save_figure
+    if diag.error is not None or diag.sim is None:
+        log(f"[figure] {BANK_FIGURE}: skipped (the residual bank did not run)")
+        return
+    plt = _plt()
+    t1 = time.perf_counter()
+    with plt.rc_context(STYLE):
+        try:
+            fig, caption = fig_bank_residuals(diag, fig_dir / BANK_FIGURE)
+            save_figure(fig, fig_dir / BANK_FIGURE)
+        except Exception as exc:  # noqa: BLE001 - report it, keep the rest
+            failed.append(BANK_FIGURE)
+            plt.close("all")
+            log(f"[figure] {BANK_FIGURE}: FAILED ({type(exc).__name__}: {exc})")
+            return
+    diag.figure = (BANK_FIGURE, caption)
+    log(f"[figure] {fig_dir / BANK_FIGURE}  ({time.perf_counter() - t1:.2f} s)")
 
 
 # ---------------------------------------------------------------- figures
@@ -815,7 +1054,81 @@ def _units_text(models: dict) -> str:
     return text
 
 
-def _report(outcomes, figs, out_dir: Path, totals: dict, engine: _Engine, models: dict) -> str:
+
+def _diag_summary(diag: DiagOutcome) -> str:
+    """One bullet for the report's introduction."""
+    from ..reporting import md_escape
+    if diag.error is not None and diag.analysis is None:
+        return f"- [diagnosability](#diagnosability): ❌ {md_escape(diag.error)}"
+    a = diag.analysis
+    text = (f"- [diagnosability](#diagnosability) (issue 12): analysis of `{a.model_name}` —"
+            f" {_count([r.detectable for r in a.fault_results])} faults detectable,"
+            f" {_count([p.isolable for p in a.pairs])} pairs isolable")
+    if diag.bank is not None:
+        b = diag.bank
+        text += (f"; residual bank for `{b.model_name}` — {len(b.designs)} residuals"
+                 f" ({md_escape(b.scheme)}), {_count([ok for _, ok in b.isolable])} pairs isolated,"
+                 f" {'all certified' if b.certified else 'NOT all certified'}")
+    if diag.error is not None:
+        text += f"; ❌ {md_escape(diag.error)}"
+    return text
+
+
+def _diag_section(diag: DiagOutcome) -> str:
+    """The report's "Diagnosability" section: the analysis as tables, then the bank, its
+    structure matrix, the observer, the figure and the full text outputs."""
+    from ..reporting import (analysis_markdown, bank_markdown, format_analysis, format_bank,
+                             md_escape)
+    ex = diag.example
+    fmt = lambda v: f"{v * 1e3:.0f} ms" if v < 1 else f"{v:.2f} s"  # noqa: E731
+    out = ['<a id="diagnosability"></a>', "## Diagnosability", "",
+           "Before designing residual generators one by one: which faults can the sensors"
+           " detect once the disturbances are decoupled, which pairs of faults can be told"
+           " apart, and what bank of residual generators does it? (`observer-cad analyze`,"
+           " described in `docs/analyze.md` of the repository, and `observer-cad design"
+           " --observer diagnostic --isolate`.)", ""]
+    if diag.analysis is not None:
+        a = diag.analysis
+        out += [f"### Analysis of `{a.model_name}`", "",
+                f"*This project's example on the three-tank of seed 001 §7* — model"
+                f" `{ex.analysis_model}`: a fault in each tank, the levels x2 and x3 measured,"
+                f" the disturbance ρ beside the third tank (equations under"
+                f" [Models](#models)). Exact arithmetic; analysed in {fmt(diag.analysis_time)}.", "",
+                "Reproduce:", "", "```sh", ex.analysis_cli, "```", "",
+                analysis_markdown(a),
+                ("**Reading.** " + md_escape(ex.analysis_note)) if ex.analysis_note else "", "",
+                f"Exported: [JSON](designs/{ANALYSIS_JSON}) (what `analyze --json` prints).", "",
+                "<details><summary>Full text output (as <code>observer-cad analyze</code> prints it)"
+                "</summary>", "", "```text", format_analysis(a), "```", "", "</details>", ""]
+    if diag.bank is not None:
+        b, ba = diag.bank, diag.bank_analysis
+        out += [f"### Isolating residual bank for `{b.model_name}`", "",
+                f"*This project's example on the three-tank of seed 001 §7* — model"
+                f" `{ex.bank_model}`. {md_escape(ex.note)}", "",
+                "Reproduce:", "", "```sh", ex.bank_cli, "```", ""]
+        if ba is not None:
+            out += [f"`analyze` on this model: {_count(ba.detectable.values())} faults detectable"
+                    f" (minimal orders {', '.join(f'{f} k = {k}' for f, k in ba.min_order.items())}),"
+                    f" {_count([p.isolable for p in ba.pairs])} pairs isolable,"
+                    f" {len(ba.structure)} achievable structure rows.", ""]
+        out += [bank_markdown(b, diag.observer)]
+        if diag.sim is not None:
+            out += [f"Scenario: `models/scenarios/{ex.scenario}.json`. Simulated with:"
+                    f" {md_escape(diag.engine)}.", ""]
+        out += ["**Timings**: " + ", ".join(f"{k} {fmt(v)}" for k, v in diag.timings.items()), ""]
+        if diag.figure is not None:
+            name, cap = diag.figure
+            out += [f"![{md_escape(cap)}](figures/{name})", "", f"*{md_escape(cap)}*", ""]
+        out += [f"Exported: [JSON](designs/{BANK_JSON}) (what `design --isolate --json` prints).", "",
+                "<details><summary>Full text output (as <code>observer-cad design --isolate</code>"
+                " prints it)</summary>", "", "```text", format_bank(b), "```", "", "</details>", ""]
+    if diag.error is not None:
+        out += [f"**FAILED** ({md_escape(diag.error)})", ""]
+    return "\n".join(out)
+
+
+def _report(outcomes, figs, out_dir: Path, totals: dict, engine: _Engine, models: dict,
+            diag: DiagOutcome | None = None) -> str:
     from ..reporting import design_section, md_escape, render_report
     ok = [o for o in outcomes if o.error is None]
     intro = [
@@ -830,6 +1143,7 @@ def _report(outcomes, figs, out_dir: Path, totals: dict, engine: _Engine, models
         f"- compile cache: `{_cache_dir()}`",
         f"- Python {platform.python_version()}, {platform.machine()}, {os.cpu_count()} CPU(s)",
         "- time: " + ", ".join(f"{k} {v:.2f} s" for k, v in totals.items()),
+        *([_diag_summary(diag)] if diag is not None else []),
         "",
         "Conventions: discrete-time plots use t in steps; continuous-time plots t in s. " + _units_text(models),
         "",
@@ -853,7 +1167,10 @@ def _report(outcomes, figs, out_dir: Path, totals: dict, engine: _Engine, models
     intro += ["", "## Figures", ""]
     for name, caption, key in figs:
         intro.append(f"- [`figures/{name}`](figures/{name}) — {md_escape(caption)}")
-    intro += ["", "## Models", ""]
+    if diag is not None and diag.figure is not None:
+        name, caption = diag.figure
+        intro.append(f"- [`figures/{name}`](figures/{name}) — {md_escape(caption)}")
+    intro += ["", '<a id="models"></a>', "## Models", ""]
     for m in models.values():
         intro.append(_model_section(m))
     sections = ["## Designs", ""]
@@ -874,6 +1191,8 @@ def _report(outcomes, figs, out_dir: Path, totals: dict, engine: _Engine, models
             design=o.design, observer=o.observer, timings=o.timings,
             figures=[(f"figures/{n}", cap) for n, cap, k in figs if k == c.key],
             notes=notes, full_text=o.full_text, level=3))
+    if diag is not None:
+        sections.append(_diag_section(diag))
     return render_report("observer-cad demo: the seed papers' observers", intro, sections)
 
 
@@ -930,16 +1249,24 @@ def run_demo(models_dir: Path = EXAMPLES_DIR, out_dir: Path = Path("out"), *,
         except OSError as exc:
             raise UsageError(f"{d}: cannot create the output directory: {exc.strerror}") from None
     n = len(CASES)
-    log(f"observer-cad demo: {n} designs from seed papers 000, 001, 002, 004 → {out_dir}/report.md")
+    log(f"observer-cad demo: {n} designs from seed papers 000, 001, 002, 004"
+        + (", a diagnosability analysis and an isolating residual bank (issue 12)"
+           if DIAGNOSABILITY is not None else "") + f" → {out_dir}/report.md")
     engine = _Engine(compile, log)
     models: dict = {}
     outcomes = [_run_case(i, n, c, models_dir, models, engine, log) for i, c in enumerate(CASES, 1)]
     t_cases = time.perf_counter() - t_start
+    t0 = time.perf_counter()
+    diag = (_run_diagnosability(DIAGNOSABILITY, models_dir, engine, log)
+            if DIAGNOSABILITY is not None else None)
+    t_diag = time.perf_counter() - t0
     by_key = {o.case.key: o for o in outcomes if o.error is None}
 
     t0 = time.perf_counter()
     fig_failed: list = []
     figs = _figures(by_key, fig_dir, log, fig_failed)
+    if diag is not None:
+        _diag_figure(diag, fig_dir, log, fig_failed)
     t_figs = time.perf_counter() - t0
 
     t0 = time.perf_counter()
@@ -948,28 +1275,47 @@ def run_demo(models_dir: Path = EXAMPLES_DIR, out_dir: Path = Path("out"), *,
         if o.error is None:
             write_design_json(o.design, des_dir / f"{o.case.key}.json")
             write_design_latex(o.design, des_dir / f"{o.case.key}.tex")
+    if diag is not None and diag.analysis is not None:
+        atomic_write_text(des_dir / ANALYSIS_JSON, json.dumps(
+            diag.analysis.to_json(), indent=2, ensure_ascii=False) + "\n")
+    if diag is not None and diag.bank is not None:
+        atomic_write_text(des_dir / BANK_JSON, json.dumps(
+            diag.bank.to_json(), indent=2, ensure_ascii=False) + "\n")
     used_models = {}
     for o in outcomes:
         if o.model is not None and o.model.name not in used_models and not o.case.bounds:
             used_models[o.model.name] = o.model
-    totals = {"designs, compilation and simulation": t_cases, "figures": t_figs}
+    for m in ((diag.analysis_model, diag.bank_model) if diag is not None else ()):
+        if m is not None and m.name not in used_models:
+            used_models[m.name] = m
+    totals = {"designs, compilation and simulation": t_cases}
+    if diag is not None:
+        totals["diagnosability"] = t_diag
+    totals["figures"] = t_figs
     report_path = out_dir / "report.md"
     totals["report"] = time.perf_counter() - t0
     totals["total"] = time.perf_counter() - t_start
-    text = _report(outcomes, figs, out_dir, totals, engine, used_models)
+    text = _report(outcomes, figs, out_dir, totals, engine, used_models, diag)
     atomic_write_text(report_path, text)
     totals["total"] = time.perf_counter() - t_start
     failed = [o for o in outcomes if o.error is not None or not o.design.certificate.passed]
-    log(f"[report] {report_path} ({len(figs)} figures, designs as JSON and LaTeX in {des_dir})")
+    n_figs = len(figs) + (1 if diag is not None and diag.figure is not None else 0)
+    log(f"[report] {report_path} ({n_figs} figures, designs as JSON and LaTeX in {des_dir})")
     log(f"{len(outcomes)} designs, all certified." if not failed else
         f"{len(outcomes) - len(failed)} of {len(outcomes)} designs certified.")
-    sim_t = sum(o.timings.get("simulate", 0) for o in outcomes)
-    comp_t = sum(o.timings.get("compile", 0) for o in outcomes)
-    des_t = sum(o.timings.get("design", 0) + o.timings.get("observer", 0) for o in outcomes)
+    if diag is not None and diag.error is None:
+        log(f"diagnosability: {diag.analysis.model_name} analysed; residual bank for"
+            f" {diag.bank.model_name} with {len(diag.bank.designs)} residuals, all certified.")
+    timed = [o.timings for o in outcomes] + ([diag.timings] if diag is not None else [])
+    sim_t = sum(tm.get("simulate", 0) for tm in timed)
+    comp_t = sum(tm.get("compile", 0) for tm in timed)
+    des_t = sum(tm.get("design", 0) + tm.get("observer", 0) + tm.get("analyze", 0) for tm in timed) \
+        + (diag.analysis_time if diag is not None else 0.0)
     log(f"total {totals['total']:.1f} s (design {des_t:.1f} s, compile {comp_t:.1f} s,"
         f" simulate {sim_t:.1f} s, figures {t_figs:.1f} s)"
         + ("" if engine.reason is None else f"; not compiled: {engine.reason}"))
-    if failed or fig_failed:
-        log(f"FAILED: {', '.join([o.case.key for o in failed] + fig_failed)}")
+    diag_failed = ["diagnosability"] if diag is not None and diag.error is not None else []
+    if failed or fig_failed or diag_failed:
+        log(f"FAILED: {', '.join([o.case.key for o in failed] + diag_failed + fig_failed)}")
         return 1
     return 0

@@ -17,7 +17,8 @@ import sympy as sp
 __all__ = ["symbol_latex", "matrix_name_latex", "matrix_latex", "expr_latex",
            "design_matrices_latex", "design_equations_latex", "observer_equations_latex",
            "latex_block", "md_escape", "conditions_table", "certificate_table",
-           "design_section", "render_report", "lag_states"]
+           "design_section", "render_report", "lag_states", "analysis_markdown",
+           "bank_markdown"]
 
 
 # ---------------------------------------------------------------- symbols and names
@@ -48,6 +49,9 @@ def symbol_latex(name) -> str:
     m = re.fullmatch(r"xs(\d+)", name)
     if m:
         return rf"x^{{*}}_{{{m.group(1)}}}"
+    m = re.fullmatch(r"r(\d+)_xs(\d+)", name)
+    if m:  # state j of residual generator i of a bank (observers.bank_observer)
+        return rf"x^{{*({m.group(1)})}}_{{{m.group(2)}}}"
     m = re.fullmatch(r"x([lu])(\d+)", name)
     if m:
         acc = r"\underline" if m.group(1) == "l" else r"\overline"
@@ -125,9 +129,9 @@ def design_matrices_latex(design) -> dict:
 
 def _dot(sym) -> str:
     s = symbol_latex(sym)
-    m = re.fullmatch(r"(\\underline\{x\}|\\overline\{x\}|x)\^\{\*\}_\{(\d+)\}", s)
-    if m:  # \dot{x}^{*}_{1}, \dot{\underline{x}}^{*}_{1}
-        return rf"\dot{{{m.group(1)}}}^{{*}}_{{{m.group(2)}}}"
+    m = re.fullmatch(r"(\\underline\{x\}|\\overline\{x\}|x)\^\{\*(\(\d+\))?\}_\{(\d+)\}", s)
+    if m:  # \dot{x}^{*}_{1}, \dot{\underline{x}}^{*}_{1}, \dot{x}^{*(2)}_{1}
+        return rf"\dot{{{m.group(1)}}}^{{*{m.group(2) or ''}}}_{{{m.group(3)}}}"
     return rf"\dot{{{s}}}"
 
 
@@ -294,6 +298,113 @@ def design_section(*, anchor: str, heading: str, paper: str, command: str, model
     if full_text:
         out += ["<details><summary>Full text output (as <code>observer-cad design</code> prints it)"
                 "</summary>", "", "```text", full_text.rstrip(), "```", "", "</details>", ""]
+    return "\n".join(out)
+
+# ---------------------------------------------------------------- diagnosability
+def _yes_no(ok: bool) -> str:
+    """✅ yes / ➖ no: a "no" here is an answer about the plant, not a failure."""
+    return "✅ yes" if ok else "➖ no"
+
+
+def _order(k) -> str:
+    return "—" if k is None else str(k)
+
+
+def analysis_markdown(analysis) -> str:
+    """A diagnosability analysis (:class:`~observer_cad.synthesis.Analysis`) as Markdown
+    tables: detectability with the minimal orders and the reasons, isolability of every
+    pair in both directions, the achievable structure matrix, the suggested extra
+    measurements, then assumptions and notes (what ``observer-cad analyze`` prints)."""
+    a = analysis
+    dec = ", ".join(a.disturbances) or "nothing"
+    out = [f"**Detectability** (a residual decoupled from {md_escape(dec)} that responds to the"
+           " fault; k = the minimal order of one):", "",
+           "| fault | detectable | minimal order k | reason |", "|---|---|---|---|"]
+    for r in a.fault_results:
+        via = " (via argument substitution)" if r.via_substitution else ""
+        out.append(f"| {md_escape(r.fault)} | {_yes_no(r.detectable)}{via} |"
+                   f" {_order(r.min_order)} | {md_escape(r.reason) or '—'} |")
+    out.append("")
+    if a.pairs:
+        out += ["**Isolability** (a from b: a residual sensitive to a and decoupled from b;"
+                " the pair is isolable when both directions exist):", "",
+                "| pair a / b | isolable | a from b (k) | b from a (k) | reason |",
+                "|---|---|---|---|---|"]
+        for p in a.pairs:
+            x, y = p.faults
+            ways = [(f"yes (k = {k})" if ok else "no")
+                    for ok, k in ((p.a_from_b, p.a_from_b_order), (p.b_from_a, p.b_from_a_order))]
+            out.append(f"| {md_escape(x)} / {md_escape(y)} | {_yes_no(p.isolable)} |"
+                       f" {ways[0]} | {ways[1]} |"
+                       f" {'<br>'.join(md_escape(t) for t in p.reason.split('; ')) or '—'} |")
+        out.append("")
+    out += ["**Achievable structure matrix** (one residual per row; 1 = sensitive,"
+            " 0 = decoupled):", ""]
+    if a.structure:
+        out += ["| residual | " + " | ".join(md_escape(f) for f in a.faults) + " | decoupled |",
+                "|---|" + "---|" * len(a.faults) + "---|"]
+        for i, row in enumerate(a.structure, 1):
+            bits = row.row(a.faults)
+            via = " (via argument substitution)" if row.via_substitution else ""
+            out.append(f"| r{i} | " + " | ".join(str(bits[f]) for f in a.faults)
+                       + f" | {md_escape(', '.join(row.decoupled)) or '—'}{via} |")
+    else:
+        out.append("none: no fault can be detected.")
+    if not a.structure_complete:
+        out += ["", "(partial: see the notes)"]
+    out.append("")
+    if a.suggestions or a.unhelped:
+        out += ["**Suggestions** (one extra measurement):", ""]
+        if a.suggestions:
+            out += ["| goal | measure | minimal order k |", "|---|---|---|"]
+            out += [f"| {md_escape(s.goal)} | {md_escape(s.measurement)} | {s.min_order} |"
+                    for s in a.suggestions]
+            out.append("")
+        out += [f"- {md_escape(u)}" for u in a.unhelped]
+        if a.unhelped:
+            out.append("")
+    if a.assumptions:
+        out += ["**Assumptions**: " + ", ".join(
+            f"${sp.latex(c, symbol_names=_names([c]))}$" for c in a.assumptions), ""]
+    if a.notes:
+        out += ["Notes:", ""] + [f"- {md_escape(n)}" for n in a.notes] + [""]
+    return "\n".join(out)
+
+
+def bank_markdown(bank, observer=None) -> str:
+    """An isolating residual bank (:class:`~observer_cad.synthesis.ResidualBank`) as
+    Markdown: its structure matrix with each residual's order, eigenvalue, decoupled
+    inputs and certificate, the pairs it isolates, the choice, and (given the bank's
+    ``observer``) the equations of the one observer with outputs r1 … rm."""
+    faults = list(bank.faults)
+    out = ["**Structure matrix** (row = residual, column = fault; 1 = the residual responds;"
+           " every row recomputed from O Φ D_j and checked):", "",
+           "| residual | " + " | ".join(md_escape(f) for f in faults)
+           + " | k | λ | decoupled from | certificate |",
+           "|---|" + "---|" * len(faults) + "---|---|---|---|"]
+    for i, (row, d) in enumerate(zip(bank.structure_matrix, bank.designs), 1):
+        lam = ", ".join(f"${sp.latex(sp.sympify(v))}$" for v in d.lambdas) or "—"
+        cert = ("passed" if d.certificate.passed else "**failed**") + \
+            (" (exact)" if d.certificate.exact else " (float)")
+        out.append(f"| r{i} | " + " | ".join(str(int(c)) for c in row)
+                   + f" | {d.k} | {lam} | {md_escape(', '.join(d.task.decoupled)) or '—'} | {cert} |")
+    out.append("")
+    out.append("Detected: " + ", ".join(f"{md_escape(f)} {'yes' if ok else 'no'}"
+                                        for f, ok in bank.detectable.items()) + ".")
+    if len(faults) > 1:
+        out.append("")
+        out.append("Isolated pairs (both detected, columns differ): " + ", ".join(
+            f"{md_escape(a)}/{md_escape(b)} {'yes' if ok else 'no'}" for (a, b), ok in bank.isolable)
+            + ".")
+    out += ["", f"**Choice**: {md_escape(bank.choice)}.", ""]
+    if bank.refused:
+        out += ["Rows tried and not achievable:", ""]
+        out += [f"- {md_escape(r)}: {md_escape(why)}" for r, why in bank.refused]
+        out.append("")
+    if observer is not None:
+        out += [f"**The bank as one observer** ({md_escape(observer.kind)}, {observer.time} time;"
+                " the state $x^{*(i)}$ belongs to residual generator i):", "",
+                latex_block(observer_equations_latex(observer)), ""]
     return "\n".join(out)
 
 

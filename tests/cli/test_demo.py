@@ -3,6 +3,7 @@
 the checks are on what it wrote (no wall-clock assertions)."""
 from __future__ import annotations
 
+import dataclasses
 import io
 import json
 import re
@@ -36,7 +37,13 @@ def test_demo_succeeds_and_reports_progress(demo_run):
         assert f"[{i:2d}/{n}]" in log
     assert "certificate PASSED" in log and "FAILED" not in log
     assert re.search(r"^total \d+\.\d s", log, re.M), log[-500:]
-    assert log.count("[figure]") == len(demo.FIGURES)
+    assert log.count("[figure]") == len(demo.FIGURES) + 1  # + the residual bank's
+    # the diagnosability steps (issue 12) report their progress like the designs
+    assert "[diagnosability 1/2] Analysis of three_tank_faults" in log
+    assert "f3 is undetectable with rho decoupled" in log
+    assert "[diagnosability 2/2] Isolating residual bank for three_tank_isolation" in log
+    assert "generalised observer scheme: 3 residuals, structure matrix 011, 101, 110" in log
+    assert re.search(r"simulate \d+ ms \(.*\): three_tank_isolation \(2001 steps\)", log)
 
 
 @pytest.mark.slow  # the whole demo run, ~10 s
@@ -59,7 +66,7 @@ def test_report_references_existing_pngs(demo_run):
         assert p.is_file() and p.stat().st_size > 10_000, r
         assert p.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     written = {p.name for p in (out / "figures").glob("*.png")}
-    assert written == {name for name, *_ in demo.FIGURES}
+    assert written == {name for name, *_ in demo.FIGURES} | {demo.BANK_FIGURE}
     assert {r.split("/")[1] for r in refs} == written
     # the papers' figures are all there
     for name in ("000_fig1", "000_fig2", "000_fig3", "000_fig4", "002_fig2", "002_fig3", "001_fig2"):
@@ -102,8 +109,56 @@ def test_report_has_latex_conditions_and_timings(demo_run):
     assert report.count("**Timings**: design") == len(demo.CASES)
     for case in demo.CASES:
         assert f'<a id="{case.key}"></a>' in report
-    # the full text of every design is kept
-    assert report.count("<summary>Full text output") == len(demo.CASES)
+    # the full text of every design is kept (+ the diagnosability analysis and the bank)
+    assert report.count("<summary>Full text output") == len(demo.CASES) + 2
+
+
+@pytest.mark.slow  # the whole demo run, ~10 s
+def test_report_has_the_diagnosability_section(demo_run):
+    """Issue 12 items 5 and 7: the analysis of three_tank_faults as tables, and the
+    isolating residual bank of three_tank_isolation with its structure matrix, its
+    observer, its simulation and figure, and both exported as JSON."""
+    rc, out, log, _ = demo_run
+    report = (out / "report.md").read_text(encoding="utf-8")
+    assert "- [diagnosability](#diagnosability) (issue 12)" in report
+    section = report.split('<a id="diagnosability"></a>\n## Diagnosability')[1]
+    analysis, bank = section.split("### Isolating residual bank for `three_tank_isolation`")
+    # (a) the analysis: detectability with minimal orders, isolability, structure matrix,
+    # reasons and suggestions, as Markdown tables
+    assert "### Analysis of `three_tank_faults`" in analysis
+    assert "observer-cad analyze models/three_tank_faults.py" in analysis
+    assert "| fault | detectable | minimal order k | reason |" in analysis
+    assert "| f1 | ✅ yes | 2 | — |" in analysis and "| f2 | ✅ yes | 2 | — |" in analysis
+    assert ("| f3 | ➖ no | — | f3 is undetectable with rho decoupled: D(f3) is a multiple of"
+            " the column of rho") in analysis
+    assert "| f1 / f2 | ➖ no | no | no | f1 cannot be isolated from f2" in analysis
+    assert "| f1 / f3 | ➖ no | yes (k = 2) | no |" in analysis
+    assert "| residual | f1 | f2 | f3 | decoupled |" in analysis
+    assert "| r1 | 1 | 1 | 0 | f3 |" in analysis
+    assert "| isolate f1 from f2 | x1 | 1 |" in analysis
+    assert "- detect f3: no single extra measurement" in analysis
+    # (b) the bank: its structure matrix (generalised observer scheme), certified residuals
+    assert "observer-cad design models/three_tank_isolation.py --observer diagnostic --isolate" in bank
+    assert "| residual | f1 | f2 | f3 | k | λ | decoupled from | certificate |" in bank
+    for i, row in enumerate(("0 | 1 | 1", "1 | 0 | 1", "1 | 1 | 0"), 1):
+        assert f"| r{i} | {row} | 1 | $-1$ | rho, f{i} | passed (exact) |" in bank
+    assert "3 of 3 pairs isolable" in bank
+    assert "f1/f2 yes, f1/f3 yes, f2/f3 yes" in bank
+    assert r"r_{1} &= x^{*(1)}_{1} + y_{2} - y_{3}" in bank  # the bank as one observer
+    # simulated with a step fault in f2: only the residuals of f2's column (1, 0, 1) move
+    assert f"](figures/{demo.BANK_FIGURE})" in bank
+    assert "f2's column of the structure matrix is (1, 0, 1): r1, r3 move" in bank
+    assert "r2 stays at rounding level" in bank and "as the structure matrix predicts" in bank
+    # exports
+    data = json.loads((out / "designs" / demo.BANK_JSON).read_text(encoding="utf-8"))
+    assert data["structure_matrix"] == [[0, 1, 1], [1, 0, 1], [1, 1, 0]]
+    assert data["scheme"] == "generalised observer scheme"
+    assert all(d["certificate"]["passed"] for d in data["designs"])
+    data = json.loads((out / "designs" / demo.ANALYSIS_JSON).read_text(encoding="utf-8"))
+    assert data["detectable"] == {"f1": True, "f2": True, "f3": False}
+    assert data["min_order"] == {"f1": 2, "f2": 2, "f3": None}
+    # both example models are shown with the others
+    assert "### Model `three_tank_faults`" in report and "### Model `three_tank_isolation`" in report
 
 
 def test_fallback_without_a_compiler(models_dir, tmp_path, monkeypatch):
@@ -121,6 +176,27 @@ def test_fallback_without_a_compiler(models_dir, tmp_path, monkeypatch):
     assert "reference simulator (numpy)" in report
     assert "figures/drive_residual.png" in report
     assert "skipped" in log  # figures whose designs were not run are skipped, not failed
+    # the residual bank falls back too
+    assert f"figures/{demo.BANK_FIGURE}" in report
+    assert "Scenario: `models/scenarios/three_tank_isolation.json`. Simulated with:" \
+        " reference simulator (numpy)." in report
+
+
+def test_a_failing_diagnosability_step_is_reported(models_dir, tmp_path, monkeypatch):
+    """A broken diagnosability example fails the demo (exit 1) with one line naming the
+    step, and the rest of the report is still written."""
+    monkeypatch.setattr(demo, "CASES", tuple(c for c in demo.CASES if c.key == "drive_diag"))
+    monkeypatch.setattr(demo, "DIAGNOSABILITY", dataclasses.replace(
+        demo.DIAGNOSABILITY, bank_model="no_such_model.py"))
+    buf = io.StringIO()
+    assert demo.run_demo(models_dir, tmp_path, compile=False, stream=buf) == 1
+    log = buf.getvalue()
+    assert "[diagnosability 1/2]" in log
+    assert re.search(r"FAILED: residual bank: .*no_such_model", log), log[-800:]
+    assert f"[figure] {demo.BANK_FIGURE}: skipped" in log
+    assert "FAILED: diagnosability" in log
+    report = (tmp_path / "report.md").read_text(encoding="utf-8")
+    assert "### Analysis of `three_tank_faults`" in report and "**FAILED** (residual bank:" in report
 
 
 def test_no_compile_option(models_dir, tmp_path, monkeypatch):
