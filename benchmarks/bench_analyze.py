@@ -24,7 +24,6 @@ import os
 import platform
 import statistics
 import sys
-import tempfile
 import time
 from pathlib import Path
 
@@ -36,6 +35,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 from observer_cad import PlantModel  # noqa: E402
 from observer_cad.model import random_matrices  # noqa: E402
 from observer_cad.synthesis import analyze  # noqa: E402
+from readme_section import write_section
 
 README = Path(__file__).resolve().parent / "README.md"
 BEGIN = "<!-- BEGIN ANALYSIS RESULTS (bench_analyze.py --write) -->"
@@ -187,21 +187,7 @@ def run(runs: int, l: int, p: int, seed: int) -> str:  # noqa: E741
 
 
 def write_readme(table: str) -> None:
-    text = README.read_text() if README.exists() else ""
-    if BEGIN not in text or END not in text:
-        raise SystemExit(f"{README}: the markers {BEGIN!r} and {END!r} are missing")
-    before, rest = text.split(BEGIN, 1)
-    _, after = rest.split(END, 1)
-    new = before + BEGIN + "\n" + table + "\n" + END + after
-    fd, tmp = tempfile.mkstemp(dir=README.parent, prefix=".README.", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "w") as fh:
-            fh.write(new)
-        os.replace(tmp, README)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
+    write_section(README, BEGIN, END, table)
 
 
 def main(argv=None) -> int:

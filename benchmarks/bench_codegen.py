@@ -5,7 +5,7 @@
     python3 benchmarks/bench_codegen.py --write    # ... and update benchmarks/README.md
 
 Two cases, each the joint step of plant + observer exactly as the reference simulator
-(observer_cad.simulate) runs them (``joint_step``: s = [x; xi], signals v held, the
+(observer_cad.simulation.simulate) runs them (``joint_step``: s = [x; xi], signals v held, the
 observer reading y = h(x, w)):
 
 * the electric drive (discrete) with the unknown-input estimator of d
@@ -13,7 +13,7 @@ observer reading y = h(x, w)):
 * the nonlinear three-tank (continuous, RK4) with the interval observer for x1
   (``build_observer(model, design(model, observer='interval', estimate='x1'))``).
 
-If a builder fails (observer_cad.uio / observer_cad.interval not importable or not
+If a builder fails (observer_cad.observers not importable or not
 working) the case falls back to the diagnostic observer / the virtual sensor and the
 table says so.
 
@@ -31,7 +31,7 @@ runs once, one after the other, so they share the machine's state):
   (c) interpreted casadi step called per step: via ``Function.buffer()``, numpy in/out
   (d) numpy     a plain numpy per-step loop: the joint equations lambdified (numpy)
                 once, then per step one call (discrete) or four RK4 stages on numpy
-                arrays; and the reference simulator itself (observer_cad.simulate, the
+                arrays; and the reference simulator itself (observer_cad.simulation.simulate, the
                 same kind of loop, its set-up -- lambdify, signal generation -- timed)
   (e) dlsim     ``scipy.signal.dlsim`` on the joint linear state update (electric drive
                 only: plant and estimator states are linear/affine) plus the output map
@@ -75,11 +75,11 @@ import sympy as sp  # noqa: E402
 
 from observer_cad.codegen import CompiledSimulator, compile_function
 from observer_cad.codegen import compile_source
-from observer_cad.reporting import atomic_write_text
 from observer_cad.model import load_model
 from observer_cad.observers import output_symbols
 from observer_cad.observers import build_observer
 from observer_cad.simulation import scenario_from_dict, simulate
+from readme_section import write_section
 from observer_cad.synthesis import design
 
 README = Path(__file__).resolve().parent / "README.md"
@@ -251,7 +251,7 @@ ROUTES = [
     ("i_buffer", "(c) interpreted casadi step per step, Function.buffer()", "slow"),
     ("i_numpy", "(c) interpreted casadi step per step, numpy in/out", "slow"),
     ("numpy", "(d) plain numpy per-step loop (lambdified equations; setup not timed)", "slow"),
-    ("simulate", "(d) reference simulator `observer_cad.simulate` (numpy per-step loop;"
+    ("simulate", "(d) reference simulator `observer_cad.simulation.simulate` (numpy per-step loop;"
      " setup timed)", "slow"),
     ("dlsim", "(e) scipy.signal.dlsim + vectorised output map", "slow"),
 ]
@@ -657,12 +657,7 @@ def render(rows, a, load0, load1) -> str:
 
 
 def write_readme(table: str) -> None:
-    text = README.read_text()
-    if BEGIN not in text or END not in text:
-        raise SystemExit(f"{README}: the markers {BEGIN!r} and {END!r} are missing")
-    before, rest = text.split(BEGIN, 1)
-    _, after = rest.split(END, 1)
-    atomic_write_text(README, before + BEGIN + "\n" + table + "\n" + END + after)
+    write_section(README, BEGIN, END, table)
 
 
 def _load():

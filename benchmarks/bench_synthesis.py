@@ -10,7 +10,7 @@ Two numbers per design, medians of repeated runs:
 * cold — the first design call in a fresh Python process, after the imports and the
   model are loaded (what one ``observer-cad design`` invocation pays for the design).
 
-The random system (n = 60, l = 8, one disturbance, ``observer_cad.randsys``, seed 0) is
+The random system (n = 60, l = 8, one disturbance, ``observer_cad.model.random_model``, seed 0) is
 timed in three parts: building the exact sympy PlantModel, extracting its structure
 (sympy), and the float synthesis proper (``design_canonical(..., method="float")`` given
 the structure); plus the plain call ``design_canonical(model, symbolic=False,
@@ -25,9 +25,9 @@ import platform
 import statistics
 import subprocess
 import sys
-import tempfile
 import time
 from pathlib import Path
+from readme_section import write_section
 
 ROOT = Path(__file__).resolve().parent.parent
 README = Path(__file__).resolve().parent / "README.md"
@@ -226,21 +226,7 @@ def run(repeats: int, cold_runs: int) -> str:
 
 
 def write_readme(table: str) -> None:
-    text = README.read_text() if README.exists() else ""
-    if BEGIN not in text or END not in text:
-        raise SystemExit(f"{README}: the markers {BEGIN!r} and {END!r} are missing")
-    before, rest = text.split(BEGIN, 1)
-    _, after = rest.split(END, 1)
-    new = before + BEGIN + "\n" + table + "\n" + END + after
-    fd, tmp = tempfile.mkstemp(dir=README.parent, prefix=".README.", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "w") as fh:
-            fh.write(new)
-        os.replace(tmp, README)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
+    write_section(README, BEGIN, END, table)
 
 
 def main(argv=None) -> int:
