@@ -131,7 +131,8 @@ def _exact(model: PlantModel, task: Task, faults, disturbances, estimate, form, 
                 raise UsageError("the Jordan unknown-input estimator takes one --lambda")
             lam = lambdas[0] if lambdas else default_eigenvalues(model.time, 1)[0]
             return design_jordan_unknown_input(model, task.targets[0], lam,
-                                               decouple=disturbances, symbolic=symbolic)
+                                               decouple=disturbances, symbolic=symbolic,
+                                               task=task)
         return design_canonical(model, unknown_input=task.targets[0], symbolic=symbolic,
                                 method=method, rtol=rtol, task=task)
     if kind == ObserverKind.SLIDING_MODE:
@@ -147,9 +148,11 @@ def _exact(model: PlantModel, task: Task, faults, disturbances, estimate, form, 
                              method=method, rtol=rtol, task=task)
     # virtual-sensor / interval
     if form == "canonical":
-        d = design_virtual_sensor_canonical(model, estimate=estimate, variant=variant,
-                                            eigenvalues=eigenvalues, decouple=disturbances,
-                                            symbolic=symbolic)
+        # an interval observer's canonical model is the decoupled virtual sensor's
+        d = design_virtual_sensor_canonical(
+            model, estimate=estimate, variant=variant, eigenvalues=eigenvalues,
+            decouple=disturbances, symbolic=symbolic,
+            task=task if kind == ObserverKind.VIRTUAL_SENSOR else None)
         if kind == ObserverKind.INTERVAL:
             if not d.matrices.diagonal:
                 raise InfeasibleDesignError(

@@ -581,7 +581,8 @@ def _report_conditions(observer, time, lams, mats, Phi, H, D, M, fault_syms, CA,
 
 
 def design_jordan_unknown_input(model: PlantModel, unknown_input: str, lam, *,
-                                decouple: Sequence[str] = (), symbolic: bool = False) -> Design:
+                                decouple: Sequence[str] = (), symbolic: bool = False,
+                                task: Task | None = None) -> Design:
     """The one-row λ-model x*(t+1) = λ x* + J* y + G* u + D* d, x* = R* y (seed 000 §8).
 
     Built by :func:`~observer_cad.jordan.design_jordan` (``observer="diagnostic"``) with
@@ -590,7 +591,7 @@ def design_jordan_unknown_input(model: PlantModel, unknown_input: str, lam, *,
     lies in the row space of H and is absorbed into J* (J*_λ = J*_0 − λ R*).
     """
     d = design_jordan(model, observer="diagnostic", faults=[unknown_input],
-                      decouple=decouple, lambdas=[lam], symbolic=symbolic)
+                      decouple=decouple, lambdas=[lam], symbolic=symbolic, task=task)
     if d.k != 1:
         raise UsageError(f"no one-row λ-model with x* = R* y for '{unknown_input}'"
                          f" (the Jordan design needs k = {d.k})")
