@@ -12,7 +12,7 @@ values (the truth the simulator uses; the observer never reads them) are this
 project's choice: θ1 = 1.5 + 0.025 t, θ2 = 2 − 0.03 t, V = (1, 2) (the scenarios run
 to t = 40, where θ2 = 0.8; the oscillator loses its stiffness near t = 67). gamma =
 1e22 suits dt = 0.02 and the input of scenarios/drem_example.json (Δ ≈ 1e-11, a
-product of six filtered signals; see observer_cad.drem.suggest_gamma).
+product of six filtered signals; see observer_cad.observers.suggest_gamma).
 
 Time enters through the clock state tau (tau' = 1, tau(0) = 0).
 """

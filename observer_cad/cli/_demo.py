@@ -25,12 +25,12 @@ Each design is printed with its conditions (short form; the full text goes to th
 report), compiled into one C trajectory function with the plant
 (:class:`~observer_cad.codegen.CompiledSimulator`; without a C compiler the reference
 simulator runs instead, and the demo says so), simulated, and plotted. Every write is
-atomic (figures via :func:`~observer_cad.plots.save_figure`, text via
-:func:`~observer_cad.csvout.atomic_write_text`).
+atomic (figures via :func:`~observer_cad.reporting.save_figure`, text via
+:func:`~observer_cad.reporting.atomic_write_text`).
 
 Output, under ``out_dir`` (default ``out``): ``report.md``, ``figures/*.png``,
 ``designs/<key>.json`` and ``designs/<key>.tex`` (the design exported as JSON and
-LaTeX, :mod:`observer_cad.interop`).
+LaTeX, :mod:`observer_cad.reporting`).
 """
 from __future__ import annotations
 
@@ -1185,7 +1185,7 @@ def _report(outcomes, figs, out_dir: Path, totals: dict, engine: _Engine, models
         notes = [md_escape(c.note)] if c.note else []
         notes.append(f"Scenarios: {scen}. Simulated with: {md_escape(o.engine)}.")
         notes.append(f"Exports: [JSON](designs/{c.key}.json), [LaTeX](designs/{c.key}.tex)"
-                     " (`observer_cad.interop`).")
+                     " (`observer_cad.reporting`).")
         sections.append(design_section(
             anchor=c.key, heading=c.heading, paper=c.paper, command=c.cli, model_name=o.model.name,
             design=o.design, observer=o.observer, timings=o.timings,

@@ -31,7 +31,7 @@ one warning line on stderr naming both.
 **Fingerprints (cache hits without translation).**  Computing ``KEY`` needs the C,
 i.e. the sympy → casadi translation and casadi's code generation (10–30 ms).  Callers
 that start from sympy (:func:`compile_observer_step`, :func:`compile_plant_step`,
-:class:`~observer_cad.codegen.trajectory.CompiledSimulator`) also pass a cheap
+:class:`~observer_cad.codegen.CompiledSimulator`) also pass a cheap
 *pre-translation fingerprint*: the sha256 of a structural serialisation of the
 equations (:func:`structure`: node types, exact numbers, symbols with their
 assumptions — what ``sympy.srepr`` says, 30–50× faster), the options (step size,
@@ -581,7 +581,7 @@ def compile_function(f, *, cache=None, cc=None, flags=FLAGS, identity=None,
 def compile_observer_step(observer, *, h: float | None = None, name: str | None = None,
                           cse: bool = False, discretisation: str = "rk4", cache=None, cc=None,
                           flags=FLAGS) -> CompiledFunction:
-    """:func:`~observer_cad.codegen.translate.observer_step`, compiled; a second call for
+    """:func:`~observer_cad.codegen.observer_step`, compiled; a second call for
     the same observer and options is a fingerprint hit (no translation, no C)."""
     from ._translate import observer_identity, observer_step, observer_step_name
     ident = observer_identity(observer, h=h, name=name, cse=cse, discretisation=discretisation)
@@ -594,7 +594,7 @@ def compile_observer_step(observer, *, h: float | None = None, name: str | None 
 def compile_plant_step(model, *, h: float | None = None, name: str | None = None,
                        substitute_parameters: bool = False, cache=None, cc=None,
                        flags=FLAGS) -> CompiledFunction:
-    """:func:`~observer_cad.codegen.translate.plant_step`, compiled (fingerprint-cached)."""
+    """:func:`~observer_cad.codegen.plant_step`, compiled (fingerprint-cached)."""
     from ._translate import plant_identity, plant_step, plant_step_name
     ident = plant_identity(model, h=h, name=name, substitute_parameters=substitute_parameters)
     return compile_function(

@@ -1,6 +1,6 @@
 """Standalone C export of an observer: ``NAME.c``, ``NAME.h`` and ``NAME_example.c``.
 
-    from observer_cad.codegen.export import export_observer
+    from observer_cad.codegen import export_observer
     paths = export_observer(obs, "out", dt=0.01)     # [out/NAME.c, out/NAME.h, out/NAME_example.c]
 
     cc -std=c99 -Wall -Wextra -Werror NAME.c NAME_example.c -lm -o NAME_example
@@ -188,7 +188,7 @@ def export_sources(observer: Observer, *, name: str | None = None, dt: float | N
                    discretisation: str = "rk4") -> ExportedSources:
     """The text of the three files (nothing written); see :func:`export_observer`."""
     if not isinstance(observer, Observer):
-        raise UsageError("export_observer needs an Observer (observer_cad.pipeline.build_observer)")
+        raise UsageError("export_observer needs an Observer (observer_cad.observers.build_observer)")
     if name is None:
         name = re.sub(r"[^0-9A-Za-z_]", "_", observer.name) or "observer"
         if name[0].isdigit():
@@ -250,7 +250,7 @@ def export_sources(observer: Observer, *, name: str | None = None, dt: float | N
             " does not use",
             " * (-Wunused-parameter under -Wextra). */",
             f'#include "{name}.h"', "", body.rstrip(), "",
-            "/* ---- added by observer_cad.codegen.export ---- */",
+            "/* ---- added by observer_cad.codegen ---- */",
             _names_array(f"{name}_x_names", xs),
             _names_array(f"{name}_y_names", [str(s) for s in ys]),
             _names_array(f"{name}_u_names", [str(s) for s in us]),
@@ -439,7 +439,7 @@ def export_observer(observer: Observer, out_dir, *, name: str | None = None,
     others are 0 (stated in the header).  ``discretisation``: ``"rk4"`` (default) or
     ``"zoh"``, the exact zero-order-hold step of an observer affine in its states
     (continuous time, ``dt`` required; see
-    :func:`~observer_cad.codegen.translate.zoh_matrices`).
+    :func:`~observer_cad.codegen.zoh_matrices`).
     """
     src = export_sources(observer, name=name, dt=dt, initial=initial,
                          discretisation=discretisation)

@@ -25,10 +25,10 @@ argument order and meaning; :func:`describe` gives the same text):
   current state.
 * :func:`joint_step` — ``NAME_sim_step(s, v, h) -> (s_next, y, out)``: plant and
   observer as one system, exactly as the reference simulator
-  (:func:`observer_cad.simulate.simulate`) integrates them: ``s = [x; ξ]``, signals
+  (:func:`observer_cad.simulation.simulate`) integrates them: ``s = [x; ξ]``, signals
   ``v`` held over the step, the observer reading ``y = h(x, w)`` *inside* the RK4
   stages.  Parameters are substituted by their values.  This is what the compiled
-  trajectory loop (:mod:`observer_cad.codegen.trajectory`) iterates.
+  trajectory loop (:mod:`observer_cad.codegen`) iterates.
 """
 from __future__ import annotations
 

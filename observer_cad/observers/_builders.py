@@ -1,7 +1,7 @@
 """From a design to a runnable observer: the dispatch by observer kind.
 
-:func:`build_observer` turns a certified :class:`~observer_cad.design.Design` into the
-single :class:`~observer_cad.observer.Observer` representation that simulation and code
+:func:`build_observer` turns a certified :class:`~observer_cad.synthesis.Design` into the
+single :class:`~observer_cad.observers.Observer` representation that simulation and code
 generation consume.
 """
 from __future__ import annotations
@@ -88,7 +88,7 @@ def bank_observer(model: PlantModel, bank: ResidualBank) -> Observer:
 
 def interval_observer(model: PlantModel, design: Design, **options) -> Observer:
     """Interval observer for z = M x (METHOD §3): see
-    :func:`observer_cad.interval.interval_observer_nonlinear`, which handles linear and
+    :func:`observer_cad.observers.interval_observer_nonlinear`, which handles linear and
     nonlinear, continuous and discrete designs, the faults' and disturbances' bounds
     through Φ [L D], the H_z sign split and the noise through Q y.
 
@@ -116,6 +116,10 @@ def build_observer(model: PlantModel, design: Design, **options) -> Observer:
         return design.observer
     if isinstance(design, ResidualBank):  # r1 … rm side by side
         return bank_observer(model, design)
+    if not isinstance(design, Design):
+        raise UsageError(f"build_observer takes a Design, not a {type(design).__name__}"
+                         " (a design's JSON comes back with Design.from_json(data, model)"
+                         " or read_design_json(path, model))")
     kind = design.observer
     if kind == "virtual-sensor":
         return virtual_sensor_observer(model, design)

@@ -113,7 +113,7 @@ observer); ``drem_observer(...) -> Observer`` (kind ``"drem"``, continuous; outp
 ``x1_hat … xN_hat``, ``theta1_hat``, ``theta1_d1_hat`` (θ1'), ``V1_hat``, …, ``<coef>_hat``
 for every unknown coefficient, ``Delta``, ``Delta2_integral``; with
 ``expose_regression`` also ``Y<a>`` and ``Phi<a>_<c>``), so
-:func:`observer_cad.simulate.simulate` runs it unchanged.
+:func:`observer_cad.simulation.simulate` runs it unchanged.
 
 References: seed 003 (Утверждения 1–3, eqs. (4)–(8)); METHOD §5; Aranovskiy et al.,
 IEEE TAC 62(7) 2017 (DREM).
@@ -890,7 +890,7 @@ class ExcitationReport:
 
 def excitation_report(result, observer: Observer, *, window: float = 5.0,
                       min_contraction: float = 1.0, t_from: float | None = None) -> ExcitationReport:
-    """Check Δ after a simulation (``result`` from :func:`observer_cad.simulate.simulate`).
+    """Check Δ after a simulation (``result`` from :func:`observer_cad.simulation.simulate`).
 
     The last chain error obeys ξ̃' = −γΔ²ξ̃: over a window it shrinks by
     exp(−γ ∫Δ² dt). Windows of length ``window`` are laid from ``t_from`` (default: one

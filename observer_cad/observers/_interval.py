@@ -28,7 +28,7 @@ domain: each nonlinear argument is clipped to its range over the domain (x1 − 
 becomes √max(x1 − x2, 0)), which leaves the plant's equations unchanged on the domain
 and makes the derivative of φ_j either φ_j' on its range or 0 — so the sign of
 ∂f_i/∂v = (F*, J*)_iv + Σ_j C*_ij ∂a_j/∂v · (range of φ_j' ∪ {0}) is decided by interval
-arithmetic (:func:`observer_cad.checks.derivative_range`). When a row is not
+arithmetic (:func:`observer_cad.synthesis.derivative_range`). When a row is not
 sign-definite jointly, the linear part and every φ_j term are bounded separately
 (needs φ_j monotone in its argument).
 

@@ -1,8 +1,8 @@
 """Unknown-input estimators of seed 000 (Zhirabok & Zuev 2024, §4-§8) as observers.
 
 Discrete time only (the paper's setting). The reduced model of a canonical design
-(:func:`~observer_cad.canonical.design_canonical`, METHOD §2a) or a one-row Jordan
-design (:func:`~observer_cad.jordan.design_jordan` with ``observer="diagnostic"``,
+(:func:`~observer_cad.synthesis.design_canonical`, METHOD §2a) or a one-row Jordan
+design (:func:`~observer_cad.synthesis.design_jordan` with ``observer="diagnostic"``,
 METHOD §2b),
 
     x*(t+1) = F* x* + J* y + G* u + C* Ψ*(x*, y, u) + D* d,     y* = x*_1 = R* y,
@@ -780,7 +780,7 @@ def vector_unknown_input_observer(model: PlantModel, names: Sequence[str] | None
     """One estimator per component of a vector unknown input (seed 000 Remark 7).
 
     Each component is designed decoupled from the other components (and from the model's
-    disturbances), with :func:`~observer_cad.canonical.design_canonical` (``form=
+    disturbances), with :func:`~observer_cad.synthesis.design_canonical` (``form=
     "canonical"``) or the one-row λ-model (``form="jordan"``, λ from ``lambdas[name]``,
     default 1/2); ``designs`` may supply them instead. ``g`` maps a component to its gains.
     Outputs ``<name>_hat`` for every component, each with its own delay.

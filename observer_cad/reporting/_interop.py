@@ -173,12 +173,22 @@ def write_design_json(design: Design, path) -> Path:
     return path
 
 
-def read_design_json(path) -> dict:
-    """The object :func:`write_design_json` wrote; one-line error for a missing or bad file."""
+def read_design_json(path, model=None):
+    """What :func:`write_design_json` wrote; one-line error for a missing or bad file.
+
+    With ``model`` (the :class:`PlantModel` the design is for) the result is the
+    :class:`Design` itself — parsed by the whitelist reader and re-certified
+    (:meth:`Design.from_json`), ready for ``build_observer(model, design)``; without it,
+    the JSON object (a dict)."""
     data = read_json_file(path, "design")
     if not isinstance(data, dict) or not isinstance(data.get("matrices"), dict):
         raise UsageError(f"{path}: not a design (no 'matrices')")
-    return data
+    if model is None:
+        return data
+    try:
+        return Design.from_json(data, model)
+    except UsageError as exc:
+        raise UsageError(f"{path}: {exc}") from None
 
 
 def matrices_from_json(data: dict) -> dict:

@@ -1,6 +1,6 @@
 """Markdown reports with LaTeX: designs, observers, conditions, timings and figures.
 
-Used by ``observer-cad demo`` (``out/report.md``) and by :mod:`observer_cad.interop`
+Used by ``observer-cad demo`` (``out/report.md``) and by :mod:`observer_cad.reporting`
 (LaTeX export of a design's matrices). Equations and matrices are rendered by
 :func:`sympy.latex` into ``$$ … $$`` blocks; the observer's symbols get their usual
 typography (``xs1`` → x*₁, ``xl1``/``xu1`` → lower/upper copies, ``d_hat`` → d̂,

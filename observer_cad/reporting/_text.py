@@ -135,7 +135,8 @@ def format_design(d: Design) -> str:
 def format_signature(signature, indent: str = "  ") -> str:
     """The "Fault signature" section: every declared fault, sensitive or decoupled, with
     Φ D_j, what the design does with it and the relations a sensitivity needs."""
-    out = ["Fault signature (every declared fault against the residual r; 1 = r moves)"]
+    out = ["Fault signature (every declared fault against the observer's reduced model:"
+           " 1 = Φ D_j reaches what the observer outputs)"]
     width = max(len(s.name) for s in signature)
     for s in signature:
         note = ""

@@ -32,7 +32,7 @@ Method
    fewer assumptions — and collect the assumptions: denominators, the nonzero factors
    of D*, the common factors of Φ's maximal minors, and the pivots that make smaller k
    impossible.
-6. Certify independently (:mod:`observer_cad.certificate`); a failure raises.
+6. Certify independently (:mod:`observer_cad.synthesis`); a failure raises.
 
 References: seed 000 (Zhirabok & Zuev 2024) §2-3, §7, §9; seed 001 §2.
 """

@@ -5,7 +5,7 @@ A :class:`Design` serialises with :meth:`Design.to_json` and comes back with
 :meth:`Design.from_json`, which parses every expression with a whitelist reader (data
 never executes) and re-certifies the matrices against the model before trusting them.
 Its :attr:`Design.request` records the options that, passed back to
-:func:`observer_cad.design`, reproduce it.
+:func:`observer_cad.synthesis`, reproduce it.
 """
 from __future__ import annotations
 
@@ -154,7 +154,7 @@ class DesignMatrices:
 
 @dataclasses.dataclass(frozen=True)
 class DesignRequest:
-    """The options of :func:`observer_cad.design` that reproduce a design, with every
+    """The options of :func:`observer_cad.synthesis` that reproduce a design, with every
     choice the synthesis made filled in (the λ and closed-loop eigenvalues it used, the
     method it took)."""
 
@@ -172,7 +172,7 @@ class DesignRequest:
     rtol: float | None = None
 
     def options(self) -> dict:
-        """Keyword arguments for :func:`observer_cad.design`."""
+        """Keyword arguments for :func:`observer_cad.synthesis`."""
         out = dataclasses.asdict(self)
         out["faults"] = list(self.faults)
         out["disturbances"] = list(self.disturbances)

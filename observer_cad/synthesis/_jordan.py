@@ -203,7 +203,7 @@ def design_jordan(model: PlantModel, *, observer: str, estimate=None,
     if M is not None:  # z already measured: say so rather than build a trivial observer
         X0 = solve_left(H, M)
         if X0 is not None:
-            raise UsageError(f"{where}: z = {estimate} is measured directly: z = "
+            raise UsageError(f"{where}: z = {task.estimate} is measured directly: z = "
                              f"{sp.expand((X0 * sp.Matrix(output_symbols(l)))[0, 0])}; no observer is needed")
 
     # Step 2: L0 (maximal rank, L0 L = 0) and the admissible λ
@@ -585,7 +585,7 @@ def design_jordan_unknown_input(model: PlantModel, unknown_input: str, lam, *,
                                 task: Task | None = None) -> Design:
     """The one-row λ-model x*(t+1) = λ x* + J* y + G* u + D* d, x* = R* y (seed 000 §8).
 
-    Built by :func:`~observer_cad.jordan.design_jordan` (``observer="diagnostic"``) with
+    Built by :func:`~observer_cad.synthesis.design_jordan` (``observer="diagnostic"``) with
     the single requested λ; the design must have k = 1 (Φ = R* H: x* measured).
     Note: such a row exists iff the canonical k = 1 model does, for every λ — λ R* H
     lies in the row space of H and is absorbed into J* (J*_λ = J*_0 − λ R*).

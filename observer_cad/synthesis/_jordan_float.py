@@ -1,6 +1,6 @@
 """Jordan-form synthesis in floating point (METHOD §2b), for large numeric linear models.
 
-The float counterpart of :mod:`observer_cad.jordan`. The admissible λ are those where the
+The float counterpart of :mod:`observer_cad.synthesis`. The admissible λ are those where the
 pencil
 
     P(λ) = A − λ B,    A = [L0 F; H],  B = [L0; 0]    (r × n)
@@ -23,7 +23,7 @@ tolerance; the evidence gives that ratio and the gap to the next singular value.
 The rows then come from the numerical left null space of P(λ) for each chosen λ, the task
 conditions (z = M x reachable; a residual seeing every fault) are decided by least
 squares / SVD with stated tolerances, and the design is certified on the original
-(exact) plant matrices with :func:`~observer_cad.certificate.certify_design` in float
+(exact) plant matrices with :func:`~observer_cad.synthesis.certify_design` in float
 mode, with a tolerance scaled to the sizes of the products it compares.
 """
 from __future__ import annotations
@@ -290,7 +290,7 @@ def design_jordan_float(model: PlantModel, *, observer: str, estimate=None,
                         task: Task | None = None, structure: Structure | None = None) -> Design:
     """Jordan-form design in floating point (numeric linear models).
 
-    Same semantics as :func:`observer_cad.jordan.design_jordan` for ``"virtual-sensor"``,
+    Same semantics as :func:`observer_cad.synthesis.design_jordan` for ``"virtual-sensor"``,
     ``"interval"`` and ``"diagnostic"``; parameters are replaced by their defaults;
     nonlinear terms raise :class:`UsageError`. ``rtol``: relative tolerance of the rank
     decisions on P(λ) (default :data:`DEFAULT_RTOL`). ``structure``: the structure of the

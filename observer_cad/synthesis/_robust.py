@@ -11,7 +11,7 @@ Canonical form (:func:`design_robust_canonical`)
 Without decoupling, a member v = (R*, −J*_1, …, −J*_k) of the left null space of
 W⁽ᵏ⁾ = [H Fᵏ; …; H] defines Φ row by row (Φ_1 = R* H, Φ_{i+1} = Φ_i F − J*_i H) with
 Φ F = F* Φ + J* H exactly (F* the shift). The block Toeplitz L⁽ᵏ⁾ of
-:func:`~observer_cad.canonical.krylov_blocks` satisfies
+:func:`~observer_cad.synthesis.krylov_blocks` satisfies
 
     v L⁽ᵏ⁾ = (Φ_1 L, Φ_2 L, …, Φ_k L),   so   ‖v L⁽ᵏ⁾‖ = ‖Φ L‖_F.
 
@@ -48,7 +48,7 @@ An exact design is not refused: every k < n is also checked for an exactly decou
 member meeting the same task (left null space of (W⁽ᵏ⁾ L⁽ᵏ⁾)); the condition
 "approximate: exact decoupling impossible for every k < n" then either holds, with the
 singular values around the cut at every k as evidence, or fails (not required) and
-names the k where the exact design (:func:`~observer_cad.canonical.design_canonical`)
+names the k where the exact design (:func:`~observer_cad.synthesis.design_canonical`)
 should be used instead. The design is reported as approximate either way. For
 nonlinear models C* = Φ C is reported with the argument-substitution condition of
 §2c evaluated, not enforced.
@@ -470,7 +470,7 @@ def robust_basis(model: PlantModel, *, unknown_input: str | None = None, estimat
 
     k is the minimal dimension whose null space of W⁽ᵏ⁾ (no decoupling) has a member
     meeting the task, N an orthonormal basis (rows) of that null space, L⁽ᵏ⁾ the block
-    Toeplitz decoupling matrix of :func:`~observer_cad.canonical.krylov_blocks`; the
+    Toeplitz decoupling matrix of :func:`~observer_cad.synthesis.krylov_blocks`; the
     robust member is v = w N with ‖w‖ = 1 minimising ‖w N L⁽ᵏ⁾‖ = ‖Φ L‖_F.
     """
     work, st, _, _, _, D, L, M = _prepare(model, unknown_input, estimate, decouple, False)

@@ -227,7 +227,7 @@ class GainBound:
                                  f"{t.formula} = {t.value:.6g}"
                                  + ("" if t.included else " (not in the bound)")
                                  + (f"; {t.note}" if t.note else ""),
-                                 "seed 002 §5–6; derived in observer_cad.sliding",
+                                 "seed 002 §5–6; derived in observer_cad.synthesis",
                                  required=False))
         incl = " + ".join(t.name for t in self.terms if t.included)
         out.append(Condition("sliding gain bound k1 > " + incl, k1 > self.bound,

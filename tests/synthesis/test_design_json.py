@@ -152,3 +152,20 @@ def test_drem_design_rebuilds_from_its_json(models_dir):
     data["gamma"] = "__import__('os')"
     with pytest.raises(UsageError):
         DremDesign.from_json(data, model, spec)
+
+
+def test_read_design_json_with_the_model_gives_a_buildable_design(designed, tmp_path):
+    from observer_cad.reporting import read_design_json, write_design_json
+    model, d = designed["unknown-input-canonical"]
+    path = write_design_json(d, tmp_path / "d.json")
+    back = read_design_json(path, model)
+    _assert_same_observer(build_observer(model, d), build_observer(model, back))
+    with pytest.raises(UsageError, match="build_observer takes a Design, not a dict"):
+        build_observer(model, read_design_json(path))
+
+
+def test_measured_estimate_names_z(capsys, models_dir):
+    from observer_cad.cli import main
+    assert main(["design", str(models_dir / "electric_drive.py"), "--observer", "interval",
+                 "--estimate", "x1"]) == 2
+    assert "z = x1 is measured directly: z = y1" in capsys.readouterr().err
