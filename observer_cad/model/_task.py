@@ -139,7 +139,7 @@ class Task:
                    estimate=est_text, M=M)
 
 
-def parse_estimate(model: PlantModel, expr) -> sp.Matrix:
+def parse_estimate(model: PlantModel, expr, *, what: str = "--estimate") -> sp.Matrix:
     """z = M x from an expression in the state names (``"x1"``, ``"x1 - x2"``)."""
     where = model.where
     if isinstance(expr, sp.MatrixBase):
@@ -154,27 +154,27 @@ def parse_estimate(model: PlantModel, expr) -> sp.Matrix:
     for e in exprs:
         if isinstance(e, str):  # text: the safe reader (never evaluated)
             try:
-                e = parse_expression(e, loc, where=f"{where}: --estimate")
+                e = parse_expression(e, loc, where=f"{where}: {what}")
             except ExpressionError as exc:
                 reason = exc.reason if exc.reason.startswith("not a valid expression") \
                     else f"not a valid expression: {exc.reason}"
-                raise ModelError(f"{where}: cannot parse --estimate {e!r}: {reason}") from None
+                raise ModelError(f"{where}: cannot parse {what} {e!r}: {reason}") from None
         elif not isinstance(e, sp.Basic):
-            raise ModelError(f"{where}: --estimate {e!r} must be one expression in the"
+            raise ModelError(f"{where}: {what} {e!r} must be one expression in the"
                              " states, e.g. x1 or 'x1 - x2'")
         if not isinstance(e, sp.Expr):
-            raise ModelError(f"{where}: --estimate {expr!r} must be one expression in the"
+            raise ModelError(f"{where}: {what} {expr!r} must be one expression in the"
                              " states, e.g. x1 or 'x1 - x2'")
         if e == 0:
-            raise ModelError(f"{where}: --estimate is identically zero")
+            raise ModelError(f"{where}: {what} is identically zero")
         extra = e.free_symbols - set(model.states) - set(model.parameters)
         if extra:
-            raise ModelError(f"{where}: --estimate {e} uses '{sorted(extra, key=str)[0]}',"
+            raise ModelError(f"{where}: {what} {e} uses '{sorted(extra, key=str)[0]}',"
                              " which is not a state of the model")
         row = [sp.diff(e, x) for x in model.states]
         if any(c.free_symbols & set(model.states) for c in row) or \
                 sp.expand(e - sum(c * x for c, x in zip(row, model.states))) != 0:
-            raise ModelError(f"{where}: --estimate {e} is not linear in the states")
+            raise ModelError(f"{where}: {what} {e} is not linear in the states")
         rows.append(row)
     return sp.Matrix(rows)
 

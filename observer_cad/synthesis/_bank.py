@@ -72,6 +72,9 @@ def parse_structure(text, faults: Sequence[str]) -> tuple:
         if not any(row):
             raise UsageError(f"--structure row {i} {item!r} is all zeros: a residual that sees"
                              " no fault detects nothing")
+        if row in rows:
+            raise UsageError(f"--structure row {i} {item!r} repeats row {rows.index(row) + 1}:"
+                             " a second residual with the same signature adds nothing")
         rows.append(row)
     return tuple(rows)
 

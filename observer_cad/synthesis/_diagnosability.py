@@ -816,10 +816,13 @@ def _candidate_rows(work: PlantModel, st: Structure, candidates):
         row = sp.Matrix([[1 if j == i else 0 for j in range(st.n)]])
         if exact_rank(sp.Matrix.vstack(H, row)).rank > rH:
             out.append((str(x), row))
+    seen = [row for _, row in out]
     for c in candidates or ():
-        M = parse_estimate(work, c)
+        M = parse_estimate(work, c, what="--candidate")
         for r in range(M.rows):
-            out.append((str(c), M[r, :]))
+            if M[r, :] not in seen:  # a candidate that is a state already listed: once
+                seen.append(M[r, :])
+                out.append((str(c), M[r, :]))
     return out
 
 

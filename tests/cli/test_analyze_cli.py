@@ -56,3 +56,13 @@ def test_analyze_errors_name_the_symbol(capsys, models_dir, argv, needle):
         assert code == 2 and needle in err
     else:
         assert code == 2 and needle in err and err.count("\n") == 1
+
+
+def test_candidate_errors_name_the_option_and_a_state_candidate_is_listed_once(capsys, models_dir):
+    from observer_cad.cli import main
+    path = str(models_dir / "three_tank_faults.py")
+    assert main(["analyze", path, "--candidate", "x1*x2"]) == 2
+    assert "--candidate x1*x2 is not linear" in capsys.readouterr().err
+    assert main(["analyze", path, "--candidate", "x1"]) == 0
+    out = capsys.readouterr().out
+    assert out.count("isolate f1 from f2: measure x1") == 1

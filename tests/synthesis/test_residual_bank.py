@@ -343,3 +343,9 @@ def test_example_model_three_tank_isolation(models_dir):
         assert np.max(np.abs(r[t < 10])) < 1e-9, f"r{i} moves before the fault"
         late = np.max(np.abs(r[t > 12]))
         assert (late > 0.1) if c else (late < 1e-9), (i, c, late)
+
+
+def test_repeated_structure_row_is_refused():
+    from observer_cad.synthesis import parse_structure
+    with pytest.raises(UsageError, match="repeats row 1"):
+        parse_structure("011,011", ["f1", "f2", "f3"])
