@@ -186,7 +186,13 @@ class Scenario:
         if time == "discrete":
             if self.steps is None:
                 raise UsageError(f"{where}: a discrete-time scenario needs 'steps'")
+            if self.t_end is not None or self.dt is not None:
+                raise UsageError(f"{where}: 't_end' and 'dt' do not apply to a discrete-time"
+                                 " model (its time is the step count 'steps'); remove them")
             return int(self.steps)
+        if self.steps is not None:
+            raise UsageError(f"{where}: 'steps' does not apply to a continuous-time model"
+                             " (give 't_end' and 'dt'); remove it")
         if self.t_end is None or self.dt is None:
             raise UsageError(f"{where}: a continuous-time scenario needs 't_end' and 'dt'")
         ratio = self.t_end / self.dt

@@ -134,3 +134,16 @@ def test_piecewise_signal_with_random_segment(models_dir):
     assert late.min() >= -0.5 and late.max() <= 0.5 and not np.allclose(late[0], late[1])
     again = simulate(m, None, sc, runs=3)
     assert np.array_equal(again["d"], r["d"])
+
+
+@pytest.mark.parametrize("time,keys,msg", [
+    ("continuous", {"t_end": 1, "dt": 0.1, "steps": 5}, "'steps' does not apply"),
+    ("discrete", {"steps": 5, "t_end": 3}, "do not apply to a discrete-time"),
+])
+def test_keys_that_do_not_apply_to_the_time_domain_are_refused(time, keys, msg):
+    """A scenario key the model's time domain ignores is an error, not silently dropped."""
+    from observer_cad import UsageError
+    from observer_cad.simulation import scenario_from_dict
+    sc = scenario_from_dict(dict(keys, signals={}), source="s.json")
+    with pytest.raises(UsageError, match=msg):
+        sc.size(time)
