@@ -20,8 +20,6 @@ compared with the exact ones (detectability, minimal orders, isolability, struct
 from __future__ import annotations
 
 import argparse
-import os
-import platform
 import statistics
 import sys
 import time
@@ -35,7 +33,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 from observer_cad import PlantModel  # noqa: E402
 from observer_cad.model import random_matrices  # noqa: E402
 from observer_cad.synthesis import analyze  # noqa: E402
-from readme_section import write_section
+from common import load as _load, machine as _machine, write_section
 
 README = Path(__file__).resolve().parent / "README.md"
 BEGIN = "<!-- BEGIN ANALYSIS RESULTS (bench_analyze.py --write) -->"
@@ -100,30 +98,6 @@ def measure(case, runs: int, l: int, p: int, seed: int) -> dict:  # noqa: E741
 
 
 # ---------------------------------------------------------------- machine
-def _machine() -> dict:
-    cpu = platform.processor() or "?"
-    try:
-        for line in Path("/proc/cpuinfo").read_text().splitlines():
-            if line.startswith("model name"):
-                cpu = line.split(":", 1)[1].strip()
-                break
-    except OSError:
-        pass
-    try:
-        nproc = len(os.sched_getaffinity(0))
-    except AttributeError:  # pragma: no cover - not Linux
-        nproc = os.cpu_count()
-    return {"nproc": nproc, "cpu": cpu, "python": platform.python_version(),
-            "sympy": sp.__version__, "numpy": np.__version__, "platform": platform.platform()}
-
-
-def _load() -> str:
-    try:
-        return " ".join(f"{x:.2f}" for x in os.getloadavg())
-    except OSError:  # pragma: no cover
-        return "?"
-
-
 # ---------------------------------------------------------------- report
 def _fmt(t: float) -> str:
     return f"{t * 1e3:.0f} ms" if t < 1 else f"{t:.2f} s"

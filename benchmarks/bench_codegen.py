@@ -79,7 +79,7 @@ from observer_cad.model import load_model
 from observer_cad.observers import output_symbols
 from observer_cad.observers import build_observer
 from observer_cad.simulation import scenario_from_dict, simulate
-from readme_section import write_section
+from common import cpu_name, load as _load, write_section
 from observer_cad.synthesis import design
 
 README = Path(__file__).resolve().parent / "README.md"
@@ -575,19 +575,10 @@ def _ok(flag):
     return "pass" if flag else "**FAIL**"
 
 
-def _machine():
-    try:
-        cpu = next(ln.split(":", 1)[1].strip() for ln in open("/proc/cpuinfo")
-                   if ln.startswith("model name"))
-    except (OSError, StopIteration):
-        cpu = platform.processor() or "?"
-    return cpu
-
-
 def render(rows, a, load0, load1) -> str:
     now = datetime.datetime.now().strftime("%Y-%m-%d %H:%M")
     lines = [f"Measured {now} by `python3 benchmarks/bench_codegen.py --write`: {os.cpu_count()}"
-             f" CPUs ({_machine()}), Python {platform.python_version()}, CasADi {ca.__version__},"
+             f" CPUs ({cpu_name()}), Python {platform.python_version()}, CasADi {ca.__version__},"
              f" numpy {np.__version__}, scipy {scipy.__version__}, gcc -O3."
              f" Load average (1, 5, 15 min) {load0} at the start, {load1} at the end.",
              "",
@@ -658,13 +649,6 @@ def render(rows, a, load0, load1) -> str:
 
 def write_readme(table: str) -> None:
     write_section(README, BEGIN, END, table)
-
-
-def _load():
-    try:
-        return " ".join(f"{v:.2f}" for v in os.getloadavg())
-    except OSError:
-        return "?"
 
 
 def main(argv=None):

@@ -20,14 +20,12 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
-import platform
 import statistics
 import subprocess
 import sys
 import time
 from pathlib import Path
-from readme_section import write_section
+from common import load as _load, machine as _machine, write_section
 
 ROOT = Path(__file__).resolve().parent.parent
 README = Path(__file__).resolve().parent / "README.md"
@@ -126,34 +124,6 @@ def _warm(fn, repeats: int) -> tuple:
 
 
 # ---------------------------------------------------------------- machine
-def _machine() -> dict:
-    import numpy
-    import sympy
-
-    cpu = platform.processor() or "?"
-    try:
-        for line in Path("/proc/cpuinfo").read_text().splitlines():
-            if line.startswith("model name"):
-                cpu = line.split(":", 1)[1].strip()
-                break
-    except OSError:
-        pass
-    try:
-        nproc = len(os.sched_getaffinity(0))
-    except AttributeError:  # pragma: no cover - not Linux
-        nproc = os.cpu_count()
-    return {"nproc": nproc, "cpu": cpu, "python": platform.python_version(),
-            "sympy": sympy.__version__, "numpy": numpy.__version__,
-            "platform": platform.platform()}
-
-
-def _load() -> str:
-    try:
-        return " ".join(f"{x:.2f}" for x in os.getloadavg())
-    except OSError:  # pragma: no cover
-        return "?"
-
-
 # ---------------------------------------------------------------- report
 def _fmt(t: float) -> str:
     return f"{t * 1e3:.0f} ms" if t < 10 else f"{t:.1f} s"
