@@ -515,9 +515,12 @@ def _design(model, observer, task, lambdas, rtol, structure=None):
                 f" has " + ", ".join(f"Φ D_{b} ≈ 0" for b in blind) + " (float path)",
                 tuple(tried))
     if chosen is None:
+        bound = (f"with fewer than n = {n} rows for λ in {_lam_set(searched)}"
+                 if not pools.narrow or len(lam_list) >= n - 1 else
+                 f"from the default λ {_lam_set(lam_list)} (at most {len(lam_list)} distinct"
+                 " λ; give more with lambdas= / --lambda)")
         raise InfeasibleDesignError(
-            f"{where}: no Jordan-form {observer} with fewer than n = {n} rows for λ in"
-            f" {_lam_set(searched)} (float path): " + "; ".join(tried),
+            f"{where}: no Jordan-form {observer} {bound} (float path): " + "; ".join(tried),
             tuple(tried))
     rows, extra = chosen
 
