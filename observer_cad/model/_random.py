@@ -248,7 +248,7 @@ def random_structure(n: int, l: int, p: int, *, seed: int, m: int = 1,  # noqa: 
     """``(model, structure)``: :func:`random_model` and its ``Structure``, built directly
     from the drawn matrices without ``extract_structure``.
 
-    Extraction re-derives the matrices from the sympy expressions (seconds at n = 60);
+    Extraction re-derives the matrices from the sympy expressions (~0.1 s at n = 240);
     for tests and benchmarks of the synthesis alone, pass this structure to
     ``design_canonical(model, ..., symbolic=True, structure=structure)`` (the model has
     no parameters, so "symbolic" changes nothing but lets the structure be reused).
