@@ -29,7 +29,7 @@ import sympy as sp
 from sympy.external.gmpy import GROUND_TYPES
 from sympy.polys.matrices import DomainMatrix
 
-__all__ = ["default_rtol", "rank_from_sv", "ExactRank", "FloatRank", "exact_rank", "left_null_space", "echelon_rows", "solve_left", "float_rank", "float_left_null_space", "nonzero_conditions", "denominator_conditions", "to_domain_matrix", "rational_rref", "as_rational", "from_rational", "RATIONAL_BACKEND"]
+__all__ = ["default_rtol", "rank_from_sv", "ExactRank", "FloatRank", "exact_rank", "left_null_space", "echelon_rows", "solve_left", "float_rank", "float_left_null_space", "nonzero_conditions", "denominator_conditions", "to_domain_matrix", "rational_rref", "left_null_echelon", "exact_rank_value", "as_rational", "from_rational", "RATIONAL_BACKEND"]
 
 #: Which code eliminates rational matrices: "flint" (``fmpq_mat.rref``, when sympy's ground
 #: types are flint: python-flint installed) or "sympy-CD" (``DomainMatrix.rref(method="CD")``).
@@ -314,6 +314,69 @@ def left_null_space(M, assumed=()):
         basis.append(sp.Matrix([[sp.cancel(K.to_sympy(e)) for e in v]]))
     R = sp.Matrix([[K.to_sympy(v) for v in row] for row in rows])
     return basis, ExactRank(len(pivots), pivots, conds, R)
+
+
+def left_null_echelon(M, assumed=()):
+    """The left null space {v : v M = 0} as its reduced row echelon basis (what
+    :func:`echelon_rows` of :func:`left_null_space` gives), and the rank of M.
+
+    Returns ``(members, ExactRank of M)``. For a rational M this is one elimination, not
+    two: eliminating Mᵀ with its columns in reverse order, the null vector of each free
+    column f has its 1 at f, zeros at the other free columns and entries only at pivot
+    columns right of f, which is the reduced echelon form of the null space (unique).
+    The ExactRank's pivots are then the pivot columns of that reversed elimination, as
+    indices of M's rows.
+    """
+    if isinstance(M, DomainMatrix):
+        dm = M.convert_to(sp.QQ)
+    else:
+        M = _matrix(M)
+        dm = _domain_matrix(M) if M.rows and M.cols else None
+    if dm is None or not dm.domain.is_QQ:
+        basis, rk = left_null_space(M, assumed)
+        return echelon_rows(basis), rk
+    m, nc = dm.shape
+    if nc == 0:
+        return [sp.Matrix([[1 if j == i else 0 for j in range(m)]]) for i in range(m)], \
+            ExactRank(0, (), frozenset(), sp.zeros(0, m))
+    rev = list(range(m - 1, -1, -1))
+    R, pivots = rational_rref(dm.extract(rev, list(range(nc))).transpose())
+    N = _null_rows(R, pivots, m)  # columns in reverse order
+    N = N.extract(list(range(N.shape[0] - 1, -1, -1)), rev)
+    members = [_to_matrix(N[i:i + 1, :]) for i in range(N.shape[0])]
+    return members, ExactRank(len(pivots), tuple(m - 1 - p for p in pivots), frozenset(),
+                              _to_matrix(R))
+
+
+def exact_rank_value(M) -> int:
+    """The exact rank alone (no conditions: for a matrix over QQ(parameters) it is the
+    generic rank, see :func:`exact_rank`).
+
+    A rational matrix whose integer numerator has full rank modulo the prime 2⁶¹ − 1 has
+    full rank over QQ (a minor nonzero mod p is nonzero): that certificate costs
+    milliseconds with FLINT's ``nmod_mat``; any other case is eliminated exactly.
+    """
+    dm = M.convert_to(sp.QQ) if isinstance(M, DomainMatrix) else None
+    if dm is None:
+        M = _matrix(M)
+        if M.rows == 0 or M.cols == 0:
+            return 0
+        dm = _domain_matrix(M)
+        if not dm.domain.is_QQ:
+            return exact_rank(M).rank
+    if 0 in dm.shape:
+        return 0
+    if RATIONAL_BACKEND == "flint":
+        import flint
+
+        num, _den = dm.to_dense().rep.rep.numer_denom()
+        if flint.nmod_mat(num, _PRIME).rank() == min(dm.shape):
+            return min(dm.shape)
+    return len(rational_rref(dm)[1])
+
+
+#: The prime of :func:`exact_rank_value`'s full-rank certificate (the Mersenne prime 2⁶¹ − 1).
+_PRIME = 2 ** 61 - 1
 
 
 def echelon_rows(vectors) -> list:

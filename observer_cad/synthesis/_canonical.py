@@ -55,7 +55,7 @@ from ._task import task_for
 from ..model import PlantModel, Task
 from ._nonlinear import substitute_arguments
 from ..model import Structure, extract_structure
-from ..numerics import as_rational, from_rational, default_rtol, denominator_conditions, echelon_rows, exact_rank, float_left_null_space, float_rank, left_null_space, nonzero_conditions
+from ..numerics import as_rational, from_rational, exact_rank_value, left_null_echelon, default_rtol, denominator_conditions, echelon_rows, exact_rank, float_left_null_space, float_rank, left_null_space, nonzero_conditions
 
 __all__ = ["design_canonical", "krylov_blocks", "member_to_phi",
            "FLOAT_AUTO_N"]
@@ -293,7 +293,7 @@ def _common_conditions(st, D, L, rank_fn):
 
 
 def _exact_rank_value(M) -> int:
-    return exact_rank(M).rank
+    return exact_rank_value(M)
 
 
 def _design_exact(model, st, task, target, dec, D, L, *, symbolic, single_row) -> Design:
@@ -318,15 +318,14 @@ def _design_exact(model, st, task, target, dec, D, L, *, symbolic, single_row) -
         else:
             W, Lk = krylov_blocks(F, H, L, k)
             M = sp.Matrix.hstack(W, Lk)
-        basis, rk = left_null_space(M)
+        members, rk = left_null_echelon(M)
         need = l * (k + 1)
         rank_txt = f"rank (W L) = {rk.rank}" + (
             f" (generic: {', '.join(sorted(map(str, rk.conditions)))})" if rk.conditions else "")
-        if not basis:
+        if not members:
             attempts.append(f"k={k}: rank condition (3.3) fails: {rank_txt} = l(k+1) = {need}")
             minimality |= rk.conditions
             continue
-        members = echelon_rows(basis)
         found, why = _choose_member(members, F, H, D, k, single_row, st)
         if found is None:
             attempts.append(
@@ -459,7 +458,7 @@ def _choose_member(members, F, H, D, k, single_row, st=None):
                 if idx is not None:
                     rejected.append(f"member {idx + 1} is not sensitive (Φ D = 0 in row {r + 1})")
                 continue
-            rk = exact_rank(Phi).rank
+            rk = exact_rank_value(Phi)
             if rk < k:
                 if idx is not None:
                     rejected.append(f"member {idx + 1} is degenerate (rank Φ = {rk} < {k})")
