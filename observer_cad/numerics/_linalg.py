@@ -29,7 +29,7 @@ import sympy as sp
 from sympy.external.gmpy import GROUND_TYPES
 from sympy.polys.matrices import DomainMatrix
 
-__all__ = ["default_rtol", "rank_from_sv", "ExactRank", "FloatRank", "exact_rank", "left_null_space", "echelon_rows", "solve_left", "float_rank", "float_left_null_space", "nonzero_conditions", "denominator_conditions", "to_domain_matrix", "rational_rref", "left_null_echelon", "exact_rank_value", "as_rational", "from_rational", "RATIONAL_BACKEND"]
+__all__ = ["default_rtol", "rank_from_sv", "ExactRank", "FloatRank", "exact_rank", "left_null_space", "echelon_rows", "solve_left", "float_rank", "float_left_null_space", "nonzero_conditions", "denominator_conditions", "to_domain_matrix", "rational_rref", "rational_left_null", "left_null_echelon", "exact_rank_value", "as_rational", "from_rational", "RATIONAL_BACKEND"]
 
 #: Which code eliminates rational matrices: "flint" (``fmpq_mat.rref``, when sympy's ground
 #: types are flint: python-flint installed) or "sympy-CD" (``DomainMatrix.rref(method="CD")``).
@@ -339,13 +339,32 @@ def left_null_echelon(M, assumed=()):
     if nc == 0:
         return [sp.Matrix([[1 if j == i else 0 for j in range(m)]]) for i in range(m)], \
             ExactRank(0, (), frozenset(), sp.zeros(0, m))
-    rev = list(range(m - 1, -1, -1))
-    R, pivots = rational_rref(dm.extract(rev, list(range(nc))).transpose())
-    N = _null_rows(R, pivots, m)  # columns in reverse order
-    N = N.extract(list(range(N.shape[0] - 1, -1, -1)), rev)
+    N, R, pivots = _left_null_echelon(dm)
     members = [_to_matrix(N[i:i + 1, :]) for i in range(N.shape[0])]
     return members, ExactRank(len(pivots), tuple(m - 1 - p for p in pivots), frozenset(),
                               _to_matrix(R))
+
+
+def _left_null_echelon(dm: DomainMatrix):
+    """(N, R, pivots): N the echelon left null basis of dm (over QQ, at least one column),
+    R and pivots the reversed elimination of dmᵀ."""
+    m, nc = dm.shape
+    rev = list(range(m - 1, -1, -1))
+    R, pivots = rational_rref(dm.extract(rev, list(range(nc))).transpose())
+    N = _null_rows(R, pivots, m)  # columns in reverse order
+    return N.extract(list(range(N.shape[0] - 1, -1, -1)), rev), R, pivots
+
+
+def rational_left_null(M: DomainMatrix) -> DomainMatrix:
+    """The reduced echelon basis (rows, over QQ) of {v : v M = 0} for a DomainMatrix over
+    ZZ or QQ; see :func:`left_null_echelon`."""
+    dm = M.convert_to(sp.QQ)
+    m, nc = dm.shape
+    if nc == 0:
+        return DomainMatrix.eye(m, sp.QQ)
+    if m == 0:
+        return DomainMatrix.zeros((0, 0), sp.QQ)
+    return _left_null_echelon(dm)[0]
 
 
 def exact_rank_value(M) -> int:

@@ -81,7 +81,8 @@ from sympy.polys.matrices import DomainMatrix
 from ..errors import ModelError, UsageError
 from ..model import PlantModel, Structure, extract_structure, parse_estimate
 from ..numerics import (SingleThreadBLAS, echelon_rows, exact_rank, exact_rank_value,
-                        left_null_echelon, left_null_space, np_exact, nonzero_conditions)
+                        left_null_echelon, left_null_space, np_exact, nonzero_conditions,
+                        rational_left_null, rational_rref)
 from ._canonical import FLOAT_AUTO_N, krylov_blocks, member_to_phi
 from ._nonlinear import substitute_arguments
 from ._reduced import observer_symbols, output_symbols
@@ -358,19 +359,25 @@ class _Rational:
             return A
         return A.hstack(B)
 
+    def _integer_rows(self, Q):
+        """Rows over QQ scaled to primitive integer rows (same row space)."""
+        if Q.shape[0] == 0:
+            return DomainMatrix.zeros(Q.shape, ZZ)
+        return self._primitive_rows(Q.clear_denoms_rowwise(convert=True)[1])
+
     def basis(self, M, conds):
         if M.shape[0] == 0:
             return M
-        R, _den, piv = M.rref_den()
-        return self._primitive_rows(R[:len(piv), :])
+        R, piv = rational_rref(M)  # FLINT when available
+        return self._integer_rows(R[:len(piv), :])
 
     def left_null(self, M, conds):
         if M.shape[0] == 0:
             return self.zeros(0, 0)
         if M.shape[1] == 0:
             return self.eye(M.shape[0])
-        N = M.transpose().nullspace()
-        return self._primitive_rows(N) if N.shape[0] else self.zeros(0, M.shape[0])
+        N = rational_left_null(M)
+        return self._integer_rows(N) if N.shape[0] else self.zeros(0, M.shape[0])
 
     def sees(self, Sigma, d, conds) -> bool:
         if Sigma.shape[0] == 0:
