@@ -38,13 +38,13 @@ import re
 
 import sympy as sp
 
-from ..errors import UsageError
-from ..model import PlantModel
+from ..errors import ExpressionError, UsageError
+from ..model import PlantModel, parse_number
 from ..synthesis import Condition, argument_range, format_number
 from ._observer import Observer, output_symbols
 
-__all__ = ["ErrorSystem", "Threshold", "guaranteed_threshold", "constant_threshold",
-           "residual_outputs", "min_detectable_fault", "DEFAULT_MARGIN"]
+__all__ = ["ErrorSystem", "Threshold", "ThresholdSpec", "guaranteed_threshold",
+           "constant_threshold", "residual_outputs", "min_detectable_fault", "DEFAULT_MARGIN"]
 
 #: Absolute allowance added to both ends of a guaranteed band for floating-point roundoff of
 #: the simulated or compiled residual (the band of a noise-free, exactly decoupled residual is
@@ -114,6 +114,41 @@ class Threshold:
                     f" margin {self.margin:g})")
         vals = ", ".join(f"|{r}| ≤ {v:g}" for r, v in zip(self.residuals, self.values))
         return f"{self.kind} threshold: {vals}" + (f" ({self.description})" if self.description else "")
+
+
+@dataclasses.dataclass(frozen=True)
+class ThresholdSpec:
+    """Which threshold to put on the residuals: ``kind`` ``"guaranteed"``, ``"quantile"``
+    (``rate``: the target false-alarm rate per sample) or ``"constant"`` (``value``)."""
+
+    kind: str
+    rate: float | None = None
+    value: float | None = None
+
+    @classmethod
+    def parse(cls, text: str, where: str = "--threshold") -> "ThresholdSpec":
+        """``guaranteed``, ``quantile:RATE`` or a positive number (read by the safe number
+        reader, never evaluated)."""
+        t = str(text).strip()
+        if t == "guaranteed":
+            return cls("guaranteed")
+        if t.startswith("quantile:"):
+            try:
+                rate = float(parse_number(t[len("quantile:"):], where=where))
+            except ExpressionError:
+                raise UsageError(f"{where} {text}: use quantile:RATE with a rate in (0, 1),"
+                                 " e.g. quantile:0.001") from None
+            if not (0 < rate < 1):
+                raise UsageError(f"{where} {text}: the false-alarm rate must lie in (0, 1)")
+            return cls("quantile", rate=rate)
+        try:
+            v = float(parse_number(t, where=where))
+        except ExpressionError:
+            raise UsageError(f"{where} {text}: use guaranteed, quantile:RATE or a positive"
+                             " number") from None
+        if not (v > 0) or v == float("inf"):
+            raise UsageError(f"{where} {text}: a constant threshold must be a positive finite number")
+        return cls("constant", value=v)
 
 
 # --------------------------------------------------------------------------- exact intervals

@@ -15,10 +15,11 @@ import numpy as np
 
 from ..errors import UsageError
 from ..model import PlantModel
-from ..observers import Observer, constant_threshold, residual_outputs
+from ..observers import (Observer, ThresholdSpec, constant_threshold, guaranteed_threshold,
+                         residual_outputs)
 from ._simulate import Scenario, simulate
 
-__all__ = ["quantile_threshold", "fault_free"]
+__all__ = ["quantile_threshold", "fault_free", "apply_threshold"]
 
 
 def fault_free(model: PlantModel, scenario: Scenario) -> Scenario:
@@ -63,3 +64,18 @@ def quantile_threshold(model: PlantModel, observer: Observer, scenario: Scenario
         observer, taus, kind="quantile",
         description=f"(1 − {rate:g}) quantile of |r| over {runs} fault-free runs of"
                     f" {sc.source or 'the scenario'} (seed {sc.seed})")
+
+
+def apply_threshold(model: PlantModel, observer: Observer, spec: ThresholdSpec, *,
+                    scenario: Scenario | None = None, initial_error=0, runs: int = 200) -> Observer:
+    """The observer with the bands ``spec`` asks for (a quantile needs the ``scenario`` whose
+    fault-free realisations it is estimated on)."""
+    if not isinstance(spec, ThresholdSpec):
+        spec = ThresholdSpec.parse(spec)
+    if spec.kind == "guaranteed":
+        return guaranteed_threshold(model, observer, initial_error=initial_error)
+    if spec.kind == "quantile":
+        if scenario is None:
+            raise UsageError("a quantile threshold is estimated on a scenario: give one")
+        return quantile_threshold(model, observer, scenario, rate=spec.rate, runs=runs)
+    return constant_threshold(observer, spec.value)
