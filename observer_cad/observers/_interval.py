@@ -32,6 +32,19 @@ arithmetic (:func:`observer_cad.synthesis.derivative_range`). When a row is not
 sign-definite jointly, the linear part and every φ_j term are bounded separately
 (needs φ_j monotone in its argument).
 
+When that fails too (a Lipschitz but non-monotone φ_j: sin x*, exp(−|x1 − x2|)), the row
+is bounded by the γ-shift (``decomposition="auto"``, the default): for each argument v
+with ∂f_i/∂v ∈ [a, b], a < 0 < b, f_i + γ v (γ = −a) is nondecreasing, or f_i − γ v
+(γ = b) nonincreasing, so
+
+    f_i(…, v̲, …) − γ (v̄ − v̲) ≤ f_i ≤ f_i(…, v̄, …) + γ (v̄ − v̲)
+
+— a mixed-monotone decomposition function from interval Jacobian bounds. The ranges must
+be proven (not sampled) and finite. The width w = x̄* − x̲* then obeys w' ≤ M w + c
+(discrete: w(t+1) ≤ M w(t) + c), and the observer is built only when M is provably stable
+(α(M) < 0, resp. ρ(M) < 1; exact M-matrix test); otherwise InfeasibleDesignError names
+every γ, M and α(M) / ρ(M). Both are listed as required conditions (METHOD §3).
+
 Outputs: z̲ = H_z⁺ x̲* − H_z⁻ x̄* + Q y − max(Q W w), z̄ likewise.
 
 :func:`full_state_intervals`: with H = (H0 0) up to a permutation of the states, the
