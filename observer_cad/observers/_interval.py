@@ -543,7 +543,10 @@ def _comparison_stability(M, time):
         return False, float("inf"), "M has unbounded entries (a derivative is unbounded)"
     Z = -M if time == "continuous" else sp.eye(k) - M
     minors = [sp.simplify(Z[:r, :r].det()) for r in range(1, k + 1)]
-    stable = all(bool(m > 0) for m in minors)
+    try:
+        stable = all(bool(m > 0) for m in minors)
+    except TypeError:  # a sign sympy cannot decide: not proven
+        stable = False
     ev = np.linalg.eigvals(np.array(M.evalf(), dtype=float))
     fig = float(np.max(ev.real)) if time == "continuous" else float(np.max(np.abs(ev)))
     return stable, fig, "leading principal minors of " + ("−M" if time == "continuous" else "I − M") \
