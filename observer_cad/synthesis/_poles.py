@@ -103,9 +103,7 @@ def target_polynomial(eigenvalues) -> tuple:
 
 def _same(a, b) -> bool:
     d = sp.expand(a - b)
-    if d == 0:
-        return True
-    return d.has(sp.Pow, sp.I) and sp.simplify(d) == 0  # algebraic numbers: canonicalise
+    return d == 0 or sp.simplify(d) == 0  # nested radicals, rational functions: canonicalise
 
 
 def certify_poles(Fs, Hs, K, eigenvalues) -> tuple:
@@ -201,7 +199,7 @@ def pole_placement(Fs, Hs, eigenvalues, *, seed: int = PLACEMENT_SEED) -> PolePl
     if Hs.cols != k:
         raise DimensionError(f"pole placement: H* must have k = {k} columns like F*,"
                              f" got {Hs.rows}×{Hs.cols}")
-    eigenvalues = tuple(sp.sympify(e) for e in eigenvalues)
+    eigenvalues = tuple(rationalize_floats(sp.sympify(e)) for e in eigenvalues)
     if len(eigenvalues) != k:
         raise UsageError(f"{k} eigenvalues needed (k = {k}), got {len(eigenvalues)}")
     p = Hs.rows

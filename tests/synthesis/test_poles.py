@@ -230,3 +230,9 @@ def test_interval_canonical_diagonal_form_builds():
     assert sorted(sp.Matrix(d.matrices.F_diag).diagonal()) == [-4, -3, -2, -1]
     obs = build_observer(chain(5), d)
     assert len(obs.update) == 2 * 4  # lower and upper bound of each of the k = 4 states
+
+
+def test_float_eigenvalues_are_read_as_their_decimal_rationals():
+    pp = pole_placement(shift(2), e1(2), [-0.5, -0.25])
+    assert pp.eigenvalues == (sp.Rational(-1, 2), sp.Rational(-1, 4))
+    assert list(pp.K) == [sp.Rational(3, 4), sp.Rational(1, 8)]
