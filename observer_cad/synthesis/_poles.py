@@ -2,8 +2,8 @@
 pole placement of F* − K H*.
 
 Pole placement (METHOD §3) finds K with det(sI − F* + K H*) = p(s) = Π(s − μ_i) over the
-exact field of the entries (QQ, QQ(parameters), an algebraic field for irrational or
-complex μ_i, else sympy's EX), by the observer form of Ackermann's formula:
+exact field of the entries of F*, H* (QQ, QQ(parameters), an algebraic field, else sympy's
+EX), by the observer form of Ackermann's formula:
 
 * one output row h:   K = p(F*) O⁻¹ e_k,  O = [h; h F*; …; h F*^{k−1}]  (the
   observability matrix; e_k the last unit vector);
@@ -13,6 +13,9 @@ complex μ_i, else sympy's EX), by the observer form of Ackermann's formula:
   makes F* − K₀ H* cyclic (Heymann's lemma: for observable (F*, H*) almost every K₀
   and c work), K = K₀ + K₁ c.
 
+K₁ = Σ a_i F*^{k−i} x (x = O⁻¹ e_k) is linear in the coefficients a_i of p, so irrational
+or complex μ_i (whose p has algebraic coefficients) never enlarge the field the
+elimination runs in: the a_i are combined with the Krylov vectors F*^j x at the end.
 No polynomial system is solved: the cost is k matrix products and one k×k solve, so
 k = 8 takes milliseconds (the previous ``solve`` of the coefficient equations took
 15 s at k = 6). Every gain is certified: the characteristic polynomial of F* − K H* is
@@ -96,9 +99,8 @@ class PolePlacement:
 
 def target_polynomial(eigenvalues) -> tuple:
     """Coefficients of Π(s − μ_i), leading 1, exact (real for conjugate pairs)."""
-    p = sp.Poly(sp.prod([S - mu for mu in eigenvalues]), S, extension=True) if eigenvalues \
-        else sp.Poly(1, S)
-    return tuple(sp.expand(c) for c in p.all_coeffs())
+    p = sp.expand(sp.prod([S - mu for mu in eigenvalues]))
+    return tuple(sp.expand(p.coeff(S, i)) for i in range(len(eigenvalues), -1, -1))
 
 
 def _same(a, b) -> bool:
@@ -127,9 +129,9 @@ def certify_poles(Fs, Hs, K, eigenvalues) -> tuple:
 
 
 # ---------------------------------------------------------------- exact construction
-def _joint(mats, extra):
-    """The matrices and the scalars ``extra`` over one exact field."""
-    flat = [e for M in mats for e in M] + list(extra)
+def _field(mats):
+    """The matrices over one exact field (QQ, QQ(parameters), an algebraic field or EX)."""
+    flat = [e for M in mats for e in M]
     dm = to_domain_matrix(sp.Matrix(len(flat), 1, flat) if flat else sp.zeros(1, 1))
     K = dm.domain
     elems = dm.to_list_flat()
@@ -139,7 +141,7 @@ def _joint(mats, extra):
         out.append((DomainMatrix.from_list_flat(elems[i:i + n], M.shape, K) if n
                     else DomainMatrix.zeros(M.shape, K)).to_dense())
         i += n
-    return K, out, elems[i:]
+    return K, out
 
 
 def _observability(F: DomainMatrix, H: DomainMatrix) -> DomainMatrix:
@@ -150,22 +152,38 @@ def _observability(F: DomainMatrix, H: DomainMatrix) -> DomainMatrix:
     return DomainMatrix.vstack(*rows)
 
 
-def _ackermann(F: DomainMatrix, h: DomainMatrix, coeffs):
-    """K₁ = p(F) O⁻¹ e_k for one output row h, or None when (F, h) is not observable;
-    returns (K₁, det O)."""
+def _krylov(F: DomainMatrix, h: DomainMatrix):
+    """x = O⁻¹ e_k and the vectors F^j x, j = 0 … k, for one output row h; ``None`` when
+    (F, h) is not observable. Returns (vectors, det O)."""
     K, k = F.domain, F.shape[0]
     O = _observability(F, h)
     det = O.det()
     if det == K.zero:
         return None, det
     e = DomainMatrix([[K.zero]] * (k - 1) + [[K.one]], (k, 1), K).to_dense()
-    x = O.to_dense().lu_solve(e)
-    # p(F) by Horner: ((F + a1 I) F + a2 I) F + …
-    eye = DomainMatrix.eye(k, K).to_dense()
-    P = eye
-    for a in coeffs[1:]:
-        P = P * F + eye * a
-    return P * x, det
+    vs = [O.to_dense().lu_solve(e)]
+    for _ in range(k):
+        vs.append(F * vs[-1])
+    return vs, det
+
+
+def _ackermann(vs, coeffs, dom):
+    """K₁ = p(F) x = Σ_i a_i F^{k−i} x as a sympy column. The coefficients a_i enter
+    linearly, so F and h stay over their own field; irrational a_i (algebraic μ_i) are
+    combined as sympy numbers rather than by building an algebraic field."""
+    k = len(vs) - 1
+    try:
+        a = [dom.from_sympy(c) for c in coeffs]
+    except Exception:  # noqa: BLE001 - not in the field of F*, H* (CoercionFailed and kin)
+        a = None
+    if a is not None:
+        acc = vs[k]
+        for i in range(1, k + 1):
+            acc = acc + vs[k - i] * a[i]
+        return acc.to_Matrix()
+    cols = [v.to_Matrix() for v in vs]
+    acc = sum((coeffs[i] * cols[k - i] for i in range(1, k + 1)), cols[k])
+    return acc.applyfunc(sp.expand if dom.is_QQ or dom.is_ZZ else sp.cancel)
 
 
 def _combinations(p: int, rng: random.Random):
@@ -209,21 +227,17 @@ def pole_placement(Fs, Hs, eigenvalues, *, seed: int = PLACEMENT_SEED) -> PolePl
         raise InfeasibleDesignError("the requested eigenvalues cannot be placed: (F*, H*) is"
                                     " not observable (H* has no rows)")
     coeffs = target_polynomial(eigenvalues)
-    dom, (F, H), cs = _joint([Fs, Hs], coeffs)
+    dom, (F, H) = _field([Fs, Hs])
 
     # Step 1) one row: Ackermann directly
     c = K0 = None
     if p == 1:
-        K1, det = _ackermann(F, H, cs)
-        Kd = K1
+        vs, det = _krylov(F, H)
     else:
         # Step 1') several rows: (F*, H*) must be observable at all
-        r = _observability(F, H).rank()
-        if r < k:
-            K1 = None
-        else:
+        vs = None
+        if _observability(F, H).rank() == k:
             rng = random.Random(seed)
-            K1 = None
             Fw = F
             for attempt in range(_TRIES + 1):
                 if attempt:  # F* not cyclic: a preliminary gain K₀ (Heymann's lemma)
@@ -232,23 +246,25 @@ def pole_placement(Fs, Hs, eigenvalues, *, seed: int = PLACEMENT_SEED) -> PolePl
                     Fw = F - K0 * H
                 for cand in _combinations(p, rng):
                     cd = DomainMatrix([[dom.convert(v) for v in cand]], (1, p), dom).to_dense()
-                    K1, det = _ackermann(Fw, cd * H, cs)
-                    if K1 is not None:
+                    vs, det = _krylov(Fw, cd * H)
+                    if vs is not None:
                         c = cand
                         break
-                if K1 is not None:
+                if vs is not None:
                     break
-        if K1 is not None:
-            Kd = K1 * DomainMatrix([[dom.convert(v) for v in c]], (1, p), dom).to_dense()
-            if K0 is not None:
-                Kd = Kd + K0
-    if K1 is None:
+    if vs is None:
         r = _observability(F, H).rank()
         raise InfeasibleDesignError(
             "the requested eigenvalues cannot be placed: (F*, H*) is not observable (rank of"
             f" the observability matrix {r} < k = {k})")
-    K = Kd.to_Matrix().applyfunc(sp.cancel)
-    # Step 2) certificate: det(sI − F* + K H*) recomputed independently
+    # Step 2) K = K₀ + K₁ c with K₁ = p(F* − K₀ H*) O⁻¹ e_k
+    K = _ackermann(vs, coeffs, dom)
+    if c is not None:
+        K = K * sp.Matrix([c])
+        if K0 is not None:
+            K = K + K0.to_Matrix()
+    K = K.applyfunc(sp.cancel)
+    # Step 3) certificate: det(sI − F* + K H*) recomputed independently
     cp = certify_poles(Fs, Hs, K, eigenvalues)
     return PolePlacement(
         sp.ImmutableMatrix(K), eigenvalues, cp,

@@ -236,3 +236,12 @@ def test_float_eigenvalues_are_read_as_their_decimal_rationals():
     pp = pole_placement(shift(2), e1(2), [-0.5, -0.25])
     assert pp.eigenvalues == (sp.Rational(-1, 2), sp.Rational(-1, 4))
     assert list(pp.K) == [sp.Rational(3, 4), sp.Rational(1, 8)]
+
+
+def test_certificate_rejects_a_wrong_algebraic_gain():
+    eigs = [-1 + sp.sqrt(2) * sp.I, -1 - sp.sqrt(2) * sp.I, -sp.sqrt(3)]
+    K = place_poles(shift(3), e1(3), eigs)
+    certify_poles(shift(3), e1(3), K, eigs)
+    bad = K + sp.Matrix([0, 0, sp.sqrt(2) * 10 ** -6])
+    with pytest.raises(CertificateError):
+        certify_poles(shift(3), e1(3), bad, eigs)
