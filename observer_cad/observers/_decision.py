@@ -34,6 +34,7 @@ Control* (2016), §6.7 (persistence / N-out-of-N decision logic).
 from __future__ import annotations
 
 import dataclasses
+import functools
 import numbers
 from typing import Mapping
 
@@ -146,21 +147,24 @@ class DecisionRule:
         return " or ".join(match) if match else UNKNOWN_PATTERN
 
     def table(self) -> tuple:
-        """The diagnosis text of every code 0 … 2^m − 1."""
+        """The diagnosis text of every code 0 … 2^m − 1 (2^m entries: for the C export,
+        which takes at most 16 residuals)."""
         return tuple(self.diagnosis(c) for c in range(self.codes))
 
     def diagnoses(self) -> tuple:
         """Every diagnosis text the rule can give, each once: ``"no fault"``, the fault
         texts in the order of the faults, ``"unknown pattern"`` (when some code gives it)."""
         out = [NO_FAULT]
-        table = self.table()
+        patterns = set()
         for f in self.faults:
             col = self.column(f)
             if any(col):
-                text = table[sum(b << i for i, b in enumerate(col))]
+                code = sum(b << i for i, b in enumerate(col))
+                patterns.add(code)
+                text = self.diagnosis(code)
                 if text not in out:
                     out.append(text)
-        if UNKNOWN_PATTERN in table:
+        if len(patterns) < self.codes - 1:   # some nonzero pattern is no fault's column
             out.append(UNKNOWN_PATTERN)
         return tuple(out)
 
@@ -185,7 +189,13 @@ class Decisions:
     alarms: tuple
     alarm: np.ndarray
     code: np.ndarray
-    diagnosis: np.ndarray
+
+    @functools.cached_property
+    def diagnosis(self) -> np.ndarray:
+        """The text of every code (object array of str; built on first use)."""
+        codes, inverse = np.unique(self.code, return_inverse=True)
+        texts = np.array([self.rule.diagnosis(c) for c in codes.tolist()], dtype=object)
+        return texts[inverse.reshape(self.code.shape)]
 
     def alarm_of(self, residual: str) -> np.ndarray:
         """alarm_i of the residual named ``residual``."""
@@ -238,21 +248,25 @@ def decide(rule: DecisionRule, columns: Mapping) -> Decisions:
         if a.shape != shape:
             raise UsageError(f"decide: column '{name}' has shape {a.shape}, but"
                              f" '{rule.residuals[0]}' has {shape}")
-    R = np.stack(r)                       # (m, [R,] N)
-    with np.errstate(invalid="ignore"):   # NaN compares false: not out
-        out = (R < np.stack(lo)) | (R > np.stack(hi))
-    # run length of consecutive outs ending at each sample: k − (last index not out)
-    n = out.shape[-1]
-    idx = np.arange(n)
-    last_in = np.where(out, -1, idx)
-    np.maximum.accumulate(last_in, axis=-1, out=last_in)
-    count = idx - last_in                 # c_i(k)
-    alarms = count >= rule.persistence
-    weights = (np.int64(1) << np.arange(len(rule.residuals), dtype=np.int64))
-    code = np.tensordot(weights, alarms.astype(np.int64), axes=(0, 0))
-    table = np.array(rule.table(), dtype=object)
-    return Decisions(rule=rule, out=tuple(out), alarms=tuple(alarms), alarm=alarms.any(axis=0),
-                     code=code, diagnosis=table[code])
+    n = shape[-1]
+    idx = np.arange(n, dtype=np.int32 if n < 2 ** 31 - 1 else np.int64)
+    outs, alarms = [], []
+    code = np.zeros(shape, dtype=np.int64)
+    for i, (ri, li, hi_) in enumerate(zip(r, lo, hi)):
+        with np.errstate(invalid="ignore"):   # NaN compares false: not out
+            out = (ri < li) | (ri > hi_)
+        if rule.persistence == 1:
+            alarm = out
+        else:
+            # run length of consecutive outs ending at each sample: k − (last k' ≤ k not out)
+            last_in = np.where(out, -1, idx)
+            np.maximum.accumulate(last_in, axis=-1, out=last_in)
+            alarm = (idx - last_in) >= rule.persistence
+        outs.append(out)
+        alarms.append(alarm)
+        code |= np.left_shift(alarm, i, dtype=np.int64)
+    return Decisions(rule=rule, out=tuple(outs), alarms=tuple(alarms),
+                     alarm=code != 0, code=code)
 
 
 def decision_rule(model, design_or_bank, *, persistence: int = 1) -> DecisionRule:

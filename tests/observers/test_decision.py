@@ -189,3 +189,16 @@ def test_rule_of_a_bank_and_of_a_design():
         decision_rule(tank, design(tank, observer="virtual-sensor", estimate="x1"))
     with pytest.raises(UsageError, match="not a str"):
         decision_rule(drive, "bank")
+
+
+def test_thirty_residuals_fill_the_code_bits():
+    names = tuple(f"r{i}" for i in range(1, 31))
+    rule = DecisionRule(names, ("f",), tuple((1,) for _ in names), persistence=3)
+    c = {}
+    for i, r in enumerate(names):
+        c.update(cols([2.0, 2.0, 2.0, 2.0 if i % 2 else 0.0], name=r))
+    d = decide(rule, c)
+    assert d.code.tolist() == [0, 0, 2 ** 30 - 1, sum(1 << i for i in range(1, 30, 2))]
+    assert d.diagnosis[2] == "f" and d.diagnosis[3] == UNKNOWN_PATTERN
+    with pytest.raises(UsageError, match="at most 30"):
+        DecisionRule(names + ("r31",), ("f",), tuple((1,) for _ in range(31)))
