@@ -24,7 +24,8 @@ MAX_C_RESIDUALS = 16
 
 
 def _cstr(s: str) -> str:
-    return '"' + str(s).replace("\\", "\\\\").replace('"', '\\"') + '"'
+    text = str(s).encode("ascii", "replace").decode("ascii")
+    return '"' + text.replace("\\", "\\\\").replace('"', '\\"') + '"'
 
 
 class DecisionSources:
