@@ -152,6 +152,11 @@ class PlantModel:
         may stand for it). Used for axis labels, ``signals.units.json`` beside the CSV
         and the report; an output ``y_i`` has the unit its states share
         (:meth:`output_unit`). A symbol without an entry has no unit.
+    uncertainty : mapping Symbol -> (low, high), optional
+        Parameter uncertainty: the true value of a parameter lies in [low, high] (which
+        contains its default, the nominal value every design uses). Guaranteed
+        thresholds (:func:`observer_cad.observers.guaranteed_threshold`) absorb it;
+        scenarios may set the true plant parameters within it (``"parameters"``).
     source : str, optional
         The model file it came from (set by :func:`load_model`; used in messages).
     """
@@ -170,6 +175,7 @@ class PlantModel:
     domain: tuple = ()
     linear_part: Any = None
     units: Mapping = dataclasses.field(default_factory=dict)
+    uncertainty: Mapping = dataclasses.field(default_factory=dict)
     source: str | None = None
 
     def __post_init__(self) -> None:
@@ -288,6 +294,7 @@ class PlantModel:
                     f"{where}: linear_part uses '{sorted(extra, key=str)[0]}', which is not a parameter")
             set_("linear_part", F)
         set_("units", MappingProxyType(_units(self.units, roles, where)))
+        set_("uncertainty", MappingProxyType(_uncertainty(self.uncertainty, params, where)))
 
     # ------------------------------------------------------------------ helpers
     @property
@@ -367,6 +374,7 @@ class PlantModel:
             domain=tuple(sub(r) for r in self.domain),
             linear_part=None if self.linear_part is None else self.linear_part.xreplace(vals),
             units={s: u for s, u in self.units.items() if s not in vals},
+            uncertainty={},
         )
 
     def _sizes(self) -> str:
@@ -409,6 +417,40 @@ class PlantModel:
             lines.append(f"| parameters | {', '.join(str(p) for p in self.parameters)} |")
         lines += ["", "$$" + self._equations_latex() + "$$"]
         return "\n".join(lines)
+
+
+def _uncertainty(raw: Any, params: Mapping, where: str) -> dict:
+    """Validate ``uncertainty``: parameter -> (low, high), finite, low <= default <= high."""
+    if raw is None:
+        return {}
+    if not isinstance(raw, Mapping):
+        raise ModelError(f"{where}: uncertainty must be a mapping parameter -> (low, high),"
+                         f" got {raw!r}")
+    by_name = {s.name: s for s in params}
+    out = {}
+    for key, b in raw.items():
+        p = by_name.get(key) if isinstance(key, str) else key
+        if not isinstance(p, sp.Symbol) or p not in params:
+            raise ModelError(f"{where}: uncertainty given for '{key}', which is not a parameter")
+        if params[p] is None:
+            raise ModelError(f"{where}: uncertainty of '{p}' needs a nominal value: give the"
+                             " parameter a default")
+        try:
+            lo, hi = b
+        except (TypeError, ValueError):
+            raise ModelError(f"{where}: uncertainty of '{p}' must be a pair (low, high)") from None
+        lo = to_rational(lo, f"{where}: lower uncertainty bound of '{p}'")
+        hi = to_rational(hi, f"{where}: upper uncertainty bound of '{p}'")
+        if not (lo.is_Rational and hi.is_Rational):
+            raise ModelError(f"{where}: uncertainty bounds of '{p}' must be rational numbers")
+        nominal = params[p]
+        if bool(lo > hi):
+            raise ModelError(f"{where}: uncertainty of '{p}' has low {lo} > high {hi}")
+        if nominal.is_Rational and not (lo <= nominal <= hi):
+            raise ModelError(f"{where}: uncertainty [{lo}, {hi}] of '{p}' does not contain its"
+                             f" nominal value {nominal}")
+        out[p] = (lo, hi)
+    return out
 
 
 def _units(raw: Any, roles: dict, where: str) -> dict:
