@@ -2,9 +2,9 @@
 
     python3 benchmarks/run.py
 
-(runs bench_synthesis.py --write, bench_analyze.py --write, bench_codegen.py --write,
-then bench_poles.py --write, then bench_decisions.py --write; each rewrites its own section
-atomically).
+(runs bench_synthesis.py --write, bench_analyze.py --write, bench_exact.py --write,
+bench_codegen.py --write, bench_poles.py --write, then bench_decisions.py --write; each
+rewrites its own section atomically).
 """
 import subprocess
 import sys
@@ -13,7 +13,8 @@ from pathlib import Path
 HERE = Path(__file__).resolve().parent
 
 if __name__ == "__main__":
-    for script in ("bench_synthesis.py", "bench_analyze.py", "bench_codegen.py", "bench_poles.py",
+    for script in ("bench_synthesis.py", "bench_analyze.py", "bench_exact.py", "bench_codegen.py",
+                   "bench_poles.py",
                    "bench_decisions.py"):
         print(f"== {script}", flush=True)
         rc = subprocess.call([sys.executable, str(HERE / script), "--write"] + sys.argv[1:])
