@@ -473,8 +473,18 @@ def _cmd_simulate(args) -> int:
     _refuse_failed(observer)
     report("simulating", stage=True)
     res = simulate(model, observer, scenario, keep_nonfinite=args.keep_nonfinite)
-    path = write_signals_csv(res, args.out)
-    print(f"wrote {path} ({len(res['t'])} rows, columns: {', '.join(res.order)})")
+    decisions = None
+    if observer.threshold is not None:
+        from ..observers import decide, decision_rule
+        from ..reporting import with_decisions
+        rule = decision_rule(model, result, persistence=args.persistence)
+        decisions = decide(rule, res.columns)
+        written = with_decisions(res, decisions)
+    elif args.persistence != 1:
+        raise UsageError("--persistence applies with --threshold")
+    path = write_signals_csv(res if decisions is None else written, args.out)
+    order = res.order if decisions is None else written.order
+    print(f"wrote {path} ({len(res['t'])} rows, columns: {', '.join(order)})")
     from ..reporting import UNITS_FILE
     units = ", ".join(f"{c} [{u}]" for c, u in res.units.items() if c in res.order)
     print(f"wrote {path.with_name(UNITS_FILE)} ({'units: ' + units if units else 'no units: the model declares none'})")
@@ -485,8 +495,10 @@ def _cmd_simulate(args) -> int:
         res = dataclasses.replace(res, columns={
             k: np.where(np.isfinite(v), v, np.nan) for k, v in res.columns.items()})
     for fig in plot_simulation(res, args.out, time=model.time,
-                               title=f"{model.name}, {observer.kind}"):
+                               title=f"{model.name}, {observer.kind}", decisions=decisions):
         print(f"wrote {fig}")
+    if decisions is not None:
+        _print_evaluation(model, observer, res, decisions)
     if res.nonfinite is not None:
         print(f"{PROG}: warning: {res.nonfinite} (kept in the CSV as nan/inf)", file=sys.stderr)
         return 4
@@ -498,6 +510,33 @@ def _cmd_simulate(args) -> int:
             return 3
         print(rep.message)
     return 0
+
+
+def _print_evaluation(model, observer, res, decisions) -> None:
+    """The threshold and what the decisions found on this scenario, a few lines."""
+    import numpy as np
+    from ..simulation import evaluate_result
+    print(f"threshold: {observer.threshold.text()}")
+    rule = decisions.rule
+    alarm = np.asarray(decisions.alarm)
+    t = np.asarray(res["t"])
+    if alarm.any():
+        k = int(np.flatnonzero(alarm)[0])
+        print(f"first alarm at t = {t[k]:g} ({decisions.diagnosis[k]}); alarm in"
+              f" {int(alarm.sum())} of {alarm.size} samples (persistence {rule.persistence})")
+    else:
+        print(f"no alarm in {alarm.size} samples (persistence {rule.persistence})")
+    m = evaluate_result(res, decisions)
+    o = m.runs_[0]
+    unit = " steps" if model.time == "discrete" else " s"
+    if o.onset is not None:
+        print(f"fault ({o.label}) from t = {o.onset:g}: " + (
+            f"detected after {o.delay:g}{unit}" if o.delay is not None else "NOT detected")
+            + f"; false alarms before it: {o.false_alarm_samples} samples;"
+              f" diagnosis at the end: {o.diagnosis}")
+    else:
+        print(f"no fault in the scenario: {o.false_alarm_samples} false-alarm samples;"
+              f" diagnosis at the end: {o.diagnosis}")
 
 
 def _cmd_codegen(args) -> int:
@@ -519,7 +558,13 @@ def _cmd_codegen(args) -> int:
     except ModuleNotFoundError:  # pragma: no cover - during development only
         raise UsageError("standalone C export is not available") from None
     dt = args.dt if args.dt is not None else (0.01 if observer.time == "continuous" else None)
-    paths = export_observer(observer, args.out, name=args.name, dt=dt)
+    rule = None
+    if observer.threshold is not None:
+        from ..observers import decision_rule
+        rule = decision_rule(model, result, persistence=args.persistence)
+    elif args.persistence != 1:
+        raise UsageError("--persistence applies with --threshold")
+    paths = export_observer(observer, args.out, name=args.name, dt=dt, rule=rule)
     for p in paths:
         print(f"wrote {p}")
     return 0

@@ -371,6 +371,8 @@ def _scenario_dict(scenario: Scenario, faults, case: FaultCase | None, seed: int
     data = {"signals": signals, "initial": dict(scenario.initial), "seed": int(seed)}
     if scenario.observer_initial is not None:
         data["observer_initial"] = dict(scenario.observer_initial)
+    if scenario.parameters:
+        data["parameters"] = dict(scenario.parameters)
     for key in ("steps", "t_end", "dt"):
         if getattr(scenario, key) is not None:
             data[key] = getattr(scenario, key)

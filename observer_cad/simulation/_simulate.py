@@ -338,15 +338,17 @@ class SimulationResult:
                               " pip install pandas (or pip install 'observer_cad[export]')") from None
         names = [c for c in self.order if c != "t"]
         t = np.asarray(self.columns["t"], dtype=float)
+
+        def col(c):  # numbers as float; text (the diagnosis) as it is
+            v = np.asarray(self.columns[c])
+            return v if v.dtype == object else v.astype(float)
         if t.ndim == 1:
-            df = pd.DataFrame({c: np.asarray(self.columns[c], dtype=float) for c in names},
-                              index=pd.Index(t, name="t"))
+            df = pd.DataFrame({c: col(c) for c in names}, index=pd.Index(t, name="t"))
         else:
             R, N = t.shape
             index = pd.MultiIndex.from_arrays([np.repeat(np.arange(R), N), t.reshape(-1)],
                                               names=["run", "t"])
-            df = pd.DataFrame({c: np.asarray(self.columns[c], dtype=float).reshape(-1)
-                               for c in names}, index=index)
+            df = pd.DataFrame({c: col(c).reshape(-1) for c in names}, index=index)
         df.attrs["units"] = {c: u for c, u in self.units.items() if c in self.order}
         if self.model is not None:
             df.attrs["model"] = self.model
