@@ -537,6 +537,16 @@ def _print_evaluation(model, observer, res, decisions) -> None:
     else:
         print(f"no fault in the scenario: {o.false_alarm_samples} false-alarm samples;"
               f" diagnosis at the end: {o.diagnosis}")
+    if observer.threshold.kind == "guaranteed" and observer.threshold.error_system.faults:
+        from ..observers import min_detectable_fault
+        end = t.size if o.onset is None else max(1, int(np.searchsorted(t, o.onset)))
+        widths = [float(np.nanmax(np.asarray(res[f"{r}_upper"] - res[f"{r}_lower"])[:end]))
+                  for r in rule.residuals]
+        sizes = min_detectable_fault(observer.threshold, widths)
+        print("smallest step fault detected for sure once settled (band width on the fault-free"
+              " part of this run / dc gain): " + ", ".join(
+                  f"{f} ≥ {v:.3g}" if v is not None else f"{f}: not seen"
+                  for f, v in sizes.items()))
 
 
 def _cmd_codegen(args) -> int:
