@@ -98,11 +98,12 @@ def _build(m, obs, flags):
     from observer_cad.codegen import CompiledSimulator
     d = tempfile.mkdtemp(prefix="bench_latency_cache_")
     try:
-        c0, t0 = _children_cpu(), time.perf_counter()
+        c0, p0, t0 = _children_cpu(), time.process_time(), time.perf_counter()
         cs = CompiledSimulator(m, obs, cache=d, flags=flags)
         wall, cc = time.perf_counter() - t0, _children_cpu() - c0
+        cpu = time.process_time() - p0 + cc
         assert not cs.cached
-        return cs, wall, cc, len(cs.source), d   # the loaded library outlives its file
+        return cs, wall, cpu, cc, len(cs.source), d   # the loaded library outlives its file
     except Exception:
         shutil.rmtree(d, ignore_errors=True)
         raise
@@ -126,11 +127,13 @@ def bench_compile(sizes, repeat):
     for label, m, obs in _cases(sizes):
         walls = {"old": [], "new": []}
         ccs = {"old": [], "new": []}
+        cpus = {"old": [], "new": []}
         info = {}
         for r in range(repeat):
             for which, flags in (("old", OLD_FLAGS), ("new", None)):
-                cs, wall, cc, size, d = _build(m, obs, flags)
+                cs, wall, cpu, cc, size, d = _build(m, obs, flags)
                 walls[which].append(wall)
+                cpus[which].append(cpu)
                 ccs[which].append(cc)
                 if r == 0:
                     # about 0.1 s per run: a step costs roughly 0.01 ns per character of C
@@ -142,8 +145,11 @@ def bench_compile(sizes, repeat):
                          old_wall=statistics.median(walls["old"]),
                          new_wall=statistics.median(walls["new"]),
                          old_cc=statistics.median(ccs["old"]), new_cc=statistics.median(ccs["new"]),
+                         old_cpu=statistics.median(cpus["old"]),
+                         new_cpu=statistics.median(cpus["new"]),
                          old_ns=info["old"][2], new_ns=info["new"][2], steps=info["new"][3]))
-        print(f"  {label}: {info['new'][1]:,} chars; old {rows[-1]['old_wall']:.2f} s"
+        print(f"  {label}: {info['new'][1]:,} chars; CPU old {rows[-1]['old_cpu']:.2f} s new"
+              f" {rows[-1]['new_cpu']:.2f} s; old {rows[-1]['old_wall']:.2f} s"
               f" ({rows[-1]['old_cc']:.2f} s cc) {rows[-1]['old_ns']:,.0f} ns/step;"
               f" new {' '.join(info['new'][0][:1])} {rows[-1]['new_wall']:.2f} s"
               f" ({rows[-1]['new_cc']:.2f} s cc) {rows[-1]['new_ns']:,.0f} ns/step", flush=True)
@@ -248,17 +254,19 @@ def main():
             f"**Compile** (cold `CompiledSimulator`: translation, C generation, compiler, "
             f"dlopen; median of {args.repeat} fresh caches, old and new alternating). "
             f"Old: {_fmt_flags(OLD_FLAGS)} always; new: size-aware, `{LARGE_LEVEL}` above "
-            f"{LARGE_SOURCE:,} characters of C. *cc CPU*: the compiler's user + sys time. "
+            f"{LARGE_SOURCE:,} characters of C. *CPU (cc)*: CPU time of the whole construction, "
+            "this process plus the compiler (the compiler's share in parentheses). "
             "*ns/step*: the compiled trajectory on zero inputs (median CPU time of 7 runs).", "",
-            "| case | states (plant + observer) | C chars | old: wall | old: cc CPU | old: ns/step "
-            "| new flags | new: wall | new: cc CPU | new: ns/step | compile × faster (CPU) "
+            "| case | states (plant + observer) | C chars | old: wall | old: CPU (cc) | old: ns/step "
+            "| new flags | new: wall | new: CPU (cc) | new: ns/step | compiler CPU old/new "
             "| step time new/old |",
             "|---|---|---|---|---|---|---|---|---|---|---|---|"]
         for r in comp:
             lines.append(
                 f"| {r['label']} | {r['states']} + {r['obs_states']} | {r['size']:,} "
-                f"| {r['old_wall']:.2f} s | {r['old_cc']:.2f} s | {r['old_ns']:,.0f} "
-                f"| {_fmt_flags(r['new_flags'])} | {r['new_wall']:.2f} s | {r['new_cc']:.2f} s "
+                f"| {r['old_wall']:.2f} s | {r['old_cpu']:.2f} s ({r['old_cc']:.2f} s) | {r['old_ns']:,.0f} "
+                f"| {_fmt_flags(r['new_flags'])} | {r['new_wall']:.2f} s "
+                f"| {r['new_cpu']:.2f} s ({r['new_cc']:.2f} s) "
                 f"| {r['new_ns']:,.0f} | {r['old_cc'] / max(r['new_cc'], 1e-9):.1f}× "
                 f"| {r['new_ns'] / max(r['old_ns'], 1e-9):.2f} |")
         lines.append("")
@@ -267,8 +275,13 @@ def main():
         for r in big:
             ok = r["new_wall"] < TARGET_COMPILE_60
             lines.append(f"| {r['label']}: cold compile < {TARGET_COMPILE_60:g} s wall "
-                         f"| {r['new_wall']:.2f} s (cc CPU {r['new_cc']:.2f} s; old flags "
-                         f"{r['old_wall']:.2f} s) | {'met' if ok else '**MISSED**'} |")
+                         f"| {r['new_wall']:.2f} s (old flags {r['old_wall']:.2f} s) "
+                         f"| {'met' if ok else '**MISSED**'} |")
+            ok = r["new_cpu"] < TARGET_COMPILE_60
+            lines.append(f"| {r['label']}: cold compile < {TARGET_COMPILE_60:g} s CPU (the wall "
+                         f"time of an idle machine) | {r['new_cpu']:.2f} s, compiler "
+                         f"{r['new_cc']:.2f} s (old flags {r['old_cpu']:.2f} s) "
+                         f"| {'met' if ok else '**MISSED**'} |")
         lines.append("")
     lines += [
         f"**Command line** (`python3 -m observer_cad ...`, fresh process, median of "
