@@ -187,15 +187,21 @@ def bench_cli(trees: dict, repeat: int):
             env = _env(tree, pyc / label)
             for kind, cmd in CLI:
                 args = ["-m", "observer_cad"] + cmd.format(out=out_dir / f"{label}-sim").split()
-                jobs.append((label, cmd, args, env))
+                # cwd = the tree: ``python3 -m`` puts the working directory first on sys.path
+                jobs.append((label, cmd, args, env, tree))
         env0 = _env(ROOT, pyc / "floor")
-        floors = [("floor", name, args, env0) for name, args in FLOORS]
-        for _, _, args, env in jobs + floors:      # warm-up: byte code, compile cache
-            _run(args, env, ROOT)
+        floors = [("floor", name, args, env0, ROOT) for name, args in FLOORS]
+        for label, _, _, env, tree in jobs:
+            where = subprocess.run([sys.executable, "-c", "import observer_cad; print(observer_cad.__file__)"],
+                                   env=env, cwd=tree, capture_output=True, text=True).stdout.strip()
+            if not where.startswith(str(tree)):
+                raise SystemExit(f"{label}: observer_cad comes from {where}, not {tree}")
+        for _, _, args, env, tree in jobs + floors:      # warm-up: byte code, compile cache
+            _run(args, env, tree)
         res: dict = {}
         for _ in range(repeat):
-            for label, cmd, args, env in jobs + floors:
-                res.setdefault((label, cmd), []).append(_run(args, env, ROOT))
+            for label, cmd, args, env, tree in jobs + floors:
+                res.setdefault((label, cmd), []).append(_run(args, env, tree))
         return {k: (statistics.median(w for w, _ in v), statistics.median(c for _, c in v))
                 for k, v in res.items()}
     finally:

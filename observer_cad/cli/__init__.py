@@ -14,10 +14,11 @@ __all__ = ["CASES", "EXAMPLES_DIR", "FIGURES", "Case", "Run", "run_demo", "DIAGN
 
 def __getattr__(name):
     if name in _DEMO:
-        import importlib
-        value = getattr(importlib.import_module(f"{__name__}._demo"), name)
-        globals()[name] = value
-        return value
+        from ._demo import (BANK_FIGURE, CASES, DIAGNOSABILITY, EXAMPLES_DIR, FIGURES, Case,
+                            DiagnosabilityExample, Run, run_demo)
+        found = {k: v for k, v in locals().items() if k in _DEMO}
+        globals().update(found)
+        return found[name]
     raise AttributeError(f"module 'observer_cad.cli' has no attribute {name!r}")
 
 
