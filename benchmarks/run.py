@@ -3,8 +3,8 @@
     python3 benchmarks/run.py
 
 (runs bench_synthesis.py --write, bench_analyze.py --write, bench_exact.py --write,
-bench_codegen.py --write, bench_poles.py --write, bench_scale.py --write, then
-bench_decisions.py --write; each rewrites its own section atomically).
+bench_codegen.py --write, bench_poles.py --write, bench_scale.py --write,
+bench_decisions.py --write, then bench_latency.py --write; each rewrites its own section atomically).
 """
 import subprocess
 import sys
@@ -14,7 +14,8 @@ HERE = Path(__file__).resolve().parent
 
 if __name__ == "__main__":
     for script in ("bench_synthesis.py", "bench_analyze.py", "bench_exact.py", "bench_codegen.py",
-                   "bench_poles.py", "bench_scale.py", "bench_decisions.py"):
+                   "bench_poles.py", "bench_scale.py", "bench_decisions.py",
+                   "bench_latency.py"):
         print(f"== {script}", flush=True)
         rc = subprocess.call([sys.executable, str(HERE / script), "--write"] + sys.argv[1:])
         if rc:

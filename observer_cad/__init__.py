@@ -11,19 +11,24 @@ The everyday API is re-exported here::
     d = design(model, observer="unknown-input", faults=["d"])
     obs = build_observer(model, d)
 """
-from .version import package_version as _package_version
 from .errors import (CertificateError, DimensionError, InfeasibleDesignError, ModelError,
                      ObserverCadError, UsageError)
-from .model import (NonlinearTerm, ObserverKind, PlantModel, Structure, Task, extract_structure,
-                    load_model, resolve_task)
-from .synthesis import (Certificate, Condition, Design, DesignMatrices, DesignRequest,
-                        certify_reduced_model, design, design_canonical)
-from .synthesis import Analysis, analyze
-from .synthesis import FaultSensitivity, ResidualBank, design_bank
-from .observers import DremSpec, Observer, build_observer
-from .simulation import Scenario, SimulationResult, load_scenario, simulate
 
-__version__ = _package_version()
+# Everything else is imported on first use (PEP 562 ``__getattr__`` below), so that
+# ``import observer_cad`` — and a command that needs only the model and the synthesis —
+# does not pay for the stages it does not use (scipy, casadi, matplotlib; issue 14 item 5).
+# ``from observer_cad import design`` works as before.
+_LAZY = {
+    "model": ("NonlinearTerm", "ObserverKind", "PlantModel", "Structure", "Task",
+              "extract_structure", "load_model", "resolve_task"),
+    "synthesis": ("Certificate", "Condition", "Design", "DesignMatrices", "DesignRequest",
+                  "certify_reduced_model", "design", "design_canonical", "Analysis", "analyze",
+                  "FaultSensitivity", "ResidualBank", "design_bank"),
+    "observers": ("DremSpec", "Observer", "build_observer"),
+    "simulation": ("Scenario", "SimulationResult", "load_scenario", "simulate"),
+    "codegen": ("CompiledSimulator",),
+}
+_WHERE = {name: sub for sub, names in _LAZY.items() for name in names}
 
 __all__ = [
     "__version__",
@@ -39,8 +44,19 @@ __all__ = [
 ]
 
 
-def __getattr__(name):  # PEP 562: casadi is imported only when compiled code is asked for
-    if name == "CompiledSimulator":
-        from .codegen import CompiledSimulator
-        return CompiledSimulator
-    raise AttributeError(f"module 'observer_cad' has no attribute {name!r}")
+def __getattr__(name):  # PEP 562: a stage is imported when one of its names is asked for
+    sub = _WHERE.get(name)
+    if sub is not None:
+        import importlib
+        value = getattr(importlib.import_module(f"{__name__}.{sub}"), name)
+    elif name == "__version__":
+        from .version import package_version
+        value = package_version()
+    else:
+        raise AttributeError(f"module 'observer_cad' has no attribute {name!r}")
+    globals()[name] = value
+    return value
+
+
+def __dir__():
+    return sorted(set(globals()) | set(__all__))

@@ -13,7 +13,6 @@ from pathlib import Path
 
 from ..errors import NonFiniteError, ObserverCadError, UsageError
 from ..progress import report, reporting
-from ..version import package_version
 
 __all__ = ["main", "build_parser"]
 
@@ -37,11 +36,26 @@ class _Parser(argparse.ArgumentParser):
         raise UsageError(f"{message} (see '{self.prog} --help')")
 
 
+class _VersionAction(argparse.Action):
+    """``--version``: the version is looked up only when asked for (importlib.metadata
+    costs 20–60 ms of imports every command would pay otherwise)."""
+
+    def __init__(self, option_strings, dest=argparse.SUPPRESS, default=argparse.SUPPRESS,
+                 help=None):  # noqa: A002 - argparse API
+        super().__init__(option_strings=option_strings, dest=dest, default=default, nargs=0,
+                         help=help)
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        from ..version import package_version
+        print(f"{parser.prog} {package_version()}")
+        parser.exit()
+
+
 def build_parser() -> argparse.ArgumentParser:
     p = _Parser(prog=PROG, description=(
         "Design reduced-order, disturbance-decoupled observers from a symbolic plant model, "
         "with every synthesis condition checked exactly and every design certified."))
-    p.add_argument("--version", action="version", version=f"%(prog)s {package_version()}",
+    p.add_argument("--version", action=_VersionAction,
                    help="print the version and exit")
     sub = p.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser,
                            required=True)

@@ -3,9 +3,11 @@
 * C comes from casadi's :class:`casadi.CodeGenerator` with ``casadi_real`` = ``double``
   (a ``float`` library loads without a type check and returns garbage).
 * It is compiled by the system C compiler (``$CC``, else ``cc``) with
-  ``-O3 -shared -fPIC`` into ``CACHE/NAME-KEY.so``; ``CACHE`` is ``$OBSERVER_CAD_CACHE``
+  ``-O3 -shared -fPIC`` into ``CACHE/NAME-KEY.so`` — size-aware: C larger than
+  :data:`LARGE_SOURCE` bytes is compiled at ``-O1`` (:func:`size_aware_flags`; explicit
+  ``flags=`` are used as given); ``CACHE`` is ``$OBSERVER_CAD_CACHE``
   or ``~/.cache/observer_cad``; ``KEY`` is the sha256 of the C source, the compiler
-  (resolved path and ``--version``) and the flags.  A changed model changes the C and
+  (resolved path and ``--version``) and the flags actually used.  A changed model changes the C and
   so the key: it recompiles; the same source is a cache hit (no compiler run).
 * Writes are atomic: the compiler writes a temporary file in the cache directory,
   which :func:`os.replace` renames onto the entry.  Two processes compiling the same
@@ -68,10 +70,21 @@ from ..errors import ObserverCadError
 __all__ = ["CACHE_LOCK", "CodegenError", "cache_dir", "usable_cache_dir", "verify_library",
            "compiler", "generate_c", "compile_source",
            "compile_function", "compile_or_interpret", "CompiledFunction", "STATS", "FLAGS",
+           "LARGE_SOURCE", "LARGE_LEVEL", "size_aware_flags",
            "structure", "fingerprint", "lookup_fingerprint", "record_fingerprint",
            "forget_fingerprint", "compile_observer_step", "compile_plant_step"]
 
 FLAGS = ("-O3", "-shared", "-fPIC")
+#: Generated C longer than this (characters) is compiled at :data:`LARGE_LEVEL` instead
+#: of -O3.  casadi emits one straight-line function per step, and gcc's -O3 passes
+#: (PRE, load CSE after reload, register allocation over thousands of temporaries) grow
+#: faster than linearly with it.  Measured (benchmarks/bench_latency.py, gcc 12): a
+#: 60-state random plant + diagnostic observer (220 kB of C) takes 7.5 s CPU at -O3 and
+#: 1.5 s at -O1, and runs *faster* at -O1 (2.6 vs 3.5 µs/step); the DREM example (120 kB)
+#: 1.9 → 0.9 s, 1.33 → 1.39 µs/step (+5 %); below ~20 kB -O3 costs < 0.1 s more and
+#: its steps are 20–30 % faster, so small steps keep -O3.
+LARGE_SOURCE = 50_000
+LARGE_LEVEL = "-O1"
 #: compiles: compiler runs; hits: content-key hits (C generated, compiler skipped);
 #: fingerprint_hits: pre-translation hits (no translation, no C generation)
 STATS = {"compiles": 0, "hits": 0, "fingerprint_hits": 0}
@@ -82,6 +95,25 @@ _SRC_DIGEST: list = []
 
 class CodegenError(ObserverCadError):
     """C code generation or compilation failed (no compiler, compiler error, bad library)."""
+
+
+def size_aware_flags(source: str, flags=FLAGS) -> tuple:
+    """``flags`` for compiling ``source``: ``-O3`` replaced by :data:`LARGE_LEVEL` when
+    the source is longer than :data:`LARGE_SOURCE` characters (see there for the
+    measurements), else ``flags`` unchanged."""
+    flags = tuple(flags)
+    if len(source) > LARGE_SOURCE and "-O3" in flags:
+        return tuple(LARGE_LEVEL if f == "-O3" else f for f in flags)
+    return flags
+
+
+def _policy(flags) -> str:
+    """The flags as they enter a fingerprint: explicit flags verbatim; ``None`` (the
+    size-aware default) as FLAGS plus the size rule, so that changing the rule changes
+    every fingerprint."""
+    if flags is None:
+        return " ".join(FLAGS) + f" [size-aware: {LARGE_LEVEL} above {LARGE_SOURCE}]"
+    return " ".join(flags)
 
 
 def cache_dir(path=None) -> Path:
@@ -334,14 +366,15 @@ def structure(*items) -> str:
     return "\n".join(out) + "\n=" + ",".join(roots)
 
 
-def fingerprint(parts, *, cc=None, flags=FLAGS) -> str:
+def fingerprint(parts, *, cc=None, flags=None) -> str:
     """The pre-translation cache key: sha256 of ``structure(*parts)`` (the caller's
     equations and options), the casadi and sympy versions, the codegen sources' digest,
-    the compiler's cheap identity and the flags.  CodegenError without a compiler."""
+    the compiler's cheap identity and the flags (``None``: the size-aware default, with
+    its rule).  CodegenError without a compiler."""
     ccpath = compiler(cc)
     h = hashlib.sha256()
     for piece in (structure(*parts), ca.__version__, sp.__version__, _codegen_digest(),
-                  _compiler_stat_id(ccpath), " ".join(flags)):
+                  _compiler_stat_id(ccpath), _policy(flags)):
         h.update(piece.encode())
         h.update(b"\0")
     return h.hexdigest()
@@ -353,7 +386,7 @@ def _ref_path(d: Path, name: str, fp: str) -> Path:
 
 def lookup_fingerprint(fp: str, name: str, *, cache=None) -> dict | None:
     """The record a fingerprint maps to (``library`` an existing path, ``function``,
-    ``doc``, ``key``), or None."""
+    ``doc``, ``key``, ``flags`` a tuple, empty when not recorded), or None."""
     d = usable_cache_dir(cache)
     ref = _ref_path(d, name, fp)
     bad = _file_problem(ref)
@@ -376,16 +409,19 @@ def lookup_fingerprint(fp: str, name: str, *, cache=None) -> dict | None:
         _refuse(path, bad)
         return None
     rec["library"] = path
+    fl = rec.get("flags")
+    rec["flags"] = tuple(fl) if isinstance(fl, list) and all(isinstance(x, str) for x in fl) else ()
     return rec
 
 
 def record_fingerprint(fp: str, name: str, library: Path, *, cache=None, function=None,
-                       doc=None, key=None) -> None:
+                       doc=None, key=None, flags=None) -> None:
     """Write ``CACHE/NAME-FP.ref`` atomically (a temporary file, then os.replace).
     Failure to write is not an error (the next call just translates again)."""
     d = usable_cache_dir(cache)
     rec = {"fingerprint": fp, "library": Path(library).name, "function": function,
-           "doc": doc, "key": key, "casadi": ca.__version__}
+           "doc": doc, "key": key, "casadi": ca.__version__,
+           "flags": list(flags) if flags is not None else None}
     try:
         fd, tmp = tempfile.mkstemp(prefix=f".tmp-{name}-", suffix=".ref", dir=d)
     except OSError:
@@ -417,10 +453,14 @@ def generate_c(f: ca.Function, *, header_comment: str | None = None) -> str:
 
 @dataclasses.dataclass(frozen=True)
 class CompileResult:
+    """A compiled library: its path, content key, whether it was a cache hit, the time
+    taken and the compiler flags it was built with."""
+
     path: Path
     key: str
     cached: bool
     seconds: float
+    flags: tuple = ()
 
 
 def _cleanup(*paths):
@@ -431,15 +471,17 @@ def _cleanup(*paths):
             pass
 
 
-def compile_source(source: str, name: str, *, cache=None, cc=None, flags=FLAGS,
+def compile_source(source: str, name: str, *, cache=None, cc=None, flags=None,
                    check=None) -> CompileResult:
-    """Compile C ``source`` to ``CACHE/NAME-KEY.so`` (or reuse it).  A cached entry is
+    """Compile C ``source`` to ``CACHE/NAME-KEY.so`` (or reuse it).  ``flags``: the
+    compiler flags, or None for :data:`FLAGS` made size-aware (:func:`size_aware_flags`);
+    the key includes the flags actually used.  A cached entry is
     used only when :func:`verify_library` accepts it (and ``check(path)``, if given, e.g.
     loading it, succeeds); otherwise it is rebuilt atomically.  When the cache cannot
     take the entry (not writable, a directory in the way) the private cache is used."""
     t0 = time.perf_counter()
     ccpath = compiler(cc)
-    flags = tuple(flags)
+    flags = size_aware_flags(source) if flags is None else tuple(flags)
     key = hashlib.sha256("\0".join([source, _compiler_id(ccpath), " ".join(flags)])
                          .encode()).hexdigest()
     d = usable_cache_dir(cache)
@@ -469,7 +511,7 @@ def _compile_into(d: Path, source, name, key, ccpath, flags, check, t0) -> Compi
         if bad is None:
             with CACHE_LOCK:
                 STATS["hits"] += 1
-            return CompileResult(final, key, True, time.perf_counter() - t0)
+            return CompileResult(final, key, True, time.perf_counter() - t0, flags)
         _refuse(final, bad)
     try:
         fd, csrc = tempfile.mkstemp(prefix=f".tmp-{name}-", suffix=".c", dir=d)
@@ -505,20 +547,22 @@ def _compile_into(d: Path, source, name, key, ccpath, flags, check, t0) -> Compi
         _cleanup(csrc, tmp_so)
     with CACHE_LOCK:
         STATS["compiles"] += 1
-    return CompileResult(final, key, False, time.perf_counter() - t0)
+    return CompileResult(final, key, False, time.perf_counter() - t0, flags)
 
 
 @dataclasses.dataclass(frozen=True)
 class CompiledFunction:
     """A compiled casadi Function (``function``: loaded by ``casadi.external``), the
-    library it came from, whether it was a cache hit and whether the sympy → casadi
-    translation ran (False on a fingerprint hit)."""
+    library it came from, whether it was a cache hit, whether the sympy → casadi
+    translation ran (False on a fingerprint hit) and the compiler flags of the library
+    (``()`` when a fingerprint record from an earlier version does not say)."""
 
     function: ca.Function
     path: Path
     cached: bool
     seconds: float
     translated: bool = True
+    flags: tuple = ()
 
     def __call__(self, *args, **kw):
         return self.function(*args, **kw)
@@ -532,7 +576,7 @@ def _load(name: str, path: Path) -> ca.Function:
         raise CodegenError(f"cannot load {path}: {msg[-1] if msg else exc}") from None
 
 
-def compile_function(f, *, cache=None, cc=None, flags=FLAGS, identity=None,
+def compile_function(f, *, cache=None, cc=None, flags=None, identity=None,
                      name: str | None = None) -> CompiledFunction:
     """Generate, compile (or reuse) and load ``f``; the result behaves like ``f``.
 
@@ -541,10 +585,11 @@ def compile_function(f, *, cache=None, cc=None, flags=FLAGS, identity=None,
     expressions and plain values that determines ``f`` *before* translation (the
     equations and the options it is built from); with it, a hit on the fingerprint
     (:func:`fingerprint`) loads the library without calling ``f`` or generating C.
-    ``name`` (the Function's name) is required when ``f`` is a callable.
+    ``name`` (the Function's name) is required when ``f`` is a callable.  ``flags``:
+    None for the size-aware default (:func:`compile_source`), else used as given.
     """
     t0 = time.perf_counter()
-    flags = tuple(flags)
+    flags = None if flags is None else tuple(flags)
     fp = None
     if name is None:
         if not isinstance(f, ca.Function):
@@ -563,7 +608,7 @@ def compile_function(f, *, cache=None, cc=None, flags=FLAGS, identity=None,
                 with CACHE_LOCK:
                     STATS["fingerprint_hits"] += 1
                 return CompiledFunction(g, rec["library"], True, time.perf_counter() - t0,
-                                        translated=False)
+                                        translated=False, flags=rec["flags"])
     if not isinstance(f, ca.Function):
         f = f()
     src = generate_c(f)
@@ -574,13 +619,14 @@ def compile_function(f, *, cache=None, cc=None, flags=FLAGS, identity=None,
     g.__doc__ = getattr(f, "__doc__", None)
     if fp is not None:
         record_fingerprint(fp, name, res.path, cache=cache, function=fname, doc=g.__doc__,
-                           key=res.key)
-    return CompiledFunction(g, res.path, res.cached, time.perf_counter() - t0)
+                           key=res.key, flags=res.flags)
+    return CompiledFunction(g, res.path, res.cached, time.perf_counter() - t0,
+                            flags=res.flags)
 
 
 def compile_observer_step(observer, *, h: float | None = None, name: str | None = None,
                           cse: bool = False, discretisation: str = "rk4", cache=None, cc=None,
-                          flags=FLAGS) -> CompiledFunction:
+                          flags=None) -> CompiledFunction:
     """:func:`~observer_cad.codegen.observer_step`, compiled; a second call for
     the same observer and options is a fingerprint hit (no translation, no C)."""
     from ._translate import observer_identity, observer_step, observer_step_name
@@ -593,7 +639,7 @@ def compile_observer_step(observer, *, h: float | None = None, name: str | None 
 
 def compile_plant_step(model, *, h: float | None = None, name: str | None = None,
                        substitute_parameters: bool = False, cache=None, cc=None,
-                       flags=FLAGS) -> CompiledFunction:
+                       flags=None) -> CompiledFunction:
     """:func:`~observer_cad.codegen.plant_step`, compiled (fingerprint-cached)."""
     from ._translate import plant_identity, plant_step, plant_step_name
     ident = plant_identity(model, h=h, name=name, substitute_parameters=substitute_parameters)

@@ -35,7 +35,7 @@ from ..model import PlantModel
 from ..observers import Observer, output_symbols
 from ..simulation import (Scenario, SimulationResult, align_delay, check_memory,
                           finish_result, signal_arrays)
-from ._compile import CACHE_LOCK, FLAGS, STATS, CodegenError, compile_source, fingerprint, forget_fingerprint, generate_c, lookup_fingerprint, record_fingerprint
+from ._compile import CACHE_LOCK, FLAGS, STATS, CodegenError, compile_source, fingerprint, forget_fingerprint, generate_c, lookup_fingerprint, record_fingerprint, size_aware_flags
 from ._translate import describe, joint_identity, joint_step, joint_step_name
 
 __all__ = ["CompiledSimulator", "simulate_compiled", "loop_source", "TRAJ_FLAGS"]
@@ -43,7 +43,8 @@ __all__ = ["CompiledSimulator", "simulate_compiled", "loop_source", "TRAJ_FLAGS"
 # -fno-semantic-interposition lets gcc inline the exported casadi step into the loop
 # (with plain -fPIC an exported symbol may be interposed, so it is called): measured
 # ≈ 12.6 → 6.3–8.7 ns/step on the 4-state electric-drive joint step.  Retried with
-# plain FLAGS if the compiler rejects it.
+# plain FLAGS if the compiler rejects it.  Both are made size-aware (-O1 for large C,
+# codegen.size_aware_flags) unless flags are given.
 TRAJ_FLAGS = FLAGS + ("-fno-semantic-interposition",)
 
 _P = ctypes.c_void_p
@@ -100,7 +101,8 @@ class CompiledSimulator:
     or generating C (``.translated`` is then False).  ``.step`` is the interpreted
     casadi joint step (built on first use after a fingerprint hit), ``.source`` the C
     of the library, ``.seconds`` the time the construction took, ``.cached`` whether
-    the library came from the cache.
+    the library came from the cache, ``.flags`` the compiler flags of the library
+    (``flags=None``: TRAJ_FLAGS, size-aware; explicit flags are used as given).
     """
 
     def __init__(self, model: PlantModel, observer: Observer | None, *, cache=None, cc=None,
@@ -126,7 +128,7 @@ class CompiledSimulator:
         flag_sets = [TRAJ_FLAGS, FLAGS] if flags is None else [tuple(flags)]
         ident = ("trajectory", joint_identity(m, observer, name=name),
                  "auto" if flags is None else tuple(flags))
-        fp = fingerprint(ident, cc=cc, flags=flag_sets[0])
+        fp = fingerprint(ident, cc=cc, flags=None if flags is None else flag_sets[0])
         rec = lookup_fingerprint(fp, lib_name, cache=cache)
         if rec is not None:
             try:
@@ -135,13 +137,15 @@ class CompiledSimulator:
                 forget_fingerprint(fp, lib_name, cache=cache)
                 rec = None
             else:
-                self.path, self.cached = rec["library"], True
+                self.path, self.cached, self.flags = rec["library"], True, rec["flags"]
                 with CACHE_LOCK:
                     STATS["fingerprint_hits"] += 1
         if rec is None:
             step = self.step
             src = generate_c(step) + loop_source(step, self.nv)
             self._source = src
+            if flags is None:
+                flag_sets = [size_aware_flags(src, fs) for fs in flag_sets]
 
             def check(path):
                 lib = ctypes.CDLL(str(path))
@@ -155,10 +159,10 @@ class CompiledSimulator:
                     raise
                 res = compile_source(src, lib_name, cache=cache, cc=cc, flags=flag_sets[1],
                                      check=check)
-            self.path, self.cached = res.path, res.cached
+            self.path, self.cached, self.flags = res.path, res.cached, res.flags
             self._open(res.path, fname)
             record_fingerprint(fp, lib_name, res.path, cache=cache, function=fname,
-                               doc=describe(step), key=res.key)
+                               doc=describe(step), key=res.key, flags=res.flags)
         self.seconds = time.perf_counter() - t0
 
     def _open(self, path, fname):

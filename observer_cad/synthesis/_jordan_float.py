@@ -32,7 +32,6 @@ import itertools
 from typing import Sequence
 
 import numpy as np
-import scipy.linalg
 import sympy as sp
 
 from ..progress import report
@@ -123,6 +122,7 @@ def _finite_real_eigs(a, b, imag_tol):
     na, nb = np.linalg.norm(a), np.linalg.norm(b)
     a = a / na if na else a
     b = b / nb if nb else b
+    import scipy.linalg  # here, not at module level: 0.3-0.5 s of imports (issue 14 item 5)
     w = scipy.linalg.eig(a, b, right=False, homogeneous_eigvals=True)
     alpha, beta = w[0], w[1]
     scale = np.sqrt(np.abs(alpha) ** 2 + np.abs(beta) ** 2)
