@@ -29,6 +29,7 @@ import dataclasses
 import itertools
 from typing import Sequence
 
+import numpy as np
 import sympy as sp
 
 from ..progress import report
@@ -479,6 +480,8 @@ def _directed_rows(fam, lam_list, H, M, n, observer, D, st, tried, names=()):
         report(f"designing (Jordan form): {size} row(s) of at most {n - 1}")
         for combo in itertools.combinations(lams, size):
             B = sp.Matrix.vstack(*[fam[lam][0] for lam in combo])
+            if _irrational(combo) and not _maybe_in_rowspace(sp.Matrix.vstack(B, H), M):
+                continue  # numerically far from solvable: skip the algebraic-field solve
             X = solve_left(sp.Matrix.vstack(B, H), M)
             if X is None:
                 continue
@@ -512,6 +515,40 @@ def _combination_rows(pool, n, observer, H, D, M, st, tried, names=(), sizes=Non
     return None
 
 
+def _irrational(lams) -> bool:
+    return any(lam.is_number and not lam.is_rational for lam in lams)
+
+
+#: float pre-check for sets with irrational λ: relative least-squares residual above which
+#: X B = M is certainly not solvable (an exact solution leaves ~1e-15; the exact solve decides)
+_PRECHECK_RTOL = 1e-6
+
+
+def _maybe_in_rowspace(B, M) -> bool:
+    """False when X B = M is far from solvable in floating point (exact arithmetic in an
+    algebraic field of high degree is slow; only sets that pass are solved exactly)."""
+    try:
+        Bn = np.array(B.evalf(30).tolist(), dtype=float)
+        Mn = np.array(M.evalf(30).tolist(), dtype=float)
+    except (TypeError, ValueError):  # symbolic entries: let the exact solve decide
+        return True
+    X, *_ = np.linalg.lstsq(Bn.T, Mn.T, rcond=None)
+    res = np.linalg.norm(X.T @ Bn - Mn)
+    return bool(res <= _PRECHECK_RTOL * max(1.0, np.linalg.norm(Mn)) * max(1.0, np.linalg.norm(Bn)))
+
+
+def _float_rank_full(A) -> bool:
+    """True when A has full row rank with a clear margin in floating point."""
+    try:
+        An = np.array(A.evalf(30).tolist(), dtype=float)
+    except (TypeError, ValueError):
+        return False
+    if An.shape[0] > An.shape[1]:
+        return False
+    s = np.linalg.svd(An, compute_uv=False)
+    return bool(s.size and s[-1] > _PRECHECK_RTOL * s[0])
+
+
 def _combined_rows(fam, lam_list, H, D, n, observer, M, st, tried, names, size):
     """Diagnostic rows of ``size`` distinct λ whose sum lies in rowspace H (seed 002 (2.7)):
     Σ_λ c_λ N_λ L0 + h H = 0 from the left null space of [N_λ1 L0; …; H], one row
@@ -519,6 +556,8 @@ def _combined_rows(fam, lam_list, H, D, n, observer, M, st, tried, names, size):
     lams = [lam for lam in lam_list if lam in fam]
     for combo in itertools.combinations(lams, size):
         Bs = [fam[lam][0] for lam in combo]
+        if _irrational(combo) and _float_rank_full(sp.Matrix.vstack(*Bs, H)):
+            continue  # no combination in rowspace H (numerically clear): skip the exact solve
         basis, _ = left_null_space(sp.Matrix.vstack(*Bs, H))
         if not basis:
             continue
