@@ -254,7 +254,7 @@ def design_jordan(model: PlantModel, *, observer: str, estimate=None,
         one_row, jumps = _special_lambdas(observer, F, H, L0, L if decoupled else sp.zeros(n, 0),
                                           M, work.time)
         for v in (one_row.stable if one_row else ()) + jumps.stable:
-            if not any(sp.simplify(v - w) == 0 for w in lam_list):
+            if not any(_same_number(v, w) for w in lam_list):
                 lam_list.append(v)
     else:  # every stable admissible root, exactly (CRootOf for irreducible cubics and up)
         lam_list = [v for v in adm.values if is_stable(v, work.time) is not False]
@@ -515,6 +515,18 @@ def _combination_rows(pool, n, observer, H, D, M, st, tried, names=(), sizes=Non
     return None
 
 
+def _same_number(a, b) -> bool:
+    """Exact equality of two real numbers (rationals, surds, CRootOf); a float comparison
+    first, so that distinct values never reach ``simplify``."""
+    if a == b:
+        return True
+    if a.free_symbols or b.free_symbols:
+        return sp.simplify(a - b) == 0
+    if abs(float(a) - float(b)) > 1e-9 * (1 + abs(float(a))):
+        return False
+    return sp.simplify(a - b) == 0
+
+
 def _irrational(lams) -> bool:
     return any(lam.is_number and not lam.is_rational for lam in lams)
 
@@ -591,7 +603,7 @@ def _minimality(observer, k, n, lams, lam_list, adm, requested, one_row, jumps, 
     """Why fewer rows are impossible, as far as it is proven (METHOD §2b)."""
     ref = "METHOD §2b; seed 002 §2"
     name = "k is minimal over λ"
-    special = [v for v in lams if not any(sp.simplify(v - w) == 0
+    special = [v for v in lams if not any(_same_number(v, w)
                                           for w in default_eigenvalues(time, n))]
     found = (f"λ = {', '.join(map(str, special))} found exactly (not in the default list); "
              if adm.generic and special else "")

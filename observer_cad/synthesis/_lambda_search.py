@@ -72,7 +72,8 @@ def exact_real_roots(factors, lam) -> list:
         else:
             rts = list(poly.real_roots())
         for r in rts:
-            if not any(sp.simplify(r - o) == 0 for o in out):
+            if not any(abs(float(r) - float(o)) <= 1e-9 * (1 + abs(float(o)))
+                       and sp.simplify(r - o) == 0 for o in out):
                 out.append(r)
     out.sort(key=lambda v: float(v.evalf(30)))
     return out
