@@ -143,7 +143,7 @@ def one_row_lambdas(F, H, L, M, lam, time: str) -> SpecialLambdas:
     if X is None:
         return SpecialLambdas(False, True, sp.Integer(1), (), (),
                               f"{how}: m0 is not in rowspace [E0; m1], so no λ admits one row")
-    root = sp.nsimplify(X[0, X.cols - 1])
+    root = sp.sympify(X[0, X.cols - 1])  # exact (rational) already
     p = lam - root
     stable = (root,) if is_stable(root, time) else ()
     return SpecialLambdas(False, True, p, (root,), stable,
