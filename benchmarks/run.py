@@ -2,8 +2,10 @@
 
     python3 benchmarks/run.py
 
-(runs bench_synthesis.py, bench_analyze.py, bench_codegen.py, then
-bench_jordan_minimality.py, each with --write; each rewrites its own section atomically).
+(runs bench_synthesis.py --write, bench_analyze.py --write, bench_exact.py --write,
+bench_codegen.py --write, bench_poles.py --write, bench_scale.py --write,
+bench_decisions.py --write, then bench_jordan_minimality.py --write; each rewrites its
+own section atomically).
 """
 import subprocess
 import sys
@@ -12,7 +14,8 @@ from pathlib import Path
 HERE = Path(__file__).resolve().parent
 
 if __name__ == "__main__":
-    for script in ("bench_synthesis.py", "bench_analyze.py", "bench_codegen.py",
+    for script in ("bench_synthesis.py", "bench_analyze.py", "bench_exact.py", "bench_codegen.py",
+                   "bench_poles.py", "bench_scale.py", "bench_decisions.py",
                    "bench_jordan_minimality.py"):
         print(f"== {script}", flush=True)
         rc = subprocess.call([sys.executable, str(HERE / script), "--write"] + sys.argv[1:])

@@ -51,6 +51,7 @@ from ..model import load_model
 from ..reporting import format_design, format_observer, format_structure
 from ..model import extract_structure
 from ..synthesis import design as make_design
+from ._demo_evaluation import BANK_MODEL, DRIVE_MODEL, evaluation_section, evaluation_summary, run_evaluation
 
 __all__ = ["CASES", "EXAMPLES_DIR", "FIGURES", "Case", "Run", "run_demo",
            "DIAGNOSABILITY", "BANK_FIGURE", "DiagnosabilityExample"]
@@ -1128,7 +1129,7 @@ def _diag_section(diag: DiagOutcome) -> str:
 
 
 def _report(outcomes, figs, out_dir: Path, totals: dict, engine: _Engine, models: dict,
-            diag: DiagOutcome | None = None) -> str:
+            diag: DiagOutcome | None = None, evaluation=None) -> str:
     from ..reporting import design_section, md_escape, render_report
     ok = [o for o in outcomes if o.error is None]
     intro = [
@@ -1144,6 +1145,7 @@ def _report(outcomes, figs, out_dir: Path, totals: dict, engine: _Engine, models
         f"- Python {platform.python_version()}, {platform.machine()}, {os.cpu_count()} CPU(s)",
         "- time: " + ", ".join(f"{k} {v:.2f} s" for k, v in totals.items()),
         *([_diag_summary(diag)] if diag is not None else []),
+        *([evaluation_summary(evaluation)] if evaluation is not None else []),
         "",
         "Conventions: discrete-time plots use t in steps; continuous-time plots t in s. " + _units_text(models),
         "",
@@ -1170,6 +1172,8 @@ def _report(outcomes, figs, out_dir: Path, totals: dict, engine: _Engine, models
     if diag is not None and diag.figure is not None:
         name, caption = diag.figure
         intro.append(f"- [`figures/{name}`](figures/{name}) — {md_escape(caption)}")
+    for name, caption in (evaluation.figures if evaluation is not None else ()):
+        intro.append(f"- [`figures/{name}`](figures/{name}) — {md_escape(caption)}")
     intro += ["", '<a id="models"></a>', "## Models", ""]
     for m in models.values():
         intro.append(_model_section(m))
@@ -1193,6 +1197,8 @@ def _report(outcomes, figs, out_dir: Path, totals: dict, engine: _Engine, models
             notes=notes, full_text=o.full_text, level=3))
     if diag is not None:
         sections.append(_diag_section(diag))
+    if evaluation is not None:
+        sections.append(evaluation_section(evaluation))
     return render_report("observer-cad demo: the seed papers' observers", intro, sections)
 
 
@@ -1260,6 +1266,9 @@ def run_demo(models_dir: Path = EXAMPLES_DIR, out_dir: Path = Path("out"), *,
     diag = (_run_diagnosability(DIAGNOSABILITY, models_dir, engine, log)
             if DIAGNOSABILITY is not None else None)
     t_diag = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    evaluation = run_evaluation(models_dir, fig_dir, log)
+    t_eval = time.perf_counter() - t0
     by_key = {o.case.key: o for o in outcomes if o.error is None}
 
     t0 = time.perf_counter()
@@ -1291,15 +1300,20 @@ def run_demo(models_dir: Path = EXAMPLES_DIR, out_dir: Path = Path("out"), *,
     totals = {"designs, compilation and simulation": t_cases}
     if diag is not None:
         totals["diagnosability"] = t_diag
+    totals["residual evaluation"] = t_eval
     totals["figures"] = t_figs
     report_path = out_dir / "report.md"
     totals["report"] = time.perf_counter() - t0
     totals["total"] = time.perf_counter() - t_start
-    text = _report(outcomes, figs, out_dir, totals, engine, used_models, diag)
+    for name in (DRIVE_MODEL, BANK_MODEL):
+        m = load_model(models_dir / name)
+        used_models.setdefault(m.name, m)
+    text = _report(outcomes, figs, out_dir, totals, engine, used_models, diag, evaluation)
     atomic_write_text(report_path, text)
     totals["total"] = time.perf_counter() - t_start
     failed = [o for o in outcomes if o.error is not None or not o.design.certificate.passed]
-    n_figs = len(figs) + (1 if diag is not None and diag.figure is not None else 0)
+    n_figs = len(figs) + (1 if diag is not None and diag.figure is not None else 0) \
+        + len(evaluation.figures)
     log(f"[report] {report_path} ({n_figs} figures, designs as JSON and LaTeX in {des_dir})")
     log(f"{len(outcomes)} designs, all certified." if not failed else
         f"{len(outcomes) - len(failed)} of {len(outcomes)} designs certified.")
@@ -1315,6 +1329,8 @@ def run_demo(models_dir: Path = EXAMPLES_DIR, out_dir: Path = Path("out"), *,
         f" simulate {sim_t:.1f} s, figures {t_figs:.1f} s)"
         + ("" if engine.reason is None else f"; not compiled: {engine.reason}"))
     diag_failed = ["diagnosability"] if diag is not None and diag.error is not None else []
+    if evaluation.error is not None:
+        diag_failed.append("residual evaluation")
     if failed or fig_failed or diag_failed:
         log(f"FAILED: {', '.join([o.case.key for o in failed] + diag_failed + fig_failed)}")
         return 1

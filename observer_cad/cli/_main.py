@@ -60,6 +60,7 @@ def build_parser() -> argparse.ArgumentParser:
     d.add_argument("model", metavar="MODEL", help="path to a model file")
     _add_design_options(d)
     d.add_argument("--json", action="store_true", help="print one JSON object instead of text")
+    _add_threshold_options(d, quantile=False)
 
     sim = sub.add_parser("simulate", help="simulate plant and observer on a scenario, write CSV",
                          description="Design the observer, run the reference simulator on a "
@@ -74,6 +75,7 @@ def build_parser() -> argparse.ArgumentParser:
                      help="when a value becomes NaN or infinite, still write the CSV (with nan/inf"
                           " written literally; an empty cell always means 'not available') and"
                           " exit with status 4 after a one-line warning")
+    _add_threshold_options(sim, quantile=True)
 
     cg = sub.add_parser("codegen", help="export the observer as standalone C",
                         description="Design the observer and write NAME.c, NAME.h (argument "
@@ -86,6 +88,10 @@ def build_parser() -> argparse.ArgumentParser:
     cg.add_argument("--dt", type=_positive_float("--dt"), default=None,
                     help="continuous time: the RK4 step size baked into the step (default 0.01)")
     cg.add_argument("--name", default=None, help="C name prefix (default: the observer's name)")
+    _add_threshold_options(cg, quantile=True)
+    cg.add_argument("--scenario", metavar="FILE", default=None,
+                    help="with --threshold quantile:RATE: the scenario whose fault-free runs"
+                         " estimate the threshold")
 
     an = sub.add_parser("analyze", help="which faults can be detected and isolated (diagnosability)",
                         description="For the declared faults, with the declared disturbances "
@@ -122,6 +128,60 @@ def build_parser() -> argparse.ArgumentParser:
     dm.add_argument("--no-compile", action="store_true",
                     help="simulate with the reference simulator (numpy) instead of compiled C")
     return p
+
+
+def _add_threshold_options(p, *, quantile: bool) -> None:
+    """--threshold and its companions (residual generators: --observer diagnostic, or a bank)."""
+    kinds = "guaranteed, quantile:RATE or a positive number" if quantile else \
+        "guaranteed or a positive number"
+    p.add_argument("--threshold", metavar="SPEC", default=None,
+                   help=f"residual evaluation ({kinds}): guaranteed = the adaptive band of the"
+                        " fault-free residual from the declared bounds of noise, disturbances"
+                        " and parameter uncertainty (no false alarm while they hold);"
+                        + (" quantile:RATE = the constant band |r| <= the (1 - RATE) quantile"
+                           " of |r| over Monte-Carlo fault-free runs of the scenario;" if quantile else "")
+                        + " a number = the constant band |r| <= VALUE")
+    p.add_argument("--initial-error", metavar="E", default="0",
+                   help="--threshold guaranteed: bound on |x*_i(0) - (Phi x(0))_i| (default 0: the"
+                        " observer starts at Phi x(0))")
+    if quantile:
+        p.add_argument("--persistence", metavar="N", type=_positive_int("--persistence"), default=1,
+                       help="alarm when a residual is outside its band for N consecutive samples"
+                            " (default 1)")
+        p.add_argument("--quantile-runs", metavar="R", type=_positive_int("--quantile-runs"),
+                       default=200, help="--threshold quantile: fault-free runs (default 200)")
+
+
+def _positive_int(option):
+    def convert(text):
+        try:
+            v = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{option} {text}: not a whole number") from None
+        if v < 1:
+            raise argparse.ArgumentTypeError(f"{option} {text}: must be at least 1")
+        return v
+    return convert
+
+
+def _threshold_from_args(args, model, observer, scenario=None):
+    """The observer with the bands --threshold asks for (None: unchanged)."""
+    if getattr(args, "threshold", None) is None:
+        if getattr(args, "initial_error", "0") != "0":
+            raise UsageError("--initial-error applies to --threshold guaranteed")
+        return observer
+    from ..model import parse_number
+    from ..observers import ThresholdSpec
+    from ..simulation import apply_threshold
+    spec = ThresholdSpec.parse(args.threshold)
+    e0 = parse_number(args.initial_error, where="--initial-error")
+    if e0 != 0 and spec.kind != "guaranteed":
+        raise UsageError("--initial-error applies to --threshold guaranteed")
+    if spec.kind == "quantile" and scenario is None:
+        raise UsageError("--threshold quantile:RATE is estimated on a scenario: give --scenario FILE")
+    report(f"computing the {spec.kind} threshold", stage=True)
+    return apply_threshold(model, observer, spec, scenario=scenario, initial_error=e0,
+                           runs=getattr(args, "quantile_runs", 200))
 
 
 def _positive_float(option):
@@ -310,14 +370,23 @@ def _cmd_bank(args, model, bank) -> int:
     observer = None
     if not args.symbolic:
         from ..observers import build_observer
-        observer = build_observer(model, bank)
+        observer = _threshold_from_args(args, model, build_observer(model, bank))
+    elif args.threshold is not None:
+        raise UsageError("--threshold needs numeric parameters: drop --symbolic")
     if args.json:
         out = bank.to_json()
         if observer is not None:
             out["observer_equations"] = observer.to_json()
+            if observer.threshold is not None:
+                out["threshold_conditions"] = [c.to_json() for c in observer.threshold.conditions]
         print(json.dumps(out, indent=2))
     else:
         print(format_bank(bank))
+        if observer is not None and observer.threshold is not None:
+            from ..reporting import format_observer, format_observer_conditions
+            print(format_observer(observer))
+            print(format_observer_conditions(observer))
+    _refuse_failed(observer)
     return 0
 
 
@@ -352,6 +421,10 @@ def _cmd_design(args) -> int:
         from ..observers import build_observer
         report("building the observer", stage=True)
         observer = build_observer(model, result, **options)
+        observer = _threshold_from_args(args, model, observer)
+    elif args.threshold is not None:
+        raise UsageError("--threshold needs a numeric, exact design: drop --symbolic"
+                         if args.symbolic else "--threshold: approximate designs have no observer")
     if args.json:
         out = result.to_json()
         if observer is not None:
@@ -365,7 +438,8 @@ def _cmd_design(args) -> int:
     else:
         report("formatting the design", stage=True)
         print(format_design(result))
-        if observer is not None and observer.kind in ("interval", "unknown-input", "sliding-mode"):
+        if observer is not None and (observer.kind in ("interval", "unknown-input", "sliding-mode")
+                                     or observer.threshold is not None):
             print(format_observer(observer))
         if observer is not None and observer.own_conditions:
             print(format_observer_conditions(observer))
@@ -395,10 +469,22 @@ def _cmd_simulate(args) -> int:
     report("building the observer", stage=True)
     observer = build_observer(model, result, **_observer_options(args, result))
     _refuse_failed(observer)
+    observer = _threshold_from_args(args, model, observer, scenario)
+    _refuse_failed(observer)
     report("simulating", stage=True)
     res = simulate(model, observer, scenario, keep_nonfinite=args.keep_nonfinite)
-    path = write_signals_csv(res, args.out)
-    print(f"wrote {path} ({len(res['t'])} rows, columns: {', '.join(res.order)})")
+    decisions = None
+    if observer.threshold is not None:
+        from ..observers import decide, decision_rule
+        from ..reporting import with_decisions
+        rule = decision_rule(model, result, persistence=args.persistence)
+        decisions = decide(rule, res.columns)
+        written = with_decisions(res, decisions)
+    elif args.persistence != 1:
+        raise UsageError("--persistence applies with --threshold")
+    path = write_signals_csv(res if decisions is None else written, args.out)
+    order = res.order if decisions is None else written.order
+    print(f"wrote {path} ({len(res['t'])} rows, columns: {', '.join(order)})")
     from ..reporting import UNITS_FILE
     units = ", ".join(f"{c} [{u}]" for c, u in res.units.items() if c in res.order)
     print(f"wrote {path.with_name(UNITS_FILE)} ({'units: ' + units if units else 'no units: the model declares none'})")
@@ -409,8 +495,10 @@ def _cmd_simulate(args) -> int:
         res = dataclasses.replace(res, columns={
             k: np.where(np.isfinite(v), v, np.nan) for k, v in res.columns.items()})
     for fig in plot_simulation(res, args.out, time=model.time,
-                               title=f"{model.name}, {observer.kind}"):
+                               title=f"{model.name}, {observer.kind}", decisions=decisions):
         print(f"wrote {fig}")
+    if decisions is not None:
+        _print_evaluation(model, observer, res, decisions)
     if res.nonfinite is not None:
         print(f"{PROG}: warning: {res.nonfinite} (kept in the CSV as nan/inf)", file=sys.stderr)
         return 4
@@ -424,6 +512,43 @@ def _cmd_simulate(args) -> int:
     return 0
 
 
+def _print_evaluation(model, observer, res, decisions) -> None:
+    """The threshold and what the decisions found on this scenario, a few lines."""
+    import numpy as np
+    from ..simulation import evaluate_result
+    print(f"threshold: {observer.threshold.text()}")
+    rule = decisions.rule
+    alarm = np.asarray(decisions.alarm)
+    t = np.asarray(res["t"])
+    if alarm.any():
+        k = int(np.flatnonzero(alarm)[0])
+        print(f"first alarm at t = {t[k]:g} ({decisions.diagnosis[k]}); alarm in"
+              f" {int(alarm.sum())} of {alarm.size} samples (persistence {rule.persistence})")
+    else:
+        print(f"no alarm in {alarm.size} samples (persistence {rule.persistence})")
+    m = evaluate_result(res, decisions)
+    o = m.runs_[0]
+    unit = " steps" if model.time == "discrete" else " s"
+    if o.onset is not None:
+        print(f"fault ({o.label}) from t = {o.onset:g}: " + (
+            f"detected after {o.delay:g}{unit}" if o.delay is not None else "NOT detected")
+            + f"; false alarms before it: {o.false_alarm_samples} samples;"
+              f" diagnosis at the end: {o.diagnosis}")
+    else:
+        print(f"no fault in the scenario: {o.false_alarm_samples} false-alarm samples;"
+              f" diagnosis at the end: {o.diagnosis}")
+    if observer.threshold.kind == "guaranteed" and observer.threshold.error_system.faults:
+        from ..observers import min_detectable_fault
+        end = t.size if o.onset is None else max(1, int(np.searchsorted(t, o.onset)))
+        widths = [float(np.nanmax(np.asarray(res[f"{r}_upper"] - res[f"{r}_lower"])[:end]))
+                  for r in rule.residuals]
+        sizes = min_detectable_fault(observer.threshold, widths)
+        print("smallest step fault detected for sure once settled (band width on the fault-free"
+              " part of this run / dc gain): " + ", ".join(
+                  f"{f} ≥ {v:.3g}" if v is not None else f"{f}: not seen"
+                  for f, v in sizes.items()))
+
+
 def _cmd_codegen(args) -> int:
     from ..observers import build_observer
     if args.symbolic:
@@ -432,12 +557,24 @@ def _cmd_codegen(args) -> int:
     report("building the observer", stage=True)
     observer = build_observer(model, result, **_observer_options(args, result))
     _refuse_failed(observer)
+    scenario = None
+    if args.scenario is not None:
+        from ..simulation import load_scenario
+        scenario = load_scenario(args.scenario)
+    observer = _threshold_from_args(args, model, observer, scenario)
+    _refuse_failed(observer)
     try:
         from ..codegen import export_observer
     except ModuleNotFoundError:  # pragma: no cover - during development only
         raise UsageError("standalone C export is not available") from None
     dt = args.dt if args.dt is not None else (0.01 if observer.time == "continuous" else None)
-    paths = export_observer(observer, args.out, name=args.name, dt=dt)
+    rule = None
+    if observer.threshold is not None:
+        from ..observers import decision_rule
+        rule = decision_rule(model, result, persistence=args.persistence)
+    elif args.persistence != 1:
+        raise UsageError("--persistence applies with --threshold")
+    paths = export_observer(observer, args.out, name=args.name, dt=dt, rule=rule)
     for p in paths:
         print(f"wrote {p}")
     return 0

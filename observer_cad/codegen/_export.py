@@ -50,6 +50,8 @@ import sympy as sp
 from ..files import atomic_write_text
 from ..errors import UsageError
 from ..observers import Observer
+from ..observers import DecisionRule
+from ._decide_c import decision_sources
 from ._translate import DISCRETISATIONS, describe, observer_step, split_signals, zoh_matrices
 
 __all__ = ["export_observer", "export_sources", "ExportedSources", "EXAMPLE_FLAGS",
@@ -185,7 +187,8 @@ def _double_array(cname, vals):
 
 def export_sources(observer: Observer, *, name: str | None = None, dt: float | None = None,
                    initial: Mapping | None = None,
-                   discretisation: str = "rk4") -> ExportedSources:
+                   discretisation: str = "rk4",
+                   rule: DecisionRule | None = None) -> ExportedSources:
     """The text of the three files (nothing written); see :func:`export_observer`."""
     if not isinstance(observer, Observer):
         raise UsageError("export_observer needs an Observer (observer_cad.observers.build_observer)")
@@ -234,6 +237,7 @@ def export_sources(observer: Observer, *, name: str | None = None, dt: float | N
     nx, ny, nu, npar, no = len(xs), len(ys), len(us), len(ps), len(outs)
     sz = _sizes(f)
     x0, zeroed = _initial_state(observer, initial)
+    dec = decision_sources(name, observer, rule) if rule is not None else None
 
     # ------------------------------------------------------------------ NAME.c
     cg = ca.CodeGenerator(f"{name}.c", {"casadi_real": "double", "with_header": False})
@@ -276,6 +280,8 @@ def export_sources(observer: Observer, *, name: str | None = None, dt: float | N
              f"  {name}_release(mem);",
              "  return flag;",
              "}", ""]
+    if dec is not None:
+        csrc.append(dec.c)
     c_text = "\n".join(csrc)
 
     # ------------------------------------------------------------------ NAME.h
@@ -347,6 +353,7 @@ def export_sources(observer: Observer, *, name: str | None = None, dt: float | N
            f" * or simply {name}_step(x, y, u, p, " + ("h, " if h_arg else "")
            + "x_next, out) (work vectors on the stack).",
            " * Both return 0 on success.",
+           *(dec.h_doc if dec is not None else ()),
            " *",
            f" * Example: {name}_example.c (cc -std=c99 -Wall -Wextra -Werror {name}.c"
            f" {name}_example.c -lm).",
@@ -413,6 +420,7 @@ def export_sources(observer: Observer, *, name: str | None = None, dt: float | N
            f"void {name}_casadi_version(int* major, int* minor, int* patch);",
            f"int {name}_casadi_int_size(void);",
            f"int {name}_casadi_real_size(void);",
+           *(dec.h_decl if dec is not None else ()),
            "",
            "#ifdef __cplusplus",
            '} /* extern "C" */',
@@ -421,13 +429,13 @@ def export_sources(observer: Observer, *, name: str | None = None, dt: float | N
            f"#endif /* {G}_H */",
            ""]
     h_text = "\n".join(hl)
-    ex_text = _example_source(name, observer, h_arg, ys, us, xs, outs)
+    ex_text = _example_source(name, observer, h_arg, ys, us, xs, outs, dec)
     return ExportedSources(name, f, c_text, h_text, ex_text)
 
 
 def export_observer(observer: Observer, out_dir, *, name: str | None = None,
                     dt: float | None = None, initial: Mapping | None = None,
-                    discretisation: str = "rk4") -> list:
+                    discretisation: str = "rk4", rule: DecisionRule | None = None) -> list:
     """Write ``NAME.c``, ``NAME.h`` and ``NAME_example.c`` into ``out_dir`` (created if
     missing); returns their paths in that order.
 
@@ -439,10 +447,17 @@ def export_observer(observer: Observer, out_dir, *, name: str | None = None,
     others are 0 (stated in the header).  ``discretisation``: ``"rk4"`` (default) or
     ``"zoh"``, the exact zero-order-hold step of an observer affine in its states
     (continuous time, ``dt`` required; see
-    :func:`~observer_cad.codegen.zoh_matrices`).
+    :func:`~observer_cad.codegen.zoh_matrices`).  ``rule``: a
+    :class:`~observer_cad.observers.DecisionRule` over the observer's residual outputs;
+    the sources then gain ``NAME_decide`` (the logic of
+    :func:`~observer_cad.observers.decide`, bit-exact), the diagnosis table
+    ``NAME_diagnosis_text`` and ``NAME_PERSISTENCE``, and the example prints
+    ``<r>_alarm`` per residual, ``alarm``, ``diagnosis_code`` and ``diagnosis`` after the
+    outputs (thresholds ``<r>_lower``/``<r>_upper``: observer outputs when it has them,
+    else columns of the input CSV; an empty cell there is NaN, i.e. not out).
     """
     src = export_sources(observer, name=name, dt=dt, initial=initial,
-                         discretisation=discretisation)
+                         discretisation=discretisation, rule=rule)
     out = Path(out_dir)
     try:
         out.mkdir(parents=True, exist_ok=True)
@@ -458,9 +473,34 @@ def export_observer(observer: Observer, out_dir, *, name: str | None = None,
 
 
 # ---------------------------------------------------------------------- the example
-def _example_source(name, observer, h_arg, ys, us, xs, outs) -> str:
+def _example_source(name, observer, h_arg, ys, us, xs, outs, dec=None) -> str:
     N = name
     sig = [str(s) for s in ys] + [str(s) for s in us]
+    extra = dec.input_columns if dec is not None else []
+    nextra = len(extra)
+    if dec is None:
+        dec_decl = dec_head = dec_step = ""
+        dec_doc = ""
+    else:
+        dec_decl = (f"  double rr[{N}_NRES], lo[{N}_NRES], hi[{N}_NRES];\n"
+                    f"  int counters[{N}_NRES], alarms[{N}_NRES], code = 0;\n")
+        dec_head = (f"  for (i = 0; i < {N}_NRES; ++i) counters[i] = 0;\n"
+                    f"  for (i = 0; i < {N}_NRES; ++i) printf(\",%s_alarm\", {N}_residual_names[i]);\n"
+                    "  printf(\",alarm,diagnosis_code,diagnosis\");\n")
+        lines = []
+        for i, (ri, (lo, hi)) in enumerate(zip(dec.residual_index, dec.thresholds)):
+            src = [f"out[{v}]" if k == "out" else f"v[NSIG + {extra.index(v)}]" for k, v in (lo, hi)]
+            lines.append(f"    rr[{i}] = out[{ri}]; lo[{i}] = {src[0]}; hi[{i}] = {src[1]};")
+        dec_step = ("\n".join(lines) + "\n"
+                    f"    code = {N}_decide(rr, lo, hi, counters, alarms);\n"
+                    f"    for (i = 0; i < {N}_NRES; ++i) printf(\",%d\", alarms[i]);\n"
+                    f"    printf(\",%d,%d,\\\"%s\\\"\", code != 0, code, {N}_diagnosis_text[code]);\n")
+        dec_doc = (f" * Decisions ({N}_decide): after the outputs, <r>_alarm per residual, alarm"
+                   " (any), diagnosis_code and\n"
+                   " * diagnosis (quoted text); thresholds that are not observer outputs are read"
+                   " from the input columns\n"
+                   f" *   {', '.join(extra) or '(none: all are outputs)'} (an empty cell is NaN:"
+                   " not out).\n")
     usage = (f"usage: {N}_example INPUT.csv" + (" dt=H" if h_arg else "")
              + " [x0=v1,...] [p=v1,...]")
     dt_decl = "  double h = 0.0;\n  int have_dt = 0;\n" if h_arg else ""
@@ -480,7 +520,7 @@ def _example_source(name, observer, h_arg, ys, us, xs, outs) -> str:
   }
 """ if h_arg else "")
     h_set = "  arg[4] = &h;\n" if h_arg else ""
-    sig_items = ", ".join([_cstr(s) for s in sig] + ["0"])
+    sig_items = ", ".join([_cstr(s) for s in sig + extra] + ["0"])
     dt_doc = "; dt= gives the RK4 step size" if h_arg else ""
     oname = _comment(observer.name)
     return f"""/* {N}_example.c: step the observer '{oname}' on a recorded input file.
@@ -496,7 +536,8 @@ def _example_source(name, observer, h_arg, ys, us, xs, outs) -> str:
  * every number printed with %.17g (doubles round-trip exactly).
  * x0= overrides the initial state {N}_x0, p= the parameters {N}_p_default{dt_doc}.
  * Exit status: 0 ok, 1 the step function failed or out of memory, 2 bad input or usage.
- */
+{dec_doc} */
+#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -504,9 +545,10 @@ def _example_source(name, observer, h_arg, ys, us, xs, outs) -> str:
 #include "{N}.h"
 
 #define NSIG ({N}_NY + {N}_NU)
+#define NREAD (NSIG + {nextra})   /* signals, then threshold columns read from the input */
 #define ASIZE(n) ((n) > 0 ? (n) : 1)
 
-static const char* const sig_names[NSIG + 1] = {{{sig_items}}};
+static const char* const sig_names[NREAD + 1] = {{{sig_items}}};
 
 /* One line without its line end, malloc'd; NULL at the end of the file or when out of
    memory (*oom set). */
@@ -567,12 +609,12 @@ int main(int argc, char** argv) {{
   FILE* fp;
   char* line;
   int oom = 0, status = 0, ncol = 0, i, j, a, mem = -1;
-  int col_of[ASIZE(NSIG)];
+  int col_of[ASIZE(NREAD)];
   int* sig_of_col = NULL;
   long lineno = 1, step = 0;
-  double v[ASIZE(NSIG)];
+  double v[ASIZE(NREAD)];
   double x[ASIZE({N}_NX)], xn[ASIZE({N}_NX)], out[ASIZE({N}_NOUT)], p[ASIZE({N}_NP)];
-{dt_decl}  const casadi_real* arg[ASIZE({N}_SZ_ARG)];
+{dt_decl}{dec_decl}  const casadi_real* arg[ASIZE({N}_SZ_ARG)];
   casadi_real* res[ASIZE({N}_SZ_RES)];
   casadi_int iw[ASIZE({N}_SZ_IW)];
   casadi_real w[ASIZE({N}_SZ_W)];
@@ -620,7 +662,7 @@ int main(int argc, char** argv) {{
     fclose(fp);
     return oom ? 1 : 2;
   }}
-  for (j = 0; j < NSIG; ++j) col_of[j] = -1;
+  for (j = 0; j < NREAD; ++j) col_of[j] = -1;
   {{
     char* s = line;
     for (ncol = 0;; ++ncol) {{
@@ -631,7 +673,7 @@ int main(int argc, char** argv) {{
       t = s + strlen(s);
       while (*b == ' ' || *b == '\\t' || *b == '"') ++b;
       while (t > b && (t[-1] == ' ' || t[-1] == '\\t' || t[-1] == '"')) *--t = '\\0';
-      for (j = 0; j < NSIG; ++j)
+      for (j = 0; j < NREAD; ++j)
         if (col_of[j] < 0 && strcmp(b, sig_names[j]) == 0) col_of[j] = ncol;
       if (e == NULL) break;
       s = e + 1;
@@ -639,7 +681,7 @@ int main(int argc, char** argv) {{
     ++ncol;
   }}
   free(line);
-  for (j = 0; j < NSIG; ++j) {{
+  for (j = 0; j < NREAD; ++j) {{
     if (col_of[j] < 0) {{
       fprintf(stderr, "%s: %s has no column '%s'\\n", argv[0], argv[1], sig_names[j]);
       fclose(fp);
@@ -653,7 +695,7 @@ int main(int argc, char** argv) {{
     return 1;
   }}
   for (i = 0; i < ncol; ++i) sig_of_col[i] = -1;
-  for (j = 0; j < NSIG; ++j) sig_of_col[col_of[j]] = j;
+  for (j = 0; j < NREAD; ++j) sig_of_col[col_of[j]] = j;
 
   for (i = 0; i < ASIZE({N}_SZ_ARG); ++i) arg[i] = 0;
   for (i = 0; i < ASIZE({N}_SZ_RES); ++i) res[i] = 0;
@@ -668,7 +710,7 @@ int main(int argc, char** argv) {{
   printf("step");
   for (i = 0; i < {N}_NX; ++i) printf(",%s", {N}_x_names[i]);
   for (i = 0; i < {N}_NOUT; ++i) printf(",%s", {N}_out_names[i]);
-  printf("\\n");
+{dec_head}  printf("\\n");
 
   while ((line = read_line(fp, &oom)) != NULL) {{
     char* s = line;
@@ -685,7 +727,9 @@ int main(int argc, char** argv) {{
         char* end;
         double val = strtod(s, &end);
         while (*end == ' ' || *end == '\\t') ++end;
-        if (end == s || *end != '\\0') {{
+        int empty = sig_of_col[col] >= NSIG && blank(s);
+        if (empty) val = NAN;   /* an empty threshold cell: not available (NaN) */
+        if (!empty && (end == s || *end != '\\0')) {{
           fprintf(stderr, "%s: %s line %ld: column '%s' is not a number\\n", argv[0], argv[1],
                   lineno, sig_names[sig_of_col[col]]);
           status = 2;
@@ -699,7 +743,7 @@ int main(int argc, char** argv) {{
     }}
     free(line);
     if (status) break;
-    if (seen != NSIG) {{
+    if (seen != NREAD) {{
       fprintf(stderr, "%s: %s line %ld: too few columns\\n", argv[0], argv[1], lineno);
       status = 2;
       break;
@@ -712,7 +756,7 @@ int main(int argc, char** argv) {{
     printf("%ld", step);
     for (i = 0; i < {N}_NX; ++i) printf(",%.17g", x[i]);
     for (i = 0; i < {N}_NOUT; ++i) printf(",%.17g", out[i]);
-    printf("\\n");
+{dec_step}    printf("\\n");
     for (i = 0; i < {N}_NX; ++i) x[i] = xn[i];
     ++step;
   }}

@@ -221,6 +221,11 @@ class CompiledSimulator:
         """The inputs of :meth:`run_arrays` for a scenario: ``(t, runs, steps, V, s0)``, V the
         signals per run (runs × steps × inputs), s0 the joint initial state [x(0); ξ(0)]."""
         m, observer = self.model, self.observer
+        if scenario.parameters:
+            raise UsageError(f"{scenario.source or 'scenario'}: 'parameters' (the true plant's"
+                             " parameter values) are simulated by the reference simulator"
+                             " (observer_cad.simulate); the compiled one is built with the"
+                             " model's nominal values")
         R = 1 if runs is None else int(runs)
         if R < 1:
             raise UsageError(f"runs must be at least 1, got {runs}")

@@ -78,6 +78,23 @@ def to_rational(value: Any, what: str) -> sp.Expr:
     raise ModelError(f"{what}: value {value!r} is not a number")
 
 
+def free_symbols(e: sp.Basic) -> set:
+    """``e.free_symbols``, with a sum's terms ``number·symbol`` and ``symbol`` read off
+    directly: one pass over the terms of a long linear equation instead of sympy's
+    recursion through every number and product (5× faster on a 300-term sum)."""
+    if not e.is_Add:
+        return set(e.free_symbols)
+    out = set()
+    for t in e.args:
+        if t.is_Symbol:
+            out.add(t)
+        elif t.is_Mul and len(t.args) == 2 and t.args[0].is_Number and t.args[1].is_Symbol:
+            out.add(t.args[1])
+        else:
+            out |= t.free_symbols
+    return out
+
+
 def _symbols(seq: Any, role: str, where: str) -> tuple[sp.Symbol, ...]:
     if seq is None:
         return ()
@@ -152,6 +169,11 @@ class PlantModel:
         may stand for it). Used for axis labels, ``signals.units.json`` beside the CSV
         and the report; an output ``y_i`` has the unit its states share
         (:meth:`output_unit`). A symbol without an entry has no unit.
+    uncertainty : mapping Symbol -> (low, high), optional
+        Parameter uncertainty: the true value of a parameter lies in [low, high] (which
+        contains its default, the nominal value every design uses). Guaranteed
+        thresholds (:func:`observer_cad.observers.guaranteed_threshold`) absorb it;
+        scenarios may set the true plant parameters within it (``"parameters"``).
     source : str, optional
         The model file it came from (set by :func:`load_model`; used in messages).
     """
@@ -170,6 +192,7 @@ class PlantModel:
     domain: tuple = ()
     linear_part: Any = None
     units: Mapping = dataclasses.field(default_factory=dict)
+    uncertainty: Mapping = dataclasses.field(default_factory=dict)
     source: str | None = None
 
     def __post_init__(self) -> None:
@@ -215,29 +238,36 @@ class PlantModel:
                     raise ModelError(
                         f"{where}: symbol '{s}' is declared in two roles: {roles[s]} and {role}")
                 roles[s] = role
-        for i, (x, f) in enumerate(zip(self.states, self.dynamics)):
-            for s in sorted(f.free_symbols - set(roles), key=str):
+        # each expression's symbols collected once (one walk over its terms)
+        declared = set(roles)
+        noise = set(self.noise)
+        dyn_syms = [free_symbols(f) for f in self.dynamics]
+        out_syms = [free_symbols(h) for h in self.outputs]
+        for i, (x, fs) in enumerate(zip(self.states, dyn_syms)):
+            for s in sorted(fs - declared, key=str):
                 raise ModelError(
                     f"{where}: undeclared symbol '{s}' in dynamics equation {i + 1} (for {x})")
-            for s in sorted(f.free_symbols & set(self.noise), key=str):
+            for s in sorted(fs & noise, key=str):
                 raise ModelError(
                     f"{where}: noise '{s}' appears in dynamics equation {i + 1} (for {x});"
                     " measurement noise may enter the outputs only")
-        for i, h in enumerate(self.outputs):
+        unknown = set(self.inputs) | set(self.faults) | set(self.disturbances)
+        for i, (h, hs) in enumerate(zip(self.outputs, out_syms)):
             name = f"y{i + 1}"
-            for s in sorted(h.free_symbols - set(roles), key=str):
+            for s in sorted(hs - declared, key=str):
                 raise ModelError(f"{where}: undeclared symbol '{s}' in output {name} = {h}")
-            bad = h.free_symbols & (set(self.inputs) | set(self.faults) | set(self.disturbances))
-            for s in sorted(bad, key=str):
+            for s in sorted(hs & unknown, key=str):
                 raise ModelError(
                     f"{where}: output {name} = {h} depends on {roles[s][:-1]} '{s}';"
                     " outputs may contain states, noise and parameters only")
+        in_outputs = set().union(*out_syms)
         for w in self.noise:
-            if not any(w in h.free_symbols for h in self.outputs):
+            if w not in in_outputs:
                 raise ModelError(f"{where}: noise '{w}' is declared but appears in no output")
+        in_dynamics = set().union(*dyn_syms)
         for role, syms in (("fault", self.faults), ("disturbance", self.disturbances)):
             for s in syms:
-                if not any(s in f.free_symbols for f in self.dynamics):
+                if s not in in_dynamics:
                     raise ModelError(f"{where}: {role} '{s}' is declared but appears in no"
                                      " dynamics equation")
 
@@ -288,6 +318,7 @@ class PlantModel:
                     f"{where}: linear_part uses '{sorted(extra, key=str)[0]}', which is not a parameter")
             set_("linear_part", F)
         set_("units", MappingProxyType(_units(self.units, roles, where)))
+        set_("uncertainty", MappingProxyType(_uncertainty(self.uncertainty, params, where)))
 
     # ------------------------------------------------------------------ helpers
     @property
@@ -367,6 +398,7 @@ class PlantModel:
             domain=tuple(sub(r) for r in self.domain),
             linear_part=None if self.linear_part is None else self.linear_part.xreplace(vals),
             units={s: u for s, u in self.units.items() if s not in vals},
+            uncertainty={},
         )
 
     def _sizes(self) -> str:
@@ -409,6 +441,40 @@ class PlantModel:
             lines.append(f"| parameters | {', '.join(str(p) for p in self.parameters)} |")
         lines += ["", "$$" + self._equations_latex() + "$$"]
         return "\n".join(lines)
+
+
+def _uncertainty(raw: Any, params: Mapping, where: str) -> dict:
+    """Validate ``uncertainty``: parameter -> (low, high), finite, low <= default <= high."""
+    if raw is None:
+        return {}
+    if not isinstance(raw, Mapping):
+        raise ModelError(f"{where}: uncertainty must be a mapping parameter -> (low, high),"
+                         f" got {raw!r}")
+    by_name = {s.name: s for s in params}
+    out = {}
+    for key, b in raw.items():
+        p = by_name.get(key) if isinstance(key, str) else key
+        if not isinstance(p, sp.Symbol) or p not in params:
+            raise ModelError(f"{where}: uncertainty given for '{key}', which is not a parameter")
+        if params[p] is None:
+            raise ModelError(f"{where}: uncertainty of '{p}' needs a nominal value: give the"
+                             " parameter a default")
+        try:
+            lo, hi = b
+        except (TypeError, ValueError):
+            raise ModelError(f"{where}: uncertainty of '{p}' must be a pair (low, high)") from None
+        lo = to_rational(lo, f"{where}: lower uncertainty bound of '{p}'")
+        hi = to_rational(hi, f"{where}: upper uncertainty bound of '{p}'")
+        if not (lo.is_Rational and hi.is_Rational):
+            raise ModelError(f"{where}: uncertainty bounds of '{p}' must be rational numbers")
+        nominal = params[p]
+        if bool(lo > hi):
+            raise ModelError(f"{where}: uncertainty of '{p}' has low {lo} > high {hi}")
+        if nominal.is_Rational and not (lo <= nominal <= hi):
+            raise ModelError(f"{where}: uncertainty [{lo}, {hi}] of '{p}' does not contain its"
+                             f" nominal value {nominal}")
+        out[p] = (lo, hi)
+    return out
 
 
 def _units(raw: Any, roles: dict, where: str) -> dict:

@@ -33,17 +33,68 @@ from sympy.core.add import Add
 from sympy.core.basic import Basic, ordering_of_classes
 from sympy.core.mul import Mul
 
+from ._matrices import exact_matrix
 from ._plant import PlantModel
 
 __all__ = ["random_matrices", "random_model", "random_structure", "generic_k"]
 
 
-def _rational(v: float, den: int = 1000, _cache: dict = {}) -> sp.Rational:  # noqa: B006
-    key = (int(round(v * den)), den)
-    r = _cache.get(key)
-    if r is None:
-        r = _cache[key] = sp.Rational(*key)
-    return r
+_RATIONALS: dict = {}  # (numerator, denominator) -> Rational, shared by every draw
+
+
+def _rationals(ints, den: int) -> list:
+    """sympy Rationals ``k/den`` for the integers of an array (one per distinct value)."""
+    cache = _RATIONALS
+    out = []
+    for k in ints.tolist():
+        r = cache.get((k, den))
+        if r is None:
+            r = cache[(k, den)] = sp.Rational(k, den)
+        out.append(r)
+    return out
+
+
+def _draw_all(n: int, l: int, p: int, *, seed: int, m: int,  # noqa: E741
+              integer: bool, density: float) -> dict:
+    """name -> (rows, cols, row-major list of exact entries) for F, H, D, L, G.
+
+    One pass of numpy's generator per matrix, converted to sympy numbers in bulk (each
+    distinct value once); the draws and their order are those of the first
+    implementation, so a seed gives the same plant as before."""
+    if n < 1 or l < 1 or p < 0 or m < 0:
+        raise ValueError(f"random_matrices: need n, l >= 1 and p, m >= 0"
+                         f" (got n={n}, l={l}, p={p}, m={m})")
+    rng = np.random.default_rng(seed)
+    shapes = {"F": (n, n), "H": (l, n), "D": (n, 1), "L": (n, p), "G": (n, m)}
+    zero = sp.S.Zero
+
+    def draw(name, r, c):
+        if integer:
+            flat = _rationals(rng.integers(-2, 3, size=(r, c)).ravel(), 1)
+        else:
+            a = rng.standard_normal((r, c))
+            if name == "F":
+                a = a / np.sqrt(n)
+            # round(v * 1000) per value, as Python's round: half to even, like np.rint
+            flat = _rationals(np.rint(a.ravel() * 1000).astype(np.int64), 1000)
+        if density < 1.0 and name != "G":
+            keep = (rng.random((r, c)) < density).ravel().tolist()
+            flat = [e if kp else zero for e, kp in zip(flat, keep)]
+        return flat
+
+    def degenerate(name, flat, r, c):
+        # a zero output row or a zero fault column makes the problem degenerate
+        if name == "H":
+            return any(not any(flat[i * c:(i + 1) * c]) for i in range(r))
+        return name == "D" and not any(flat)
+
+    out = {}
+    for name, (r, c) in shapes.items():  # fixed order: the same seed, the same matrices
+        flat = draw(name, r, c)
+        while degenerate(name, flat, r, c):  # draw again, deterministically
+            flat = draw(name, r, c)
+        out[name] = (r, c, flat)
+    return out
 
 
 def random_matrices(n: int, l: int, p: int, *, seed: int, m: int = 1,  # noqa: E741
@@ -55,54 +106,15 @@ def random_matrices(n: int, l: int, p: int, *, seed: int, m: int = 1,  # noqa: E
     non-generic structure: structural zeros, rank drops; what the float path must
     agree with the exact one on).
     """
-    if n < 1 or l < 1 or p < 0 or m < 0:
-        raise ValueError(f"random_matrices: need n, l >= 1 and p, m >= 0"
-                         f" (got n={n}, l={l}, p={p}, m={m})")
-    rng = np.random.default_rng(seed)
-    shapes = {"F": (n, n), "H": (l, n), "D": (n, 1), "L": (n, p), "G": (n, m)}
-
-    def draw(name, r, c):
-        if integer:
-            a = rng.integers(-2, 3, size=(r, c))
-            M = sp.Matrix(r, c, [sp.Integer(int(v)) for v in a.ravel()])
-        else:
-            a = rng.standard_normal((r, c))
-            if name == "F":
-                a = a / np.sqrt(n)
-            M = sp.Matrix(r, c, [_rational(float(v)) for v in a.ravel()])
-        if density < 1.0 and name != "G":
-            keep = rng.random((r, c)) < density
-            M = sp.Matrix(r, c, [e if kp else sp.Integer(0) for e, kp in zip(M, keep.ravel())])
-        return M
-
-    def degenerate(name, M):
-        # a zero output row or a zero fault column makes the problem degenerate
-        if name == "H":
-            return any(all(e == 0 for e in M.row(i)) for i in range(M.rows))
-        return name == "D" and all(e == 0 for e in M)
-
-    out = {}
-    for name, (r, c) in shapes.items():  # fixed order: the same seed, the same matrices
-        M = draw(name, r, c)
-        while degenerate(name, M):  # draw again, deterministically from the same generator
-            M = draw(name, r, c)
-        out[name] = M
-    return out
-
-
-def _term(c, s):
-    """c·s for a number c and a symbol s, built in sympy's canonical form directly."""
-    if c is sp.S.One:
-        return s
-    return Mul._from_args((c, s))
+    drawn = _draw_all(n, l, p, seed=seed, m=m, integer=integer, density=density)
+    return {name: exact_matrix(r, c, flat).as_mutable() for name, (r, c, flat) in drawn.items()}
 
 
 @functools.lru_cache(maxsize=65536)
 def _canonical_key(e):
     """A sort key equivalent to ``Basic.compare`` (the order ``Add`` keeps its terms in):
-    class rank, then the hashable content, element by element. Computed once per term
-    instead of once per comparison (``Add(*terms)`` spends 0.3 s sorting a 300-term row;
-    this 0.01 s). ``tests/test_random_systems`` checks it gives ``Add``'s own order."""
+    class rank, then the hashable content, element by element. ``tests/model`` checks
+    it gives ``Add``'s own order."""
     if isinstance(e, Basic):
         name = type(e).__name__
         try:
@@ -116,22 +128,53 @@ def _canonical_key(e):
     return e
 
 
-def _sum(terms: list):
-    """Add(*terms) for distinct terms c·s, without re-flattening: the terms sorted as
-    ``Add`` sorts them, so the result is the canonical expression (equal to
-    ``Add(*terms)``, the same args in the same order) at a small fraction of the cost."""
-    if not terms:
-        return sp.Integer(0)
-    if len(terms) == 1:
-        return terms[0]
-    return Add._from_args(sorted(terms, key=_canonical_key))
+def _ranks(items) -> dict:
+    """item -> its position in ``Basic.compare`` order among the distinct items."""
+    return {e: k for k, e in enumerate(sorted(set(items), key=_canonical_key))}
 
 
-def _linear_forms(M: sp.Matrix, syms) -> list:
-    """The rows of M applied to the symbols, built as flat sums (no expansion needed)."""
-    entries = M.tolist()
-    zero = sp.S.Zero
-    return [_sum([_term(c, s) for c, s in zip(row, syms) if c is not zero]) for row in entries]
+def _linear_sums(rows: list, symbols: list) -> list:
+    """``Add(*[c·s for the nonzero c])`` for each row of ``[(c, s), ...]`` pairs (numbers
+    c, distinct symbols s per row), built in sympy's canonical form directly.
+
+    ``Add`` sorts its terms with ``Basic.compare``: a term ``c·s`` is ``Mul(c, s)``
+    (class Mul, content (c, s): ordered by c, then s) and ``1·s`` is ``s`` (class
+    Symbol, before or after every Mul by class rank). The symbols must be commutative
+    (``sp.symbols``' default): the sums are built with ``is_commutative=True``. Ranking the distinct
+    coefficients and symbols once turns that order into an integer key per term, so
+    a row costs a sort of small tuples instead of ``Add``'s comparisons (0.3 s for a
+    300-term row) or a recursive key per term. The result equals ``Add(*terms)``,
+    the same args in the same order (``tests/synthesis/test_large_model``)."""
+    one, zero = sp.S.One, sp.S.Zero
+    # ranks by object identity (the drawn numbers are shared objects): no sympy hash per
+    # term; the distinct objects are ranked by value once
+    objs = {id(c): c for row in rows for c, _ in row}
+    by_value = _ranks(c for c in objs.values() if c is not zero and c is not one)
+    coefs = {i: by_value[c] for i, c in objs.items() if c is not zero and c is not one}
+    syms = _ranks(symbols)
+    # class rank (and name): decides Symbol against Mul before any content
+    mul_rank = _canonical_key(Mul._from_args((sp.Integer(2), symbols[0])))[:2] if symbols else ()
+    sym_rank = _canonical_key(symbols[0])[:2] if symbols else ()
+    from_args = Mul._from_args
+    out = []
+    for row in rows:
+        keyed = []
+        for c, s in row:
+            if c is zero:
+                continue
+            if c is one:  # Rational(1) is the singleton S.One
+                keyed.append(((sym_rank, 0, syms[s]), s))
+            else:
+                keyed.append(((mul_rank, coefs[id(c)], syms[s]),
+                              from_args((c, s), is_commutative=True)))
+        if not keyed:
+            out.append(zero)
+        elif len(keyed) == 1:
+            out.append(keyed[0][1])
+        else:
+            keyed.sort(key=lambda kt: kt[0])
+            out.append(Add._from_args([t for _, t in keyed], is_commutative=True))
+    return out
 
 
 def random_model(n: int, l: int, p: int, *, seed: int, m: int = 1,  # noqa: E741
@@ -153,18 +196,27 @@ def random_model(n: int, l: int, p: int, *, seed: int, m: int = 1,  # noqa: E741
     density : float, default 1.0
         Probability that an entry of F, H, D, L is drawn at all (else 0).
     """
-    mats = random_matrices(n, l, p, seed=seed, m=m, integer=integer, density=density)
+    drawn = _draw_all(n, l, p, seed=seed, m=m, integer=integer, density=density)
+    return _model_from(drawn, n, l, p, seed=seed, m=m, integer=integer, time=time,
+                       density=density)
+
+
+def _model_from(drawn: dict, n, l, p, *, seed, m, integer, time, density):  # noqa: E741
+    """The PlantModel of :func:`random_model` from already drawn matrices."""
     xs = sp.symbols(f"x1:{n + 1}")
     us = sp.symbols(f"u1:{m + 1}") if m else ()
     rhos = sp.symbols(f"rho1:{p + 1}") if p else ()
     d = sp.Symbol("d")
-    F, G, H, D, L = (mats[k] for k in ("F", "G", "H", "D", "L"))
-    Fx = _linear_forms(F, xs)
-    Gu = _linear_forms(G, us) if m else [sp.Integer(0)] * n
-    Lr = _linear_forms(L, rhos) if p else [sp.Integer(0)] * n
-    dynamics = [_sum([t for part in (Fx[i], Gu[i], D[i, 0] * d, Lr[i])
-                      for t in sp.Add.make_args(part) if t != 0]) for i in range(n)]
-    outputs = _linear_forms(H, xs)
+    F, G, D, L, H = (drawn[k][2] for k in ("F", "G", "D", "L", "H"))
+    rows = []
+    for i in range(n):
+        row = list(zip(F[i * n:(i + 1) * n], xs))
+        row += zip(G[i * m:(i + 1) * m], us)
+        row.append((D[i], d))
+        row += zip(L[i * p:(i + 1) * p], rhos)
+        rows.append(row)
+    dynamics = _linear_sums(rows, [*xs, *us, d, *rhos])
+    outputs = _linear_sums([list(zip(H[i * n:(i + 1) * n], xs)) for i in range(l)], list(xs))
     kind = ("int" if integer else "gauss") + (f"_d{density:g}" if density < 1.0 else "")
     return PlantModel(
         name=f"random_n{n}_l{l}_p{p}_m{m}_{kind}_seed{seed}",
@@ -196,7 +248,7 @@ def random_structure(n: int, l: int, p: int, *, seed: int, m: int = 1,  # noqa: 
     """``(model, structure)``: :func:`random_model` and its ``Structure``, built directly
     from the drawn matrices without ``extract_structure``.
 
-    Extraction re-derives the matrices from the sympy expressions (seconds at n = 60);
+    Extraction re-derives the matrices from the sympy expressions (~0.1 s at n = 240);
     for tests and benchmarks of the synthesis alone, pass this structure to
     ``design_canonical(model, ..., symbolic=True, structure=structure)`` (the model has
     no parameters, so "symbolic" changes nothing but lets the structure be reused).
@@ -204,9 +256,10 @@ def random_structure(n: int, l: int, p: int, *, seed: int, m: int = 1,  # noqa: 
     """
     from ._structure import Structure
 
-    mats = random_matrices(n, l, p, seed=seed, m=m, integer=integer, density=density)
-    model = random_model(n, l, p, seed=seed, m=m, integer=integer, time=time, density=density)
+    drawn = _draw_all(n, l, p, seed=seed, m=m, integer=integer, density=density)
+    model = _model_from(drawn, n, l, p, seed=seed, m=m, integer=integer, time=time,
+                        density=density)
+    F, G, H, D, L = (exact_matrix(*drawn[k]) for k in ("F", "G", "H", "D", "L"))
     im = sp.ImmutableMatrix
-    st = Structure(model, im(mats["F"]), im(mats["G"]), im(mats["H"]), im(sp.zeros(n, 0)),
-                   im(mats["D"]), im(mats["L"]), im(sp.zeros(l, 0)), ())
+    st = Structure(model, F, G, H, im(sp.zeros(n, 0)), D, L, im(sp.zeros(l, 0)), ())
     return model, st

@@ -23,6 +23,7 @@ import sympy as sp
 
 from ..progress import report
 from ..errors import ModelError
+from ._matrices import exact_matrix
 from ._plant import PlantModel
 
 __all__ = ["NonlinearTerm", "Structure", "extract_structure"]
@@ -159,6 +160,15 @@ def _number_times_variable(e, where: dict):
     return out
 
 
+def _accumulate(lin, i: int) -> None:
+    """Add the coefficients ``[((matrix, column), c), …]`` into row i (a plain store when
+    the entry is still zero: a sympy addition costs more than reading the term)."""
+    zero = sp.S.Zero
+    for (mat, k), c in lin:
+        row = mat[i]
+        row[k] = c if row[k] is zero else row[k] + c
+
+
 def _is_const(e, variables) -> bool:
     return not (e.free_symbols & variables)
 
@@ -230,8 +240,7 @@ def extract_structure(model: PlantModel) -> Structure:
 
         lin = _number_times_variable(f, simple)
         if lin is not None:  # fast path: every term is a number times one variable
-            for (mat, k), c in lin:
-                mat[i][k] += c
+            _accumulate(lin, i)
             continue
         terms = sp.Add.make_args(sp.expand(f, deep=False))
         fsyms = f.free_symbols
@@ -314,7 +323,7 @@ def extract_structure(model: PlantModel) -> Structure:
             j = index[m]
             coeffs[(i, j)] = coeffs.get((i, j), 0) + coef
 
-    F, G, D, L = (sp.ImmutableMatrix(n, len(v), [e for row in M for e in row])
+    F, G, D, L = (exact_matrix(n, len(v), [e for row in M for e in row])
                   for M, v in ((F, xs), (G, us), (D, ds), (L, rs)))
     q = len(funcs)
     C = sp.zeros(n, q)
@@ -364,8 +373,7 @@ def extract_structure(model: PlantModel) -> Structure:
         name = f"y{i + 1}"
         lin = _number_times_variable(h, out_simple)
         if lin is not None:
-            for (mat, k), c in lin:
-                mat[i][k] += c
+            _accumulate(lin, i)
             continue
         for t in sp.Add.make_args(sp.expand(h)):
             if t == 0:
@@ -383,10 +391,11 @@ def extract_structure(model: PlantModel) -> Structure:
                 w = sorted(m.free_symbols & set(model.noise), key=str)[0]
                 raise ModelError(f"{where}: output {name} = {h} is not linear in the noise '{w}'")
 
-    H = sp.ImmutableMatrix(len(model.outputs), n, [e for row in H for e in row])
-    W = sp.ImmutableMatrix(len(model.outputs), len(model.noise), [e for row in W for e in row])
+    H = exact_matrix(len(model.outputs), n, [e for row in H for e in row])
+    W = exact_matrix(len(model.outputs), len(model.noise), [e for row in W for e in row])
     terms = tuple(NonlinearTerm(fn, s, sp.ImmutableMatrix([row]))
                   for fn, s, row in info)
+    C = exact_matrix(*C.shape, list(C)) if not isinstance(C, sp.ImmutableMatrix) else C
     st = Structure(model, *(sp.ImmutableMatrix(M) for M in (F, G, H, C, D, L, W)), terms)
     # self-check: the matrices rebuild the right-hand side exactly (rows with nonlinear
     # terms, where grouping and the formal-term split happened; linear rows were read

@@ -9,6 +9,13 @@ parameters is *generic* and holds under the conditions ``pivot ≠ 0`` that
 (nonzero constants first, then entries whose factors are already assumed, then the
 simplest).
 
+Rational matrices (no parameters) take a fast path with the same results: the reduced row
+echelon form is unique, so it is computed by FLINT's ``fmpq_mat.rref`` (python-flint; sympy
+then uses flint as its ground types and a rational ``Matrix`` converts to ``fmpq_mat``
+without touching its entries), or, under the gmpy/python ground types, by sympy's
+``DomainMatrix.rref(method="CD")`` (denominators cleared, fraction-free over ZZ). Measured
+in ``benchmarks/bench_exact.py``; :func:`rational_rref` is the entry point.
+
 Float path: SVD with a stated tolerance; :class:`FloatRank` carries the singular
 values around the cut and the gap, the evidence for the rank decision.
 """
@@ -19,9 +26,14 @@ import functools
 
 import numpy as np
 import sympy as sp
+from sympy.external.gmpy import GROUND_TYPES
 from sympy.polys.matrices import DomainMatrix
 
-__all__ = ["default_rtol", "rank_from_sv", "ExactRank", "FloatRank", "exact_rank", "left_null_space", "echelon_rows", "solve_left", "float_rank", "float_left_null_space", "nonzero_conditions", "denominator_conditions", "to_domain_matrix"]
+__all__ = ["default_rtol", "rank_from_sv", "ExactRank", "FloatRank", "exact_rank", "left_null_space", "echelon_rows", "solve_left", "float_rank", "float_left_null_space", "nonzero_conditions", "denominator_conditions", "to_domain_matrix", "rational_rref", "rational_left_null", "left_null_echelon", "exact_rank_value", "as_rational", "from_rational", "RATIONAL_BACKEND"]
+
+#: Which code eliminates rational matrices: "flint" (``fmpq_mat.rref``, when sympy's ground
+#: types are flint: python-flint installed) or "sympy-CD" (``DomainMatrix.rref(method="CD")``).
+RATIONAL_BACKEND = "flint" if GROUND_TYPES == "flint" else "sympy-CD"
 
 
 # ---------------------------------------------------------------- conditions
@@ -163,12 +175,104 @@ def _gauss_jordan(dm: DomainMatrix, assumed: set | None = None, *, full: bool = 
     return K, rows, tuple(pivots), frozenset(new_conds)
 
 
+def _domain_matrix(M) -> DomainMatrix:
+    """:func:`to_domain_matrix`, without the conversion for a matrix of rational numbers:
+    sympy already keeps such a ``Matrix`` as a DomainMatrix over ZZ or QQ."""
+    rep = getattr(M, "_rep", None)
+    if isinstance(rep, DomainMatrix) and (rep.domain.is_ZZ or rep.domain.is_QQ):
+        return rep.convert_to(sp.QQ)
+    return to_domain_matrix(M)
+
+
+def _to_matrix(dm: DomainMatrix) -> sp.Matrix:
+    """A DomainMatrix over QQ as a sympy Matrix, entries untouched (no sympification)."""
+    return sp.Matrix._fromrep(dm.to_sparse())
+
+
+def as_rational(M) -> DomainMatrix | None:
+    """A matrix of rational numbers as a dense DomainMatrix over QQ (FLINT's ``fmpq_mat``
+    under flint ground types: products and eliminations in C), else ``None``.
+
+    For hot loops over rational matrices (Krylov blocks, Φ from a null-space member,
+    certificates): ``as_rational(A) * as_rational(B)`` then :func:`from_rational`.
+    """
+    if isinstance(M, DomainMatrix):
+        dm = M
+    else:
+        rep = getattr(M, "_rep", None)
+        if not isinstance(rep, DomainMatrix):
+            rep = getattr(sp.Matrix(M), "_rep", None)
+        dm = rep
+    if not isinstance(dm, DomainMatrix) or not (dm.domain.is_ZZ or dm.domain.is_QQ):
+        return None
+    return dm.convert_to(sp.QQ).to_dense()
+
+
+def from_rational(dm: DomainMatrix) -> sp.Matrix:
+    """The sympy Matrix of a DomainMatrix over QQ (see :func:`as_rational`)."""
+    return _to_matrix(dm)
+
+
+def rational_rref(M) -> tuple:
+    """Reduced row echelon form of a rational matrix: ``(R, pivots)``.
+
+    ``M`` a sympy Matrix of rational numbers or a DomainMatrix over ZZ or QQ; ``R`` a
+    DomainMatrix over QQ of the same shape (rows beyond the rank zero), ``pivots`` the pivot
+    column of each nonzero row. The form is unique, so every backend gives the same
+    ``R``: FLINT's ``fmpq_mat.rref`` when sympy's ground types are flint, else sympy's
+    ``DomainMatrix.rref(method="CD")`` (see :data:`RATIONAL_BACKEND`).
+    """
+    dm = M if isinstance(M, DomainMatrix) else _domain_matrix(M)
+    if not dm.domain.is_QQ:
+        dm = dm.convert_to(sp.QQ)
+    nr, nc = dm.shape
+    if nr == 0 or nc == 0:
+        return dm, ()
+    if RATIONAL_BACKEND == "flint":
+        from sympy.polys.matrices._dfm import DFM
+
+        R, rank = dm.to_dense().rep.rep.rref()  # DomainMatrix → DFM → flint.fmpq_mat
+        pivots, c = [], 0
+        for i in range(rank):
+            while R[i, c] == 0:
+                c += 1
+            pivots.append(c)
+            c += 1
+        return DomainMatrix.from_rep(DFM(R, (nr, nc), sp.QQ)), tuple(pivots)
+    R, pivots = dm.rref(method="CD")
+    return R, tuple(pivots)
+
+
+def _null_rows(R: DomainMatrix, pivots, m: int) -> DomainMatrix:
+    """The null space {x : R x = 0} of a reduced row echelon R (m columns), one row per
+    non-pivot column f: 1 at f, −R[i, f] at pivot column i, zero elsewhere."""
+    K = R.domain
+    rows = R.to_list()[:len(pivots)]
+    free = [f for f in range(m) if f not in set(pivots)]
+    out = []
+    for f in free:
+        v = [K.zero] * m
+        v[f] = K.one
+        for i, p in enumerate(pivots):
+            v[p] = -rows[i][f]
+        out.append(v)
+    return DomainMatrix(out, (len(out), m), K)
+
+
+def _matrix(M) -> sp.MatrixBase:
+    """M as a sympy matrix, without copying one (copying converts every entry)."""
+    return M if isinstance(M, sp.MatrixBase) else sp.Matrix(M)
+
+
 def exact_rank(M, assumed=()) -> ExactRank:
     """Rank of a matrix over QQ or QQ(parameters), with the conditions it needs."""
-    M = sp.Matrix(M)
+    M = _matrix(M)
     if M.rows == 0 or M.cols == 0:
         return ExactRank(0, (), frozenset(), M)
-    dm = to_domain_matrix(M)
+    dm = _domain_matrix(M)
+    if dm.domain.is_QQ:
+        R, pivots = rational_rref(dm)
+        return ExactRank(len(pivots), pivots, frozenset(), _to_matrix(R))
     K, rows, pivots, conds = _gauss_jordan(dm, set(assumed), full=True)
     R = sp.Matrix([[K.to_sympy(v) for v in row] for row in rows])
     return ExactRank(len(pivots), pivots, conds, R)
@@ -178,14 +282,26 @@ def left_null_space(M, assumed=()):
     """Basis of {v : v M = 0} (list of 1×rows matrices) and the rank's conditions.
 
     Returns ``(basis, ExactRank of M)``. The basis comes from the eliminated Mᵀ: one
-    vector per non-pivot column, with a 1 there.
+    vector per non-pivot column, with a 1 there. ``M`` may also be a DomainMatrix over QQ
+    (see :func:`as_rational`).
     """
-    M = sp.Matrix(M)
-    m = M.rows
-    if M.cols == 0:
+    if isinstance(M, DomainMatrix):
+        m, nc = M.shape
+        dm = M.convert_to(sp.QQ).transpose()
+    else:
+        M = _matrix(M)
+        m, nc = M.shape
+        dm = None
+    if nc == 0:
         return [sp.Matrix([[1 if j == i else 0 for j in range(m)]]) for i in range(m)], \
             ExactRank(0, (), frozenset(), sp.zeros(0, m))
-    dm = to_domain_matrix(M.T)
+    if dm is None:
+        dm = _domain_matrix(M.T)
+    if dm.domain.is_QQ:
+        R, pivots = rational_rref(dm)
+        N = _null_rows(R, pivots, m)
+        basis = [_to_matrix(N[i:i + 1, :]) for i in range(N.shape[0])]
+        return basis, ExactRank(len(pivots), pivots, frozenset(), _to_matrix(R))
     K, rows, pivots, conds = _gauss_jordan(dm, set(assumed), full=True)
     basis = []
     for f in range(m):
@@ -200,6 +316,88 @@ def left_null_space(M, assumed=()):
     return basis, ExactRank(len(pivots), pivots, conds, R)
 
 
+def left_null_echelon(M, assumed=()):
+    """The left null space {v : v M = 0} as its reduced row echelon basis (what
+    :func:`echelon_rows` of :func:`left_null_space` gives), and the rank of M.
+
+    Returns ``(members, ExactRank of M)``. For a rational M this is one elimination, not
+    two: eliminating Mᵀ with its columns in reverse order, the null vector of each free
+    column f has its 1 at f, zeros at the other free columns and entries only at pivot
+    columns right of f, which is the reduced echelon form of the null space (unique).
+    The ExactRank's pivots are then the pivot columns of that reversed elimination, as
+    indices of M's rows.
+    """
+    if isinstance(M, DomainMatrix):
+        dm = M.convert_to(sp.QQ)
+    else:
+        M = _matrix(M)
+        dm = _domain_matrix(M) if M.rows and M.cols else None
+    if dm is None or not dm.domain.is_QQ:
+        basis, rk = left_null_space(M, assumed)
+        return echelon_rows(basis), rk
+    m, nc = dm.shape
+    if nc == 0:
+        return [sp.Matrix([[1 if j == i else 0 for j in range(m)]]) for i in range(m)], \
+            ExactRank(0, (), frozenset(), sp.zeros(0, m))
+    N, R, pivots = _left_null_echelon(dm)
+    members = [_to_matrix(N[i:i + 1, :]) for i in range(N.shape[0])]
+    return members, ExactRank(len(pivots), tuple(m - 1 - p for p in pivots), frozenset(),
+                              _to_matrix(R))
+
+
+def _left_null_echelon(dm: DomainMatrix):
+    """(N, R, pivots): N the echelon left null basis of dm (over QQ, at least one column),
+    R and pivots the reversed elimination of dmᵀ."""
+    m, nc = dm.shape
+    rev = list(range(m - 1, -1, -1))
+    R, pivots = rational_rref(dm.extract(rev, list(range(nc))).transpose())
+    N = _null_rows(R, pivots, m)  # columns in reverse order
+    return N.extract(list(range(N.shape[0] - 1, -1, -1)), rev), R, pivots
+
+
+def rational_left_null(M: DomainMatrix) -> DomainMatrix:
+    """The reduced echelon basis (rows, over QQ) of {v : v M = 0} for a DomainMatrix over
+    ZZ or QQ; see :func:`left_null_echelon`."""
+    dm = M.convert_to(sp.QQ)
+    m, nc = dm.shape
+    if nc == 0:
+        return DomainMatrix.eye(m, sp.QQ)
+    if m == 0:
+        return DomainMatrix.zeros((0, 0), sp.QQ)
+    return _left_null_echelon(dm)[0]
+
+
+def exact_rank_value(M) -> int:
+    """The exact rank alone (no conditions: for a matrix over QQ(parameters) it is the
+    generic rank, see :func:`exact_rank`).
+
+    A rational matrix whose integer numerator has full rank modulo the prime 2⁶¹ − 1 has
+    full rank over QQ (a minor nonzero mod p is nonzero): that certificate costs
+    milliseconds with FLINT's ``nmod_mat``; any other case is eliminated exactly.
+    """
+    dm = M.convert_to(sp.QQ) if isinstance(M, DomainMatrix) else None
+    if dm is None:
+        M = _matrix(M)
+        if M.rows == 0 or M.cols == 0:
+            return 0
+        dm = _domain_matrix(M)
+        if not dm.domain.is_QQ:
+            return exact_rank(M).rank
+    if 0 in dm.shape:
+        return 0
+    if RATIONAL_BACKEND == "flint":
+        import flint
+
+        num, _den = dm.to_dense().rep.rep.numer_denom()
+        if flint.nmod_mat(num, _PRIME).rank() == min(dm.shape):
+            return min(dm.shape)
+    return len(rational_rref(dm)[1])
+
+
+#: The prime of :func:`exact_rank_value`'s full-rank certificate (the Mersenne prime 2⁶¹ − 1).
+_PRIME = 2 ** 61 - 1
+
+
 def echelon_rows(vectors) -> list:
     """Reduced row echelon basis of the span of the given row vectors.
 
@@ -209,7 +407,10 @@ def echelon_rows(vectors) -> list:
     if not vectors:
         return []
     M = sp.Matrix.vstack(*vectors)
-    dm = to_domain_matrix(M)
+    dm = _domain_matrix(M)
+    if dm.domain.is_QQ:
+        R, pivots = rational_rref(dm)
+        return [_to_matrix(R[i:i + 1, :]) for i in range(len(pivots))]
     K, rows, pivots, _ = _gauss_jordan(dm)
     return [sp.Matrix([[sp.cancel(K.to_sympy(e)) for e in rows[i]]]) for i in range(len(pivots))]
 
@@ -219,13 +420,24 @@ def solve_left(A, B, assumed=()):
 
     Free variables are set to zero.
     """
-    A = sp.Matrix(A)
-    B = sp.Matrix(B)
+    A = _matrix(A)
+    B = _matrix(B)
     # X A = B  <=>  Aᵀ Xᵀ = Bᵀ ; reduce [Aᵀ | Bᵀ]
     aug = sp.Matrix.hstack(A.T, B.T)
-    dm = to_domain_matrix(aug)
-    K, rows, pivots, _ = _gauss_jordan(dm, set(assumed))
+    dm = _domain_matrix(aug)
     na = A.rows
+    if dm.domain.is_QQ:
+        R, pivots = rational_rref(dm)
+        if any(p >= na for p in pivots):
+            return None
+        rows = R.to_list()
+        K = R.domain
+        X = [[K.zero] * na for _ in range(B.rows)]
+        for i, p in enumerate(pivots):
+            for j in range(B.rows):
+                X[j][p] = rows[i][na + j]
+        return _to_matrix(DomainMatrix(X, (B.rows, na), K))
+    K, rows, pivots, _ = _gauss_jordan(dm, set(assumed))
     if any(p >= na for p in pivots):
         return None
     X = sp.zeros(B.rows, na)

@@ -32,6 +32,19 @@ arithmetic (:func:`observer_cad.synthesis.derivative_range`). When a row is not
 sign-definite jointly, the linear part and every φ_j term are bounded separately
 (needs φ_j monotone in its argument).
 
+When that fails too (a Lipschitz but non-monotone φ_j: sin x*, exp(−|x1 − x2|)), the row
+is bounded by the γ-shift (``decomposition="auto"``, the default): for each argument v
+with ∂f_i/∂v ∈ [a, b], a < 0 < b, f_i + γ v (γ = −a) is nondecreasing, or f_i − γ v
+(γ = b) nonincreasing, so
+
+    f_i(…, v̲, …) − γ (v̄ − v̲) ≤ f_i ≤ f_i(…, v̄, …) + γ (v̄ − v̲)
+
+— a mixed-monotone decomposition function from interval Jacobian bounds. The ranges must
+be proven (not sampled) and finite. The width w = x̄* − x̲* then obeys w' ≤ M w + c
+(discrete: w(t+1) ≤ M w(t) + c), and the observer is built only when M is provably stable
+(α(M) < 0, resp. ρ(M) < 1; exact M-matrix test); otherwise InfeasibleDesignError names
+every γ, M and α(M) / ρ(M). Both are listed as required conditions (METHOD §3).
+
 Outputs: z̲ = H_z⁺ x̲* − H_z⁻ x̄* + Q y − max(Q W w), z̄ likewise.
 
 :func:`full_state_intervals`: with H = (H0 0) up to a permutation of the states, the
@@ -100,7 +113,8 @@ def _output_names(model, M):
 
 
 def interval_observer_nonlinear(model: PlantModel, design: Design, *, margin=None,
-                                domain=None, name: str | None = None) -> Observer:
+                                domain=None, decomposition: str = "auto",
+                                name: str | None = None) -> Observer:
     """Interval observer for z = M x from a Jordan (or diagonal) design, with or without
     nonlinear terms, continuous or discrete; see the module docstring.
 
@@ -115,6 +129,12 @@ def interval_observer_nonlinear(model: PlantModel, design: Design, *, margin=Non
         term; a Condition compares it with the Lipschitz bound when there is one.
     domain : relations, optional
         Override the model's state domain (for the clipping ranges and the checks).
+    decomposition : ``"auto"`` (default) or ``"none"``
+        What to do with a row whose right-hand side is monotone neither jointly nor term
+        by term (sin x*, exp(−|x1 − x2|)). ``"auto"``: the γ-shift (mixed-monotone)
+        decomposition of the module docstring, with the stability of the interval-width
+        comparison system checked (refused, naming γ and the spectral abscissa or
+        radius, when it cannot be proven); ``"none"``: refuse, as before.
     """
     if design.matrices.Hz is None or design.matrices.Phi is None:
         raise UsageError("interval_observer_nonlinear needs a design with z = H_z x* + Q y"
@@ -230,7 +250,10 @@ def interval_observer_nonlinear(model: PlantModel, design: Design, *, margin=Non
             raise UsageError(f"margin: give one value or {k} values")
         user = [rationalize_floats(v) for v in vals]
 
+    if decomposition not in ("auto", "none"):
+        raise UsageError(f"decomposition: expected 'auto' or 'none', got {decomposition!r}")
     upd_l, upd_u, signs_all, how_rows, margins, notes = [], [], [], [], [], []
+    shifts = []  # _Shift of every γ-shifted (row, variable)
     sampled_only = False
     for i in range(k):
         sg = {}
@@ -301,13 +324,22 @@ def interval_observer_nonlinear(model: PlantModel, design: Design, *, margin=Non
                 upd_u.append(f_row(i, hi_x, ys) + jmax + mg + bmax[i])
             how_rows.append("joint")
             continue
-        # ---- per-term fallback
-        lo_e, hi_e = _per_term(i, k, l, time, xs, yt, ys, xl, xu, us, Fs, Js, Gs, terms,
-                               off_lo, off_hi, d_range)
+        # ---- per-term fallback, then the γ-shift decomposition
+        try:
+            lo_e, hi_e = _per_term(i, k, l, time, xs, yt, ys, xl, xu, us, Fs, Js, Gs, terms,
+                                   off_lo, off_hi, d_range)
+            how_rows.append("per-term")
+            margins.append("exact worst case per term (each φ_j monotone in its argument)")
+        except _NotMonotone:
+            if decomposition == "none":
+                raise
+            lo_e, hi_e, row_shifts = _decomposed_row(i, time, xs, yt, ys, xl, xu, off_lo,
+                                                     off_hi, f_row, d_range)
+            shifts.extend(row_shifts)
+            how_rows.append("decomposed")
+            margins.append("exact worst case over the noise box after the γ-shift")
         upd_l.append(lo_e + bmin[i])
         upd_u.append(hi_e + bmax[i])
-        how_rows.append("per-term")
-        margins.append("exact worst case per term (each φ_j monotone in its argument)")
 
     # ---- outputs
     M = (Hz * Phi + Q * H).applyfunc(rationalize_floats)
@@ -334,10 +366,20 @@ def interval_observer_nonlinear(model: PlantModel, design: Design, *, margin=Non
         cname = "monotone embedding: ∂f_i/∂x*_j sign-definite for all i, j (discrete time; F*⁺/F*⁻ split)"
     coop = all(s != "-" for i, sg in enumerate(signs_all) for j, v in enumerate(xs)
                for s in [sg[str(v)]] if (j != i or time == "discrete"))
-    conds.append(Condition(cname, True, sign_text + ("; cooperative (all ≥ 0)" if coop else
-                                                     "; some ≤ 0: the bounds are mixed")
-                           + (" — some signs from samples only, not proven" if sampled_only else ""),
-                           "METHOD §3; seed 002 §4, §6"))
+    decomposed = [i for i, how in enumerate(how_rows) if how == "decomposed"]
+    if decomposed:
+        rows_txt = ", ".join(str(i + 1) for i in decomposed)
+        conds.append(Condition(cname, False, sign_text + f"; row(s) {rows_txt} not sign-definite"
+                               " (± above): bounded by the γ-shift decomposition below instead",
+                               "METHOD §3; seed 002 §4, §6", required=False))
+    else:
+        conds.append(Condition(cname, True, sign_text + ("; cooperative (all ≥ 0)" if coop else
+                                                         "; some ≤ 0: the bounds are mixed")
+                               + (" — some signs from samples only, not proven" if sampled_only else ""),
+                               "METHOD §3; seed 002 §4, §6"))
+    if decomposed:
+        conds += _decomposition_conditions(k, time, xs, how_rows, shifts, Fs, terms, d_range,
+                                           dom, args_info, sampled_only)
     for (j, arg, (lo, hi), (plo, phi_, pkind)) in args_info:
         conds.append(Condition(
             f"argument of Ψ*_{j} clipped to its domain range", True,
@@ -348,9 +390,11 @@ def interval_observer_nonlinear(model: PlantModel, design: Design, *, margin=Non
         expr, rx, ry, defs = reduced_nonlinearity(work, d)
         for c in nonlinear_conditions(work, d, dom):
             if c.name.startswith("C*Ψ* monotone") and not c.holds:
-                c = dataclasses.replace(c, detail=c.detail + "; not needed here: the observer rests"
-                                        " on the sign-definite embedding above (seed 002 §6 asks"
-                                        " for it as a sufficient condition)")
+                rests = ("the γ-shift decomposition and the stable comparison system above"
+                         if decomposed else "the sign-definite embedding above")
+                c = dataclasses.replace(c, detail=c.detail + f"; not needed here: the observer rests"
+                                        f" on {rests} (seed 002 §6 asks for it as a sufficient"
+                                        " condition)")
             conds.append(c)
         liy = lipschitz(list(expr), ry, dom, definitions=defs)
         conds.append(Condition(
@@ -389,10 +433,171 @@ def interval_observer_nonlinear(model: PlantModel, design: Design, *, margin=Non
                     + (" with nonlinear terms" if terms else ""))
 
 
+class _NotMonotone(UsageError):
+    """A row is monotone neither jointly nor term by term (the γ-shift decomposition
+    takes over unless decomposition='none')."""
+
+
+@dataclasses.dataclass(frozen=True)
+class _Shift:
+    """One γ-shift: row i, variable v, ∂f_i/∂v ∈ [lo, hi] (proven), γ and its direction
+    ("+": f_i + γ v nondecreasing, "−": f_i − γ v nonincreasing)."""
+    row: int
+    var: sp.Symbol
+    lo: sp.Expr
+    hi: sp.Expr
+    gamma: sp.Expr
+    direction: str
+
+    def text(self) -> str:
+        g = "f + γ·v" if self.direction == "+" else "f − γ·v"
+        return (f"row {self.row + 1}, {self.var}: ∂f/∂{self.var} ∈ {_fmt_iv(self.lo, self.hi)},"
+                f" γ = {format_number(self.gamma)} ({g} monotone; Lipschitz bound"
+                f" {format_number(sp.Max(abs(self.lo), abs(self.hi)))})")
+
+
+def _decomposed_row(i, time, xs, yt, ys, xl, xu, off_lo, off_hi, f_row, d_range):
+    """Row i by the γ-shift (METHOD §3): for every argument v whose ∂f_i/∂v ∈ [a, b]
+    changes sign, f_i + γ v with γ = −a is nondecreasing in v (or f_i − γ v with γ = b
+    nonincreasing; the smaller γ is taken), so with v ∈ [v̲, v̄]
+
+        f_i ≥ (f_i + γ v)(v̲) − γ v̄ = f_i(v̲) − γ (v̄ − v̲),   f_i ≤ f_i(v̄) + γ (v̄ − v̲)
+
+    and the −γ v part joins the linear part. The other arguments take the end their
+    sign gives, as in the joint embedding. Returns (lower, upper, shifts)."""
+    out_shifts = []
+    lo_x, hi_x, lo_y, hi_y = [], [], [], []
+    pen = sp.Integer(0)
+    for v, lo_v, hi_v, width, lo_out, hi_out in (
+            [(xs[j], xl[j], xu[j], xu[j] - xl[j], lo_x, hi_x) for j in range(len(xs))]
+            + [(yt[m], ys[m] + off_lo[m], ys[m] + off_hi[m], off_hi[m] - off_lo[m], lo_y, hi_y)
+               for m in range(len(yt))]):
+        a, b, kinds = d_range(i, v)
+        sg = range_sign(a, b)
+        if (time == "continuous" and v == xs[i]) or sg in ("+", "0"):
+            lo_out.append(lo_v)
+            hi_out.append(hi_v)
+            continue
+        if sg == "-":
+            lo_out.append(hi_v)
+            hi_out.append(lo_v)
+            continue
+        if "sampled" in kinds:
+            raise InfeasibleDesignError(
+                f"interval observer: row {i + 1} is not monotone in {v} and ∂f{i + 1}/∂{v} ∈"
+                f" {_fmt_iv(a, b)} is known from samples only: no proven γ for the γ-shift")
+        if a == -sp.oo and b == sp.oo:
+            raise InfeasibleDesignError(
+                f"interval observer: row {i + 1} is not monotone in {v} and not Lipschitz in it"
+                f" (∂f{i + 1}/∂{v} ∈ {_fmt_iv(a, b)}): no finite γ for the γ-shift")
+        if bool(-a <= b):
+            gamma, direction = -a, "+"
+            lo_out.append(lo_v)
+            hi_out.append(hi_v)
+        else:
+            gamma, direction = b, "−"
+            lo_out.append(hi_v)
+            hi_out.append(lo_v)
+        pen += gamma * width
+        out_shifts.append(_Shift(i, v, a, b, gamma, direction))
+    return f_row(i, lo_x, lo_y) - pen, f_row(i, hi_x, hi_y) + pen, out_shifts
+
+
+def _width_matrix(k, time, xs, how_rows, shifts, Fs, terms, d_range):
+    """M of the comparison system for the width w = x̄* − x̲* ≥ 0: w' ≤ M w + c
+    (continuous, M Metzler) or w(t+1) ≤ M w(t) + c (discrete, M ≥ 0). By the mean value
+    theorem along the corners of each row, with [a, b] the proven range of ∂f_i/∂x*_j:
+    M_ii = b in continuous time (the comparison principle keeps x*_i on its face),
+    b for a nondecreasing argument, −a for a nonincreasing one, b − a + γ for a
+    γ-shifted one, and for a row bounded term by term the sum over its pieces."""
+    gam = {(sh.row, sh.var): sh.gamma for sh in shifts}
+    M = sp.zeros(k, k)
+    for i in range(k):
+        for j, v in enumerate(xs):
+            own = time == "continuous" and j == i
+            if how_rows[i] == "per-term":
+                pieces = [(Fs[i, j], Fs[i, j])] + [d_range(i, v, only=t[0])[:2] for t in terms]
+            else:
+                pieces = [d_range(i, v)[:2]]
+            tot = sp.Integer(0)
+            for a, b in pieces:
+                a, b = sp.sympify(a), sp.sympify(b)
+                if own:
+                    tot += b
+                elif (i, v) in gam:
+                    tot += b - a + gam[(i, v)]
+                else:
+                    tot += sp.Max(abs(a), abs(b))
+            M[i, j] = tot
+    return M
+
+
+def _comparison_stability(M, time):
+    """(stable, figure, text): exact test that −M (continuous, M Metzler) or I − M
+    (discrete, M ≥ 0) is a nonsingular M-matrix — all leading principal minors > 0 —
+    which is equivalent to spectral abscissa α(M) < 0 (resp. spectral radius ρ(M) < 1);
+    the figure (α or ρ, in floating point) is reported alongside."""
+    import numpy as np
+    k = M.rows
+    if any(e.has(sp.oo, -sp.oo, sp.zoo) for e in M):
+        return False, float("inf"), "M has unbounded entries (a derivative is unbounded)"
+    Z = -M if time == "continuous" else sp.eye(k) - M
+    minors = [sp.simplify(Z[:r, :r].det()) for r in range(1, k + 1)]
+    try:
+        stable = all(bool(m > 0) for m in minors)
+    except TypeError:  # a sign sympy cannot decide: not proven
+        stable = False
+    ev = np.linalg.eigvals(np.array(M.evalf(), dtype=float))
+    fig = float(np.max(ev.real)) if time == "continuous" else float(np.max(np.abs(ev)))
+    return stable, fig, "leading principal minors of " + ("−M" if time == "continuous" else "I − M") \
+        + f": {[format_number(m) for m in minors]}"
+
+
+def _decomposition_conditions(k, time, xs, how_rows, shifts, Fs, terms, d_range, dom,
+                              args_info, sampled_only):
+    """The two required conditions of a decomposed observer (the γ used, with the
+    derivative bounds and the domain they hold on; the comparison system's stability),
+    or a one-line refusal when the comparison system is not provably stable."""
+    M = _width_matrix(k, time, xs, how_rows, shifts, Fs, terms, d_range)
+    stable, fig, minors = _comparison_stability(M, time)
+    gam_txt = "; ".join(sh.text() for sh in shifts)
+    what = "spectral abscissa α(M)" if time == "continuous" else "spectral radius ρ(M)"
+    need = "< 0" if time == "continuous" else "< 1"
+    Mtxt = "[" + "; ".join(", ".join(format_number(e) for e in M[i, :]) for i in range(k)) + "]"
+    if not stable:
+        raise InfeasibleDesignError(
+            f"interval observer: the γ-shift decomposition gives an unstable comparison system"
+            f" for the interval width ({gam_txt}): M = {Mtxt}, {what} = {fig:.6g}, not {need};"
+            " the bounds would diverge — try another design (λ, rows) or a smaller nonlinear gain")
+    where = ("arguments clipped to their domain ranges: " + ", ".join(
+        f"Ψ*_{j}: {arg} ∈ {_fmt_iv(lo, hi)}" for (j, arg, (lo, hi), _) in args_info)) \
+        if any(lo != -sp.oo or hi != sp.oo for (_, _, (lo, hi), _) in args_info) else \
+        "no clipping (the arguments range over R)"
+    dom_txt = ", ".join(map(str, dom)) or "Rⁿ"
+    kind = "comparison principle, x*_i on its face" if time == "continuous" else "corners"
+    return [
+        Condition(
+            "γ-shift decomposition: f_i ± γ v monotone in every argument v where f_i is not",
+            True, f"{gam_txt}; the derivative ranges are proven (interval evaluation of"
+            f" ∂f/∂v, exact on each smooth piece) on the observer's whole state space"
+            f" (domain {dom_txt}; {where})"
+            + (" — some other signs from samples only, not proven" if sampled_only else ""),
+            "METHOD §3 (mixed-monotone decomposition)"),
+        Condition(
+            "comparison system of the interval width stable: w" + ("' ≤ M w + c, α(M) < 0"
+                                                                    if time == "continuous" else
+                                                                    "(t+1) ≤ M w(t) + c, ρ(M) < 1"),
+            True, f"w = x̄* − x̲*, M = {Mtxt} ({kind}), {what} = {fig:.6g} {need}; exact check:"
+            f" {minors} all > 0", "METHOD §3"),
+    ]
+
+
 def _derivative_range(fn, s, lo, hi, in_ranges):
     extra = fn.free_symbols - {s}
     if not extra:
-        return derivative_range(fn, s, lo, hi)
+        # differentiate with a real variable: d|s|/ds = sign(s), not a complex Derivative
+        r = sp.Symbol(s.name, real=True)
+        return derivative_range(fn.xreplace({s: r}), r, lo, hi)
     dom = Domain([], None, {s: (lo, hi), **in_ranges}, fn.free_symbols)
     import numpy as np
     an = RangeAnalyzer(dom, np.random.default_rng(0))
@@ -445,11 +650,11 @@ def _per_term(i, k, l, time, xs, yt, ys, xl, xu, us, Fs, Js, Gs, terms, off_lo, 
             elif sg == "-":
                 sub_l[v], sub_u[v] = xu[jj], xl[jj]
             else:
-                raise UsageError(
+                raise _NotMonotone(
                     f"interval observer: row {i + 1}, nonlinear term Ψ*_{j} = {fn} is not monotone in"
                     f" {v} on the clipped extension (∂ ∈ {_fmt_iv(lo, hi)}): no sign-definite"
-                    " embedding; try another design (λ, rows) or a domain bounded away from the"
-                    " non-monotone region")
+                    " embedding; try another design (λ, rows), a domain bounded away from the"
+                    " non-monotone region, or decomposition='auto' (the γ-shift)")
         for m, v in enumerate(yt):
             lo, hi, _ = d_range(i, v, only=j)
             sg = range_sign(lo, hi)
@@ -459,7 +664,7 @@ def _per_term(i, k, l, time, xs, yt, ys, xl, xu, us, Fs, Js, Gs, terms, off_lo, 
             elif sg == "-":
                 sub_l[v], sub_u[v] = b, a
             else:
-                raise UsageError(
+                raise _NotMonotone(
                     f"interval observer: row {i + 1}, nonlinear term Ψ*_{j} is not monotone in the"
                     f" output {ys[m]} (∂ ∈ {_fmt_iv(lo, hi)}): the noise margin cannot be bounded"
                     " by its corners")

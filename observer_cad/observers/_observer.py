@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import dataclasses
 from types import MappingProxyType
-from typing import Mapping
+from typing import Any, Mapping
 
 import sympy as sp
 
@@ -55,6 +55,7 @@ class Observer:
     assumptions: tuple = ()
     design: Design | None = None
     description: str = ""
+    threshold: Any = None  # a Threshold when r_lower/r_upper bands were added (_threshold.py)
 
     def __post_init__(self):
         if self.time not in ("continuous", "discrete"):

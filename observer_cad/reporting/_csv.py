@@ -3,6 +3,7 @@ its columns in ``signals.units.json`` (the CSV itself stays plain: one header ro
 from __future__ import annotations
 
 import csv
+import dataclasses
 import io
 import json
 from pathlib import Path
@@ -12,7 +13,10 @@ import numpy as np
 from ..errors import UsageError
 from ..files import atomic_write_text
 
-__all__ = ["write_signals_csv", "UNITS_FILE"]
+__all__ = ["write_signals_csv", "UNITS_FILE", "with_decisions", "DECISION_COLUMNS"]
+
+#: the columns :func:`with_decisions` adds: the any-alarm (0/1) and the diagnosis (text)
+DECISION_COLUMNS = ("alarm", "diagnosis")
 
 #: the sidecar beside ``signals.csv``: a JSON object column -> unit, in column order,
 #: listing only the columns that have a unit
@@ -27,6 +31,47 @@ def _cell(v: float) -> str:
     return repr(float(v))
 
 
+def with_decisions(result, decisions, *, per_residual: bool = False):
+    """The result (a :class:`~observer_cad.simulation.SimulationResult`) with the columns
+    of :class:`~observer_cad.observers.Decisions` appended for the writer: ``alarm``
+    (0/1, any residual alarms) and ``diagnosis`` (text, e.g. ``f1 or f2``); with
+    ``per_residual=True`` also ``<r>_alarm`` (0/1) per residual, before them. The
+    decisions must have the result's shape. A column already present is refused."""
+    t = np.asarray(result["t"])
+    if np.shape(decisions.alarm) != t.shape:
+        raise UsageError(f"with_decisions: the decisions have shape {np.shape(decisions.alarm)}"
+                         f" but the result {t.shape}")
+    dec = decisions.columns()
+    names = ([f"{r}_alarm" for r in decisions.rule.residuals] if per_residual else []) \
+        + list(DECISION_COLUMNS)
+    for n in names:
+        if n in result.order:
+            raise UsageError(f"with_decisions: the result already has a column '{n}'")
+    cols = dict(result.columns)
+    cols.update({n: dec[n] for n in names})
+    return dataclasses.replace(result, columns=cols, order=tuple(result.order) + tuple(names))
+
+
+def _column(name: str, v) -> np.ndarray:
+    """Text columns stay text; the decision flags (``alarm``, ``<r>_alarm``,
+    ``diagnosis_code``) integers; everything else float (as before decisions existed)."""
+    a = np.asarray(v)
+    if a.dtype.kind in "OUS":
+        return a.astype(object)
+    if a.dtype.kind in "bi" and (name in DECISION_COLUMNS or name.endswith("_alarm")
+                                 or name == "diagnosis_code"):
+        return a
+    return np.asarray(v, dtype=float)
+
+
+def _any_cell(v: np.ndarray, i: int) -> str:
+    if v.dtype.kind == "O":
+        return str(v[i])
+    if v.dtype.kind in "bi":
+        return str(int(v[i]))
+    return _cell(v[i])
+
+
 def write_signals_csv(result, out_dir) -> Path:
     """``DIR/signals.csv``: a header row, then one row per time step; and
     ``DIR/signals.units.json`` (:data:`UNITS_FILE`), the units of the columns that have one
@@ -36,7 +81,9 @@ def write_signals_csv(result, out_dir) -> Path:
     An empty cell means *not available*: the last rows of an estimate produced
     ``delay`` steps late (``result.delays``). Any other value that is not finite — only
     present when the simulation was asked to keep them — is written literally as
-    ``nan``, ``inf`` or ``-inf``, never as an empty cell.
+    ``nan``, ``inf`` or ``-inf``, never as an empty cell. Text columns (``diagnosis``,
+    see :func:`with_decisions`) are written as text, quoted by the csv module when
+    needed; integer columns (``alarm``) as integers.
     """
     out = Path(out_dir)
     try:
@@ -45,7 +92,7 @@ def write_signals_csv(result, out_dir) -> Path:
         raise UsageError(f"{out_dir}: cannot create the output directory:"
                          f" {exc.strerror or exc}") from None
     cols = list(result.order)
-    data = [np.asarray(result[c], dtype=float) for c in cols]
+    data = [_column(c, result[c]) for c in cols]
     n = data[0].shape[0]
     delays = dict(getattr(result, "delays", None) or {})
     avail = [n - int(delays.get(c, 0)) for c in cols]
@@ -53,7 +100,7 @@ def write_signals_csv(result, out_dir) -> Path:
     w = csv.writer(buf, lineterminator="\n")
     w.writerow(cols)
     for i in range(n):
-        w.writerow(["" if i >= a else _cell(v[i]) for v, a in zip(data, avail)])
+        w.writerow(["" if i >= a else _any_cell(v, i) for v, a in zip(data, avail)])
     path = out / "signals.csv"
     units = getattr(result, "units", None) or {}
     try:

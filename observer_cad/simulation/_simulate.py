@@ -45,7 +45,7 @@ from ..observers import Observer, output_symbols
 
 __all__ = ["signal_arrays", "align_delay", "Scenario", "load_scenario", "scenario_from_dict",
            "simulate", "SimulationResult", "column_units", "T", "memory_limit", "check_memory",
-           "find_nonfinite", "finish_result", "MEMORY_LIMIT_ENV", "DEFAULT_MEMORY_LIMIT"]
+           "find_nonfinite", "finish_result", "parameter_arrays", "MEMORY_LIMIT_ENV", "DEFAULT_MEMORY_LIMIT"]
 
 T = sp.Symbol("t")
 
@@ -55,7 +55,7 @@ MEMORY_LIMIT_ENV = "OBSERVER_CAD_MEMORY_LIMIT"
 #: default limit of :func:`check_memory`: 2 GiB
 DEFAULT_MEMORY_LIMIT = 2 * 1024 ** 3
 _KNOWN_KEYS = ("steps", "t_end", "dt", "seed", "initial", "observer_initial", "signals",
-               "description")
+               "description", "parameters")
 
 
 def _is_number(v) -> bool:
@@ -144,9 +144,30 @@ class Scenario:
     dt: float | None = None
     seed: int = 0
     source: str | None = None
+    parameters: Mapping | None = None
 
     def __post_init__(self):
         where = self.source or "scenario"
+        if self.parameters is not None:
+            if not isinstance(self.parameters, Mapping):
+                raise UsageError(f"{where}: 'parameters' must be an object {{name: value}}")
+            for name, spec in self.parameters.items():
+                if not isinstance(name, str):
+                    raise UsageError(f"{where}: parameters: names must be text, got {name!r}")
+                what = f"parameter '{name}'"
+                if isinstance(spec, dict) and set(spec) == {"uniform"}:
+                    rng = spec["uniform"]
+                    if not isinstance(rng, (list, tuple)) or len(rng) != 2:
+                        raise UsageError(f"{where}: {what}: use {{\"uniform\": [low, high]}}")
+                    lo = _finite(where, f"{what}: uniform low", rng[0])
+                    hi = _finite(where, f"{what}: uniform high", rng[1])
+                    if lo > hi:
+                        raise UsageError(f"{where}: {what}: uniform low {lo} > high {hi}")
+                elif _is_number(spec):
+                    _finite(where, what, spec)
+                else:
+                    raise UsageError(f"{where}: {what} must be a number or"
+                                     " {\"uniform\": [low, high]}")
         for key, val in (("signals", self.signals), ("initial", self.initial)):
             if not isinstance(val, Mapping):
                 raise UsageError(f"{where}: '{key}' must be an object {{name: value}}, got"
@@ -225,7 +246,7 @@ def scenario_from_dict(data: dict, source: str | None = None) -> Scenario:
     return Scenario(signals=data.get("signals", {}), initial=data.get("initial", {}),
                     observer_initial=data.get("observer_initial"), steps=data.get("steps"),
                     t_end=data.get("t_end"), dt=data.get("dt"), seed=data.get("seed", 0),
-                    source=source)
+                    source=source, parameters=data.get("parameters"))
 
 
 def memory_limit() -> int:
@@ -292,6 +313,7 @@ class SimulationResult:
     units: Mapping = dataclasses.field(default_factory=dict)
     model: str | None = None
     time: str | None = None
+    parameters: Mapping = dataclasses.field(default_factory=dict)  # the true plant's, per run
 
     def __getitem__(self, name):
         return self.columns[name]
@@ -316,15 +338,17 @@ class SimulationResult:
                               " pip install pandas (or pip install 'observer_cad[export]')") from None
         names = [c for c in self.order if c != "t"]
         t = np.asarray(self.columns["t"], dtype=float)
+
+        def col(c):  # numbers as float; text (the diagnosis) as it is
+            v = np.asarray(self.columns[c])
+            return v if v.dtype == object else v.astype(float)
         if t.ndim == 1:
-            df = pd.DataFrame({c: np.asarray(self.columns[c], dtype=float) for c in names},
-                              index=pd.Index(t, name="t"))
+            df = pd.DataFrame({c: col(c) for c in names}, index=pd.Index(t, name="t"))
         else:
             R, N = t.shape
             index = pd.MultiIndex.from_arrays([np.repeat(np.arange(R), N), t.reshape(-1)],
                                               names=["run", "t"])
-            df = pd.DataFrame({c: np.asarray(self.columns[c], dtype=float).reshape(-1)
-                               for c in names}, index=index)
+            df = pd.DataFrame({c: col(c).reshape(-1) for c in names}, index=index)
         df.attrs["units"] = {c: u for c, u in self.units.items() if c in self.order}
         if self.model is not None:
             df.attrs["model"] = self.model
@@ -475,6 +499,34 @@ def signal_arrays(model: PlantModel, sc: Scenario, t: np.ndarray, runs: int):
     return out
 
 
+def parameter_arrays(model: PlantModel, sc: Scenario, runs: int) -> dict:
+    """The true plant parameters a scenario sets: {symbol: array (runs,)}. Random values come
+    from their own seeded stream (the signals' realisations do not change when parameters are
+    added); a value outside the model's declared uncertainty is refused."""
+    where = sc.source or "scenario"
+    out = {}
+    rng = np.random.default_rng([sc.seed, 1])
+    for name in sorted(sc.parameters or {}):
+        spec = sc.parameters[name]
+        p = next((q for q in model.parameters if q.name == name), None)
+        if p is None:
+            raise UsageError(f"{where}: parameter '{name}' is not a parameter of {model.name}"
+                             f" (parameters: {', '.join(q.name for q in model.parameters) or 'none'})")
+        if isinstance(spec, dict):
+            lo, hi = (float(v) for v in spec["uniform"])
+            vals = rng.uniform(lo, hi, size=runs)
+        else:
+            lo = hi = float(spec)
+            vals = np.full(runs, lo)
+        if p in model.uncertainty:
+            ulo, uhi = (float(v) for v in model.uncertainty[p])
+            if lo < ulo or hi > uhi:
+                raise UsageError(f"{where}: parameter '{name}' in [{lo:g}, {hi:g}] leaves the model's"
+                                 f" declared uncertainty [{ulo:g}, {uhi:g}]")
+        out[p] = vals
+    return out
+
+
 def align_delay(v: np.ndarray, delay: int) -> np.ndarray:
     """Shift an output produced ``delay`` steps late so that column t holds the estimate of
     time t (NaN where it is not available yet). ``v`` has shape (runs, N)."""
@@ -520,6 +572,14 @@ def simulate(model: PlantModel, observer: Observer | None, scenario: Scenario, *
     R = 1 if runs is None else int(runs)
     if R < 1:
         raise UsageError(f"runs must be at least 1, got {runs}")
+    true_par = parameter_arrays(model, scenario, R) if scenario.parameters else {}
+    if true_par:  # the plant at the scenario's parameters, kept as run-time arguments
+        vals = {p: v for p, v in model.parameter_values().items() if p not in true_par}
+        m = dataclasses.replace(m, dynamics=tuple(sp.sympify(f).xreplace(vals) for f in model.dynamics),
+                                outputs=tuple(sp.sympify(h).xreplace(vals) for h in model.outputs),
+                                parameters={p: model.parameters[p] for p in true_par})
+    pars = list(true_par)
+    pvals = [true_par[p] for p in pars]
     nsig = len(m.inputs) + len(m.faults) + len(m.disturbances) + len(m.noise)
     ncols = 1 + 2 * len(m.states) + len(m.outputs) + 2 * nsig + (
         2 * len(observer.states) + len(observer.outputs) if observer is not None else 0)
@@ -538,8 +598,9 @@ def simulate(model: PlantModel, observer: Observer | None, scenario: Scenario, *
     obs_out = [sp.sympify(e).xreplace(par) for _, e in (observer.outputs if observer else ())]
     ysub = dict(zip(ys, y_expr))
     joint_args = xs + obs_states + ins
-    f_joint = _vector_fn(joint_args, list(m.dynamics) + [e.xreplace(ysub) for e in obs_upd])
-    f_y = _vector_fn(xs + ins, y_expr)
+    f_joint = _vector_fn(joint_args + pars,
+                         list(m.dynamics) + [e.xreplace(ysub) for e in obs_upd])
+    f_y = _vector_fn(xs + ins + pars, y_expr)
     f_out = _vector_fn(obs_states + ys + ins, obs_out) if obs_out else None
 
     where = scenario.source or "scenario"
@@ -571,13 +632,13 @@ def simulate(model: PlantModel, observer: Observer | None, scenario: Scenario, *
             u = [U[j, :, i] for j in range(len(ins))]
             cur = [X[j, :, i] for j in range(nx)]
             if m.time == "discrete":
-                nxt = f_joint(*cur, *u)
+                nxt = f_joint(*cur, *u, *pvals)
             else:
                 h = t[i + 1] - t[i]
-                k1 = f_joint(*cur, *u)
-                k2 = f_joint(*[c + h / 2 * k for c, k in zip(cur, k1)], *u)
-                k3 = f_joint(*[c + h / 2 * k for c, k in zip(cur, k2)], *u)
-                k4 = f_joint(*[c + h * k for c, k in zip(cur, k3)], *u)
+                k1 = f_joint(*cur, *u, *pvals)
+                k2 = f_joint(*[c + h / 2 * k for c, k in zip(cur, k1)], *u, *pvals)
+                k3 = f_joint(*[c + h / 2 * k for c, k in zip(cur, k2)], *u, *pvals)
+                k4 = f_joint(*[c + h * k for c, k in zip(cur, k3)], *u, *pvals)
                 nxt = [c + h / 6 * (a + 2 * b + 2 * cc + d)
                        for c, a, b, cc, d in zip(cur, k1, k2, k3, k4)]
             for j in range(nx):
@@ -587,7 +648,7 @@ def simulate(model: PlantModel, observer: Observer | None, scenario: Scenario, *
         cols[s.name] = X[j]
     allu = [U[j] for j in range(len(ins))]
     with np.errstate(all="ignore"):
-        yv = f_y(*[X[j] for j in range(len(xs))], *allu)
+        yv = f_y(*[X[j] for j in range(len(xs))], *allu, *[v[:, None] for v in pvals])
     for name, v in zip(ys, yv):
         cols[str(name)] = np.asarray(v)
     for j, s in enumerate(ins):
@@ -604,8 +665,12 @@ def simulate(model: PlantModel, observer: Observer | None, scenario: Scenario, *
             delays[name] = int(observer.delays.get(name, 0))
             cols[name] = align_delay(np.array(v, dtype=float), delays[name])
             order.append(name)
-    return finish_result(cols, order, delays, t, m, observer, runs, keep_nonfinite,
-                         where=scenario.source)
+    res = finish_result(cols, order, delays, t, m, observer, runs, keep_nonfinite,
+                        where=scenario.source)
+    if true_par:
+        par_cols = {p.name: (v if runs is not None else v[0]) for p, v in true_par.items()}
+        res = dataclasses.replace(res, parameters=par_cols)
+    return res
 
 
 def finish_result(cols, order, delays, t, model, observer, runs, keep_nonfinite, *,

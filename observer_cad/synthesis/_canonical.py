@@ -43,6 +43,7 @@ from typing import Sequence
 
 import numpy as np
 import sympy as sp
+from sympy.polys.matrices import DomainMatrix
 
 from ..progress import report
 from ..numerics import SingleThreadBLAS, np_exact, to_sympy_float
@@ -54,7 +55,7 @@ from ._task import task_for
 from ..model import PlantModel, Task
 from ._nonlinear import substitute_arguments
 from ..model import Structure, extract_structure
-from ..numerics import default_rtol, denominator_conditions, echelon_rows, exact_rank, float_left_null_space, float_rank, left_null_space, nonzero_conditions
+from ..numerics import as_rational, from_rational, exact_rank_value, left_null_echelon, default_rtol, denominator_conditions, echelon_rows, exact_rank, float_left_null_space, float_rank, left_null_space, nonzero_conditions
 
 __all__ = ["design_canonical", "krylov_blocks", "member_to_phi",
            "FLOAT_AUTO_N"]
@@ -66,8 +67,12 @@ FLOAT_AUTO_N = 20
 # ---------------------------------------------------------------- blocks
 def krylov_blocks(F, H, L, k):
     """W⁽ᵏ⁾ = [H Fᵏ; …; H F; H] and the block Toeplitz L⁽ᵏ⁾ (METHOD §2a), sympy."""
-    F, H, L = sp.Matrix(F), sp.Matrix(H), sp.Matrix(L)
+    F, H, L = (A if isinstance(A, sp.MatrixBase) else sp.Matrix(A) for A in (F, H, L))
     l, p = H.rows, L.cols
+    Fq, Hq, Lq = as_rational(F), as_rational(H), as_rational(L)
+    if Fq is not None and Hq is not None and Lq is not None:  # rational: products in FLINT
+        Wq, Lkq = _krylov_rational(Fq, Hq, Lq, k)
+        return from_rational(Wq), from_rational(Lkq)
     HF = [H]
     for _ in range(k):
         HF.append(HF[-1] * F)
@@ -81,12 +86,40 @@ def krylov_blocks(F, H, L, k):
     return W, Lk
 
 
+def _krylov_rational(Fq, Hq, Lq, k, HF=None):
+    """:func:`krylov_blocks` on dense DomainMatrices over QQ. ``HF``, if given, is the list
+    [H, H F, …] computed so far; it is extended in place (the search over k reuses it)."""
+    HF = [Hq] if HF is None else HF
+    while len(HF) < k + 1:
+        HF.append(HF[-1] * Fq)
+    l, p = Hq.shape[0], Lq.shape[1]
+    W = HF[k].vstack(*[HF[k - i] for i in range(1, k + 1)])
+    Z = DomainMatrix.zeros((l, p), sp.QQ).to_dense()
+    if not p:
+        return W, DomainMatrix.zeros((l * (k + 1), 0), sp.QQ).to_dense()
+    HFL = [HF[j] * Lq for j in range(k)]
+    blocks = [[HFL[j - i] if j >= i else Z for j in range(k)] for i in range(k + 1)]
+    return W, _block(blocks)
+
+
+def _block(blocks):
+    """A block matrix from a list of rows of DomainMatrix blocks."""
+    rows = [b[0].hstack(*b[1:]) for b in blocks]
+    return rows[0].vstack(*rows[1:])
+
+
 def member_to_phi(v, F, H, k):
     """From a null-space member v = (R*, −J*_1, …, −J*_k): R*, J* (k×l) and Φ (k×n)."""
-    v = sp.Matrix(v)
+    v = v if isinstance(v, sp.MatrixBase) else sp.Matrix(v)
     l = H.rows
     R = v[:, :l]
     J = sp.Matrix.vstack(*[-v[:, l * (i + 1):l * (i + 2)] for i in range(k)])
+    Fq, Hq, Rq, Jq = as_rational(F), as_rational(H), as_rational(R), as_rational(J)
+    if None not in (Fq, Hq, Rq, Jq):  # rational: products in FLINT
+        rows = [Rq * Hq]
+        for i in range(k - 1):
+            rows.append(rows[-1] * Fq - Jq[i:i + 1, :] * Hq)
+        return R, J, from_rational(rows[0].vstack(*rows[1:]))
     rows = [R * H]
     for i in range(k - 1):
         rows.append(rows[-1] * F - J[i, :] * H)
@@ -152,7 +185,17 @@ def _fmt_vec(M) -> str:
     return "(" + ", ".join(str(sp.factor(e)) for e in M) + ")"
 
 
+def _mul(A, B):
+    """A B with cancelled entries; in FLINT when both are rational."""
+    Aq, Bq = as_rational(A), as_rational(B)
+    if Aq is not None and Bq is not None:
+        return from_rational(Aq * Bq)
+    return (A * B).applyfunc(sp.cancel)
+
+
 def _pretty(e):
+    if e.is_Rational:
+        return e
     e = sp.cancel(e)
     if e.free_symbols:
         f = sp.factor(e)
@@ -250,7 +293,7 @@ def _common_conditions(st, D, L, rank_fn):
 
 
 def _exact_rank_value(M) -> int:
-    return exact_rank(M).rank
+    return exact_rank_value(M)
 
 
 def _design_exact(model, st, task, target, dec, D, L, *, symbolic, single_row) -> Design:
@@ -265,19 +308,24 @@ def _design_exact(model, st, task, target, dec, D, L, *, symbolic, single_row) -
     attempts: list = []
     minimality: set = set()
     chosen = None
+    FHLq = [as_rational(A) for A in (F, H, L)]
+    HF = [FHLq[1]]  # rational: H, H F, H F², … kept across k, products in FLINT
     for k in range(1, n):
         report(f"designing (exact, canonical form): k = {k} of at most {n - 1}")
-        W, Lk = krylov_blocks(F, H, L, k)
-        M = sp.Matrix.hstack(W, Lk)
-        basis, rk = left_null_space(M)
+        if None not in FHLq:
+            Wq, Lkq = _krylov_rational(*FHLq, k, HF)
+            M = Wq.hstack(Lkq) if Lkq.shape[1] else Wq
+        else:
+            W, Lk = krylov_blocks(F, H, L, k)
+            M = sp.Matrix.hstack(W, Lk)
+        members, rk = left_null_echelon(M)
         need = l * (k + 1)
         rank_txt = f"rank (W L) = {rk.rank}" + (
             f" (generic: {', '.join(sorted(map(str, rk.conditions)))})" if rk.conditions else "")
-        if not basis:
+        if not members:
             attempts.append(f"k={k}: rank condition (3.3) fails: {rank_txt} = l(k+1) = {need}")
             minimality |= rk.conditions
             continue
-        members = echelon_rows(basis)
         found, why = _choose_member(members, F, H, D, k, single_row, st)
         if found is None:
             attempts.append(
@@ -298,11 +346,11 @@ def _design_exact(model, st, task, target, dec, D, L, *, symbolic, single_row) -
         R, J, Phi = member_to_phi(vec, F, H, k)
         mats = {
             "Phi": Phi, "F_star": shift_matrix(k), "J_star": J, "R_star": R,
-            "H_star": sp.Matrix([[1] + [0] * (k - 1)]), "G_star": Phi * G,
-            "D_star": Phi * D, "L_star": Phi * L if L.cols else sp.zeros(k, 0),
+            "H_star": sp.Matrix([[1] + [0] * (k - 1)]), "G_star": _mul(Phi, G),
+            "D_star": _mul(Phi, D), "L_star": _mul(Phi, L) if L.cols else sp.zeros(k, 0),
         }
         if C.cols:
-            mats["C_star"] = Phi * C
+            mats["C_star"] = _mul(Phi, C)
         mats = {name: M.applyfunc(_pretty) for name, M in mats.items()}
         return mats
 
@@ -384,7 +432,7 @@ def _choose_member(members, F, H, D, k, single_row, st=None):
     dstar = []
     for v in members:
         _, _, Phi = member_to_phi(v, F, H, k)
-        dstar.append((Phi * D).applyfunc(sp.cancel))
+        dstar.append(_mul(Phi, D))
     reasons = []
     for r in prefs:
         if single_row and k > 1:
@@ -405,12 +453,12 @@ def _choose_member(members, F, H, D, k, single_row, st=None):
         cands += [(None, a + b) for a, b in itertools.combinations(sub, 2)]
         for idx, v in cands:
             R, J, Phi = member_to_phi(v, F, H, k)
-            ds = (Phi * D).applyfunc(sp.cancel)
+            ds = _mul(Phi, D)
             if (ds[r, 0] == 0) if single_row else (ds == sp.zeros(*ds.shape)):
                 if idx is not None:
                     rejected.append(f"member {idx + 1} is not sensitive (Φ D = 0 in row {r + 1})")
                 continue
-            rk = exact_rank(Phi).rank
+            rk = exact_rank_value(Phi)
             if rk < k:
                 if idx is not None:
                     rejected.append(f"member {idx + 1} is degenerate (rank Φ = {rk} < {k})")

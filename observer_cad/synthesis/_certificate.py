@@ -21,6 +21,7 @@ import numpy as np
 import sympy as sp
 
 from ..errors import CertificateError
+from ..numerics import as_rational, from_rational
 
 __all__ = ["Identity", "Certificate", "certify_reduced_model", "certify_design"]
 
@@ -110,7 +111,11 @@ def _number_field(gens):
     return sp.QQ.algebraic_field(*gens)
 
 
-def _exact_identity(name: str, residual: sp.Matrix) -> Identity:
+def _exact_identity(name: str, residual) -> Identity:
+    if isinstance(residual, _Q):  # rational: zero or not, no simplification to do
+        if residual.q.is_zero_matrix:
+            return Identity(name, True, "0")
+        return Identity(name, False, str(next(e for e in from_rational(residual.q) if e != 0)))
     bad = [e for e in residual if not _is_zero(e)]
     if not bad:
         return Identity(name, True, "0")
@@ -175,6 +180,28 @@ def _floats(M) -> np.ndarray:
     return np.array(M.evalf(), dtype=float)
 
 
+class _Q:
+    """A rational matrix whose ``*`` and ``-`` are exact products in FLINT (a dense
+    DomainMatrix over QQ): the certificate of a rational design costs milliseconds."""
+
+    def __init__(self, q):
+        self.q = q
+
+    def __mul__(self, o):
+        return _Q(self.q * o.q)
+
+    def __sub__(self, o):
+        return _Q(self.q - o.q)
+
+
+def _exact_wrapper(mats):
+    """``_Q`` when every matrix is rational, else ``sympy.Matrix``."""
+    qs = [as_rational(v) for v in mats]
+    if all(q is not None for q in qs):
+        return lambda v: _Q(as_rational(v))
+    return sp.Matrix
+
+
 class _Arr:
     """numpy matrix wrapper so that ``*`` is the matrix product, as in sympy."""
 
@@ -204,15 +231,17 @@ def certify_design(plant: dict, mats: dict, *, M=None, substitutions=(), decoupl
     - ``A_j − A*_1j Φ − A*_2j H`` for each argument substitution (A_j, A*_1j, A*_2j).
     """
     if exact:
-        P = {k: sp.Matrix(v) for k, v in plant.items()}
-        X = {k: sp.Matrix(v) for k, v in mats.items()}
-        mat = sp.Matrix
+        mat = _exact_wrapper(list(plant.values()) + list(mats.values()) + (
+            [M] if M is not None else []) + [A for _, *As in substitutions for A in As])
+        P = {k: mat(v) for k, v in plant.items()}
+        X = {k: mat(v) for k, v in mats.items()}
     else:  # float designs: the products in numpy (sympy Float products cost minutes at n = 300)
         P = {k: _Arr(_floats(v)) for k, v in plant.items()}
         X = {k: _Arr(_floats(v)) for k, v in mats.items() if v is not None}
         mat = lambda v: _Arr(_floats(v))  # noqa: E731
     Phi = X["Phi"]
-    cols = lambda A: A.a.shape[1] if isinstance(A, _Arr) else A.cols  # noqa: E731
+    cols = lambda A: (A.a.shape[1] if isinstance(A, _Arr) else A.q.shape[1]  # noqa: E731
+                      if isinstance(A, _Q) else A.cols)
     checks = [("Phi F - F* Phi - J* H", Phi * P["F"] - X["F_star"] * Phi - X["J_star"] * P["H"])]
     if "R_star" in X and "H_star" in X:
         checks.append(("H* Phi - R* H", X["H_star"] * Phi - X["R_star"] * P["H"]))

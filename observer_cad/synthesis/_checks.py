@@ -447,6 +447,38 @@ class _Entry:
     kind: str
 
 
+def _piecewise_range(f, t, lo, hi, function_range):
+    """inf and sup of f over the open interval (lo, hi), exactly: sympy's function_range,
+    on each piece between the zeros of the affine arguments of |·| and sign(·) in f
+    (there |a| = ±a and sign(a) = ±1, so f is smooth and function_range can answer;
+    e^(−|t|) and sign(t) e^(−|t|) are bounded exactly instead of from samples)."""
+    atoms = [a for a in f.atoms(sp.Abs, sp.sign) if a.args[0].has(t)]
+    if not atoms:
+        r = function_range(f, t, sp.Interval.open(lo, hi))
+        return r.inf, r.sup
+    cuts = set()
+    for a in atoms:
+        arg = sp.expand(a.args[0])
+        if not (arg.is_polynomial(t) and sp.degree(arg, t) == 1):
+            raise ValueError("not an affine argument")
+        r0 = sp.solve(arg, t)[0]
+        if (lo == -OO or bool(r0 > lo)) and (hi == OO or bool(r0 < hi)):
+            cuts.add(r0)
+    ends = [lo] + sorted(cuts, key=float) + [hi]
+    infs, sups = [], []
+    for a, b in zip(ends[:-1], ends[1:]):
+        mid = (sp.Integer(0) if (a == -OO and b == OO) else b - 1 if a == -OO
+               else a + 1 if b == OO else (a + b) / 2)
+        rep = {}
+        for at in atoms:
+            sg = sp.sign(at.args[0].subs(t, mid))
+            rep[at] = sg * at.args[0] if isinstance(at, sp.Abs) else sg
+        r = function_range(f.xreplace(rep), t, sp.Interval.open(a, b))
+        infs.append(r.inf)
+        sups.append(r.sup)
+    return sp.Min(*infs), sp.Max(*sups)
+
+
 class RangeAnalyzer:
     def __init__(self, dom: Domain, rng):
         self.dom = dom
@@ -565,8 +597,7 @@ class RangeAnalyzer:
                     if v.is_finite:
                         return v, v, "exact"
                     raise ValueError
-                r = function_range(f, t, sp.Interval.open(lo, hi))
-                rlo, rhi = r.inf, r.sup
+                rlo, rhi = _piecewise_range(f, t, lo, hi, function_range)
                 if not (rlo.is_extended_real and rhi.is_extended_real):
                     raise ValueError
                 tol = 1e-9

@@ -23,6 +23,7 @@ from ._certificate import Certificate, Identity, certify_design
 from ._conditioning import (CONDITIONING_NAME, CONDITIONING_REFERENCE, conditioning_numbers,
                             conditioning_verdict)
 from ._expr import parse_json_expression
+from ._poles import certify_poles
 from ._signature import fault_signature
 
 __all__ = ["Condition", "Design", "DesignMatrices", "DesignRequest", "Form", "Method",
@@ -552,6 +553,10 @@ class Design:
             approximate=approximate,
             residual_norm=data.get("residual_norm") if approximate else None,
             parameters=params, request=request)
+        # a gain K is re-checked too: det(sI − F* + K H*) = Π(s − μ) for the recorded μ
+        m = made.matrices
+        if exact and m.K is not None and made.closed_loop_eigenvalues:
+            certify_poles(m.F_star, m.H_star, m.K, made.closed_loop_eigenvalues)
         # the signature is recomputed from the matrices, never read: a recorded one must agree
         sig = fault_signature(made.matrices, st, task)
         if recorded:

@@ -80,8 +80,9 @@ from sympy.polys.matrices import DomainMatrix
 
 from ..errors import ModelError, UsageError
 from ..model import PlantModel, Structure, extract_structure, parse_estimate
-from ..numerics import (SingleThreadBLAS, echelon_rows, exact_rank, left_null_space, np_exact,
-                        nonzero_conditions)
+from ..numerics import (SingleThreadBLAS, echelon_rows, exact_rank, exact_rank_value,
+                        left_null_echelon, left_null_space, np_exact, nonzero_conditions,
+                        rational_left_null, rational_rref)
 from ._canonical import FLOAT_AUTO_N, krylov_blocks, member_to_phi
 from ._nonlinear import substitute_arguments
 from ._reduced import observer_symbols, output_symbols
@@ -358,19 +359,25 @@ class _Rational:
             return A
         return A.hstack(B)
 
+    def _integer_rows(self, Q):
+        """Rows over QQ scaled to primitive integer rows (same row space)."""
+        if Q.shape[0] == 0:
+            return DomainMatrix.zeros(Q.shape, ZZ)
+        return self._primitive_rows(Q.clear_denoms_rowwise(convert=True)[1])
+
     def basis(self, M, conds):
         if M.shape[0] == 0:
             return M
-        R, _den, piv = M.rref_den()
-        return self._primitive_rows(R[:len(piv), :])
+        R, piv = rational_rref(M)  # FLINT when available
+        return self._integer_rows(R[:len(piv), :])
 
     def left_null(self, M, conds):
         if M.shape[0] == 0:
             return self.zeros(0, 0)
         if M.shape[1] == 0:
             return self.eye(M.shape[0])
-        N = M.transpose().nullspace()
-        return self._primitive_rows(N) if N.shape[0] else self.zeros(0, M.shape[0])
+        N = rational_left_null(M)
+        return self._integer_rows(N) if N.shape[0] else self.zeros(0, M.shape[0])
 
     def sees(self, Sigma, d, conds) -> bool:
         if Sigma.shape[0] == 0:
@@ -656,9 +663,9 @@ class _Problem:
         # nonlinear terms whose argument is not measured
         self.hidden = []
         if st.terms:
-            rH = exact_rank(self.H).rank
+            rH = exact_rank_value(self.H)
             for j, t in enumerate(st.terms):
-                if exact_rank(sp.Matrix.vstack(self.H, sp.Matrix(t.row))).rank > rH:
+                if exact_rank_value(sp.Matrix.vstack(self.H, sp.Matrix(t.row))) > rH:
                     self.hidden.append(j)
         # the matrices as the backend holds them, converted once
         C = sp.Matrix(st.C)
@@ -720,10 +727,9 @@ class _Problem:
         st = self.st if H is self.H else dataclasses.replace(self.st, H=sp.ImmutableMatrix(H))
         for k in range(k0, self.n + 1):
             W, Lk = krylov_blocks(self.F, H, L, k)
-            basis, er = left_null_space(sp.Matrix.hstack(W, Lk))
-            if not basis:
+            members, er = left_null_echelon(sp.Matrix.hstack(W, Lk))
+            if not members:
                 continue
-            members = echelon_rows(basis)
             cands = list(members) + [a + b for a, b in itertools.combinations(members, 2)]
             cands.append(sum((sp.Integer(i + 2) ** 2 * v for i, v in enumerate(members)),
                              sp.zeros(1, members[0].cols)))
@@ -761,7 +767,7 @@ class _Problem:
             return (f"{head}: it does not reach the outputs (H Fⁱ D({f}) = 0 for every i:"
                     " it acts on the unobservable subspace)")
         L = self.L(decoupled, True)
-        if L.cols and exact_rank(sp.Matrix.hstack(L, d)).rank == exact_rank(L).rank:
+        if L.cols and exact_rank_value(sp.Matrix.hstack(L, d)) == exact_rank_value(L):
             if len(names) == 1:
                 return (f"{head}: D({f}) is a multiple of the column of {dec}: the fault"
                         f" enters exactly as {dec} does")
@@ -810,11 +816,11 @@ def _resolve(model: PlantModel, faults, disturbances):
 def _candidate_rows(work: PlantModel, st: Structure, candidates):
     """(label, row) for every state not measured and every candidate expression."""
     H = sp.Matrix(st.H)
-    rH = exact_rank(H).rank
+    rH = exact_rank_value(H)
     out = []
     for i, x in enumerate(work.states):
         row = sp.Matrix([[1 if j == i else 0 for j in range(st.n)]])
-        if exact_rank(sp.Matrix.vstack(H, row)).rank > rH:
+        if exact_rank_value(sp.Matrix.vstack(H, row)) > rH:
             out.append((str(x), row))
     seen = [row for _, row in out]
     for c in candidates or ():

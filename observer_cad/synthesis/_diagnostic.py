@@ -19,12 +19,10 @@ from ._design import Condition, Design
 from ._task import task_for
 from ._reduced import observer_symbols, output_symbols, reduced_equations, residual_outputs
 from ..model import PlantModel, Task
-from ._poles import default_eigenvalues, parse_eigenvalues, place_poles, require_stable
+from ._poles import (closed_loop_eigenvalues, default_eigenvalues, parse_eigenvalues, pole_placement,
+                     require_stable)
 
 __all__ = ["design_diagnostic_canonical", "observer_equations"]
-
-S = sp.Dummy("s")  # never a model parameter named s
-
 
 def observer_equations(mats, inputs, k: int, l: int, with_feedback: bool = True,
                        nonlinear=()):
@@ -48,21 +46,19 @@ def design_diagnostic_canonical(model: PlantModel, *, fault: str, decouple: Sequ
     k = base.k
     mats = base.matrices.as_dict()
     eigs = parse_eigenvalues(eigenvalues) if eigenvalues else default_eigenvalues(model.time, k)
-    K = place_poles(mats["F_star"], mats["H_star"], eigs)
+    placed = pole_placement(mats["F_star"], mats["H_star"], eigs)
+    K = sp.Matrix(placed.K)
     mats["K"] = K
-    Fcl = sp.Matrix(mats["F_star"]) - K * sp.Matrix(mats["H_star"])
-    roots = sp.roots(Fcl.charpoly(S))
-    cl = []
-    for rt, mult in roots.items():
-        cl += [rt] * mult
-    cl = tuple(sorted(cl, key=lambda z: (float(sp.re(z)), float(sp.im(z)))))
+    # certified: det(sI − F* + K H*) = Π(s − μ_i) exactly, so the μ_i are the eigenvalues
+    cl = closed_loop_eigenvalues(placed)
     l = sp.Matrix(mats["R_star"]).cols
     eqs, r, xs = observer_equations(mats, list(model.inputs), k, l, nonlinear=base.nonlinear)
     require_stable(cl, model.time, eigs)
     conds = list(base.conditions)
     conds.insert(-1, Condition("closed-loop eigenvalues of F* − K H*", True,
                                f"requested {[str(e) for e in eigs]}, obtained exactly"
-                               f" {[str(e) for e in cl]}", "METHOD §3"))
+                               f" {[str(e) for e in cl]} ({placed.method}; det(sI − F* + K H*)"
+                               " recomputed and equal to Π(s − μ_i))", "METHOD §3"))
     return dataclasses.replace(
         base, matrices=mats, conditions=tuple(conds),
         closed_loop_eigenvalues=cl, equations=eqs, observer_states=tuple(xs),

@@ -46,7 +46,7 @@ from ._task import task_for, task_parts
 from ._jordan_float import design_jordan_float
 from ._canonical import FLOAT_AUTO_N
 from ..model import Structure, extract_structure
-from ..numerics import denominator_conditions, echelon_rows, exact_rank, left_null_space, nonzero_conditions, solve_left
+from ..numerics import denominator_conditions, echelon_rows, exact_rank, exact_rank_value, left_null_echelon, left_null_space, nonzero_conditions, solve_left
 from ..numerics import rationalize_floats
 
 __all__ = ["Admissible", "admissible_lambdas", "design_jordan", "design_jordan_unknown_input"]
@@ -140,7 +140,7 @@ def _rank(M) -> int:
     M = sp.Matrix(M)
     if M.rows == 0 or M.cols == 0:
         return 0
-    return exact_rank(M).rank
+    return exact_rank_value(M)
 
 
 def design_jordan(model: PlantModel, *, observer: str, estimate=None,
@@ -277,10 +277,10 @@ def design_jordan(model: PlantModel, *, observer: str, estimate=None,
     for i_lam, lam in enumerate(lam_list):
         report(f"designing (Jordan form): null space for λ = {lam} ({i_lam + 1} of {len(lam_list)})")
         P = _pencil(F, H, L0, lam)
-        basis, rkP = left_null_space(P)
+        members, rkP = left_null_echelon(P)
         lam_pivots[lam] = rkP.conditions
         rows_phi, rows_j = [], []
-        for v in echelon_rows(basis):
+        for v in members:
             S, J = v[:, :L0.rows], -v[:, L0.rows:]
             Phi_i = (S * L0).applyfunc(sp.cancel)
             if Phi_i != sp.zeros(1, n):
@@ -399,10 +399,10 @@ def _residual_pair(Phi, H, pivots: set | None = None):
     """(R*, H*) with R* H = H* Φ, H* ≠ 0: the first such member (reduced echelon), or None;
     the rank decision's pivot conditions are added to ``pivots`` when given."""
     l, k = H.rows, Phi.rows
-    nb, rk = left_null_space(sp.Matrix.vstack(H, Phi))
+    nb, rk = left_null_echelon(sp.Matrix.vstack(H, Phi))
     if pivots is not None:
         pivots |= rk.conditions
-    nb = [v for v in echelon_rows(nb) if v[:, l:] != sp.zeros(1, k)]
+    nb = [v for v in nb if v[:, l:] != sp.zeros(1, k)]
     if not nb:
         return None
     return nb[0][:, :l], -nb[0][:, l:]

@@ -40,7 +40,6 @@ from ..numerics import SingleThreadBLAS, np_exact, to_sympy_float
 from ._certificate import certify_design
 from ._design import Condition, Design
 from ..errors import ExpressionError, InfeasibleDesignError, UsageError
-from ._poles import default_eigenvalues
 from ._reduced import jordan_equations, observer_symbols, output_symbols
 from ._task import task_for, task_parts
 from ..model import PlantModel, Structure, Task
@@ -61,6 +60,17 @@ _MAX_TOTAL = 3000
 _PHI_RTOL = 1e-10
 #: certificate: absolute residual norms ≤ this × the largest norm of the compared products
 _CERT_RTOL = 1e-10
+#: length of the default λ list when every λ is admissible (see :func:`_defaults`)
+_N_DEFAULTS = 16
+#: continuous-time defaults (see :func:`_defaults`): log-spread over [−8, −1/8], coarsest first
+_CONTINUOUS_DEFAULTS = (-1.0, -2.0, -0.5, -3.0, -1.5, -0.25, -4.0, -0.75, -6.0, -1.25, -0.125,
+                        -8.0, -2.5, -0.375, -5.0, -1.75)
+#: generic case: the sets of size k are drawn from the first max(k + _POOL_SLACK,
+#: _POOL_MIN) default λ (see :func:`_pools`)
+_POOL_SLACK = 2
+_POOL_MIN = 8
+#: generic case: a size is left after this many λ-sets failed for the generic reason
+_GENERIC_FAILS = 2
 
 
 # ---------------------------------------------------------------- admissible λ
@@ -245,7 +255,98 @@ def _stable(lam: float, time: str) -> bool:
 
 
 def _defaults(time: str, count: int):
-    return [float(v) for v in default_eigenvalues(time, count)]
+    """The λ the float path tries when every λ is admissible: a fixed, well-separated set
+    of stable values, at most :data:`_N_DEFAULTS` (and at most ``count``) of them.
+
+    Discrete time: the dyadic points of (0, 1), coarsest first: 1/2, 1/4, 3/4, 1/8, 3/8,
+    5/8, 7/8, 1/16, … (15 values, spacing ≥ 1/16, nonnegative so F* ≥ 0). Continuous
+    time: :data:`_CONTINUOUS_DEFAULTS`, −1, −2, −1/2, −3, −3/2, −1/4, … spread on a log
+    scale over [−8, −1/8] around the unit scale.
+
+    Rows for nearby λ are nearly parallel (Φ_λ = J H (F − λI)⁻¹ moves with λ relative to
+    the spectrum of F), so crowded λ waste SVDs and give ill-conditioned or spurious row
+    combinations: the exact path's discrete list 1/2, 1/4, …, 1/2ⁿ crowds at 0 (1/2⁶⁰ and
+    1/2³⁰⁰ give the same P(λ) in floating point), and −1, −2, …, −n crowds in direction
+    for |λ| ≫ ‖F‖. Every λ is generically as good as any other here; the list only has to
+    be long enough for the rows a design needs (one λ per row), and ``lambdas=`` widens it.
+    """
+    if time == "continuous":
+        vals = list(_CONTINUOUS_DEFAULTS)
+    else:
+        vals = [j / 2.0 ** e for e in range(1, 5) for j in range(1, 2 ** e, 2)]
+    return vals[:max(1, min(count, _N_DEFAULTS))]
+
+
+class _Families:
+    """λ → (PhiB, JB), the rows of the left null space of P(λ) (see :func:`_family`),
+    computed on first use: a search that stops at k rows pays the SVDs of the λ it
+    looked at, not of the whole list."""
+
+    def __init__(self, A, B, L0, m0, tol):
+        self.A, self.B, self.L0, self.m0, self.tol = A, B, L0, m0, tol
+        self._fam: dict = {}
+        self.evidence: dict = {}
+
+    def get(self, lam):
+        """(PhiB on the states, JB), or None when P(λ) gives no nonzero row Φ."""
+        if lam not in self._fam:
+            report(f"designing (float, Jordan form): null space for λ = {_fmt(lam)}"
+                   f" ({len(self._fam) + 1} computed)")
+            PhiB_S, JB, fr = _family(self.A, self.B, lam, self.m0, self.tol)
+            self.evidence[lam] = fr.evidence()
+            self._fam[lam] = None if PhiB_S is None else (PhiB_S @ self.L0, JB)
+        return self._fam[lam]
+
+    def __getitem__(self, lam):
+        return self._fam[lam]
+
+    def __contains__(self, lam) -> bool:
+        return self._fam.get(lam) is not None
+
+    def __iter__(self):
+        return (lam for lam, f in self._fam.items() if f is not None)
+
+    def __bool__(self) -> bool:
+        return any(f is not None for f in self._fam.values())
+
+    def reached(self, lam_list) -> list:
+        """The λ of the list whose null space was computed (in list order)."""
+        return [lam for lam in lam_list if lam in self._fam]
+
+    def usable(self, lam_list, count=None) -> list:
+        """The first ``count`` λ of the list (all when None) with a nonzero family."""
+        out = []
+        for lam in lam_list:
+            if count is not None and len(out) >= count:
+                break
+            if self.get(lam) is not None:
+                out.append(lam)
+        return out
+
+
+def _pools(fam: _Families, lam_list, narrow: bool):
+    """size → the λ the sets of that size are drawn from.
+
+    ``narrow`` (every λ admissible, the default list): the first max(size + 2, 8)
+    usable λ. The early exit of the generic case: a λ-set's success depends on its
+    values only on a lower-dimensional set, so when the first sets of a size fail, the
+    rest of the list (equally generic) would fail the same way; the two spare λ guard
+    against a default that happens to be special for this plant (an eigenvalue of F,
+    say). Otherwise (admissible values computed, or λ given) every usable λ.
+
+    With ``narrow``, the searches also leave a size after :data:`_GENERIC_FAILS` sets
+    failed for the generic reason (no combination of their rows lies in rowspace(H); z
+    not reachable): that is a rank condition on [Φ_λ1; …; Φ_λk; H], which holds at
+    generic λ exactly when it holds at all but a lower-dimensional set of λ-tuples, so
+    the other default sets of that size fail the same way (a design that needs a
+    special λ is found by the admissible-λ computation or ``lambdas=``, not by luck)."""
+    if not narrow:
+        every = fam.usable(lam_list)
+        pools = lambda size: every  # noqa: E731
+    else:
+        pools = lambda size: fam.usable(lam_list, max(size + _POOL_SLACK, _POOL_MIN))  # noqa: E731
+    pools.narrow = narrow
+    return pools
 
 
 def _family(A, B, lam, m0, tol):
@@ -322,7 +423,9 @@ def _design(model, observer, task, lambdas, rtol, structure=None):
     # Step 1: the task (shared with design_jordan)
     M, fault_syms, dec, Ds, Ls = task_parts(work, st, task)
     decoupled = observer != "interval"
-    F, G, H = (np_exact(sp.Matrix(X)) for X in (st.F, st.G, st.H))
+    # read off the structure's exact matrices directly (a mutable copy of a 300×300
+    # rational matrix costs sympy ~1 s)
+    F, G, H = (np_exact(sp.ImmutableMatrix(X)) for X in (st.F, st.G, st.H))
     D, L = np_exact(Ds), np_exact(Ls)
     Mn = None if M is None else np_exact(M)
 
@@ -384,16 +487,10 @@ def _design(model, observer, task, lambdas, rtol, structure=None):
             raise InfeasibleDesignError(
                 f"{where}: no stable admissible λ: {describe} ({adm_ev})", (adm_ev,))
 
-    # Step 3: the row families
-    fam, fam_ev = {}, {}
-    for i_lam, lam in enumerate(lam_list):
-        report(f"designing (float, Jordan form): null space for λ = {lam}"
-               f" ({i_lam + 1} of {len(lam_list)})")
-        PhiB_S, JB, fr = _family(A, B, lam, m0, tol)
-        fam_ev[lam] = fr.evidence()
-        if PhiB_S is not None:
-            fam[lam] = (PhiB_S @ L0, JB)
-    if not fam:
+    # Step 3: the row families (computed as the search reaches each λ)
+    fam = _Families(A, B, L0, m0, tol)
+    pools = _pools(fam, lam_list, narrow=generic and not lambdas)
+    if not pools(1):
         raise InfeasibleDesignError(
             f"{where}: no nonzero row Φ_i for λ in {_lam_set(lam_list)}")
 
@@ -402,11 +499,12 @@ def _design(model, observer, task, lambdas, rtol, structure=None):
     budget = [0]
     try:
         if observer == "diagnostic":
-            chosen = _diagnostic_rows(fam, lam_list, H, D, n, tol, res_tol, tried, budget)
+            chosen = _diagnostic_rows(fam, pools, H, D, n, tol, res_tol, tried, budget)
         else:
-            chosen = _directed_rows_float(fam, lam_list, H, Mn, n, tol, res_tol, tried, budget)
+            chosen = _directed_rows_float(fam, pools, H, Mn, n, tol, res_tol, tried, budget)
     except _Budget:
         chosen = None
+    searched = fam.reached(lam_list)
     if chosen is None and observer == "diagnostic":  # name the faults no row sees
         blind = []
         for c, f in enumerate(fault_syms):
@@ -418,13 +516,16 @@ def _design(model, observer, task, lambdas, rtol, structure=None):
             dec_txt = f" with {', '.join(task.decoupled)} decoupled" if task.decoupled else ""
             raise InfeasibleDesignError(
                 f"{where}: {', '.join(blind)} {'is' if len(blind) == 1 else 'are'} undetectable"
-                f"{dec_txt}: every row Φ with Φ L = 0 (λ in {{{', '.join(map(_fmt, lam_list))}}})"
+                f"{dec_txt}: every row Φ with Φ L = 0 (λ in {{{', '.join(map(_fmt, searched))}}})"
                 f" has " + ", ".join(f"Φ D_{b} ≈ 0" for b in blind) + " (float path)",
                 tuple(tried))
     if chosen is None:
+        bound = (f"with fewer than n = {n} rows for λ in {_lam_set(searched)}"
+                 if not pools.narrow or len(lam_list) >= n - 1 else
+                 f"from the default λ {_lam_set(lam_list)} (at most {len(lam_list)} distinct"
+                 " λ; give more with lambdas= / --lambda)")
         raise InfeasibleDesignError(
-            f"{where}: no Jordan-form {observer} with fewer than n = {n} rows for λ in"
-            f" {_lam_set(lam_list)} (float path): " + "; ".join(tried),
+            f"{where}: no Jordan-form {observer} {bound} (float path): " + "; ".join(tried),
             tuple(tried))
     rows, extra = chosen
 
@@ -455,8 +556,7 @@ def _design(model, observer, task, lambdas, rtol, structure=None):
         sizes += [nrm(Mn), nrm(mats_np["Hz"]) * nrm(Phi), nrm(mats_np["Q"]) * nrm(H)]
     scale = max([1.0] + [float(s) for s in sizes])
     cert_tol = _CERT_RTOL * scale
-    plant = dict(F=sp.Matrix(st.F), G=sp.Matrix(st.G), H=sp.Matrix(st.H), C=sp.zeros(n, 0),
-                 D=Ds, L=Ls)
+    plant = dict(F=st.F, G=st.G, H=st.H, C=sp.zeros(n, 0), D=Ds, L=Ls)
     cert = certify_design(plant, mats, M=M, decoupled=decoupled, exact=False, tolerance=cert_tol)
 
     # Step 7: equations, outputs, conditions
@@ -465,7 +565,7 @@ def _design(model, observer, task, lambdas, rtol, structure=None):
 
     for i, lam in enumerate(lams):
         conds.append(Condition(f"λ_{i + 1} = {_fmt(lam)} stable", _stable(lam, work.time),
-                               f"{need} ({work.time} time); null space of P(λ): {fam_ev[lam]}",
+                               f"{need} ({work.time} time); null space of P(λ): {fam.evidence[lam]}",
                                "METHOD §2b"))
     PH = np.vstack([Phi, H])
     fPH, fP, fH = float_rank(PH), _phi_fr(Phi, tol), float_rank(H)
@@ -518,7 +618,7 @@ def _design(model, observer, task, lambdas, rtol, structure=None):
                            f" {_CERT_RTOL:.0e} × {scale:.2e}, the largest norm of the compared products)",
                            "METHOD §2"))
     choice = (f"k = {k}: rows with λ = ({', '.join(map(_fmt, lams))}) from the numerical left"
-              f" null spaces of P(λ) for λ in {_lam_set(lam_list)}; the fewest"
+              f" null spaces of P(λ) for λ in {_lam_set(searched)}; the fewest"
               f" rows that satisfy the {observer} conditions (float path, rtol {tol:.0e},"
               f" residual tolerance {res_tol:.0e})"
               + (f" (smaller sets rejected: {'; '.join(tried[:4])})" if tried else ""))
@@ -579,21 +679,38 @@ def _combos(lams, size, tried, budget):
         yield combo
 
 
-def _directed_rows_float(fam, lam_list, H, M, n, tol, res_tol, tried, budget):
+def _directed_rows_float(fam, pools, H, M, n, tol, res_tol, tried, budget):
     """Sets of distinct λ, smallest first: M ≈ Σ c_λ PhiB_λ + Q H by least squares."""
-    lams = [lam for lam in lam_list if lam in fam]
-    # shortcut: not reachable with every family at once -> not reachable by any subset
-    allB = np.vstack([fam[lam][0] for lam in lams] + [H])
-    _, res_all = _lstsq_rel(allB, M)
-    if res_all > res_tol:
-        tried.append(f"M is not in rowspace(H) + Σ_λ rowspace(N_λ L0) over all {len(lams)} λ"
-                     f" (relative least-squares residual {res_all:.2e} > {res_tol:.0e})")
-        return None
-    for size in range(1, min(n, len(lams) + 1)):
+    checked, reachable = None, True  # the pool whose reachability was decided last
+    for size in range(1, n):
+        lams = pools(size)
+        if len(lams) < size:
+            break
+        if lams != checked:
+            # shortcut: not reachable with every family of the pool at once -> not
+            # reachable by any subset of it
+            checked = lams
+            allB = np.vstack([fam[lam][0] for lam in lams] + [H])
+            _, res_all = _lstsq_rel(allB, M)
+            reachable = res_all <= res_tol
+            if not reachable:
+                msg = (f"M is not in rowspace(H) + Σ_λ rowspace(N_λ L0) over {len(lams)} λ"
+                       f" (relative least-squares residual {res_all:.2e} > {res_tol:.0e})")
+                if tried and tried[-1].startswith("M is not in rowspace(H)"):
+                    tried[-1] = msg  # the latest (widest) pool says it all
+                else:
+                    tried.append(msg)
+        if not reachable:
+            continue
+        report(f"designing (float, Jordan form): k = {size}, λ-sets from {len(lams)} values")
+        fails = 0
         for combo in _combos(lams, size, tried, budget):
+            if pools.narrow and fails >= _GENERIC_FAILS:
+                break  # generic λ: the other sets of this size fail the same way
             Bm = np.vstack([fam[lam][0] for lam in combo] + [H])
             X, res = _lstsq_rel(Bm, M)
             if res > res_tol:
+                fails += 1
                 if len(tried) < 12:
                     tried.append(f"k={size}, λ = ({', '.join(map(_fmt, combo))}): z not reachable"
                                  f" (relative residual {res:.2e})")
@@ -618,10 +735,9 @@ def _directed_rows_float(fam, lam_list, H, M, n, tol, res_tol, tried, budget):
     return None
 
 
-def _diagnostic_rows(fam, lam_list, H, D, n, tol, res_tol, tried, budget):
+def _diagnostic_rows(fam, pools, H, D, n, tol, res_tol, tried, budget):
     """Sets of distinct λ, smallest first: rows Φ_i = c_i PhiB_i with Σ Φ_i ∈ rowspace(H)
     (intersection by SVD of [B; H]) and every fault column seen by some row."""
-    lams = [lam for lam in lam_list if lam in fam]
     nD = np.linalg.norm(D, axis=0)
     nD[nD == 0] = 1.0
     rng = np.random.default_rng(7)
@@ -630,14 +746,22 @@ def _diagnostic_rows(fam, lam_list, H, D, n, tol, res_tol, tried, budget):
         rel = np.abs(Phi @ D) / (np.maximum(np.linalg.norm(Phi, axis=1), 1e-300)[:, None] * nD)
         return np.any(rel > res_tol, axis=0) if D.shape[1] else np.zeros(0, bool)
 
-    for size in range(1, min(n, len(lams) + 1)):
+    for size in range(1, n):
+        lams = pools(size)
+        if len(lams) < size:
+            break
+        report(f"designing (float, Jordan form): k = {size}, λ-sets from {len(lams)} values")
+        fails = 0
         for combo in _combos(lams, size, tried, budget):
+            if pools.narrow and fails >= _GENERIC_FAILS:
+                break  # generic λ: the other sets of this size fail the same way
             dims = [fam[lam][0].shape[0] for lam in combo]
             Bm = np.vstack([fam[lam][0] for lam in combo])
             BH = np.vstack([Bm, H])
             N, fr = float_left_null_space(BH, rtol=min(tol, default_rtol(BH.shape)))
             X = N[:, :Bm.shape[0]]
             if X.shape[0] == 0 or np.linalg.norm(X) <= res_tol:
+                fails += 1
                 if len(tried) < 12:
                     tried.append(f"k={size}, λ = ({', '.join(map(_fmt, combo))}): no combination"
                                  f" of the rows lies in rowspace(H) ({fr.evidence()})")

@@ -25,7 +25,8 @@ import sympy as sp
 
 from ..progress import report
 from ._canonical import shift_matrix
-from ._poles import default_eigenvalues, parse_eigenvalues, place_poles, require_stable
+from ._poles import (closed_loop_eigenvalues, default_eigenvalues, parse_eigenvalues, pole_placement,
+                     require_stable)
 from ._certificate import certify_design
 from ._design import Condition, Design
 from ..errors import InfeasibleDesignError, ModelError, UsageError
@@ -37,8 +38,6 @@ from ..model import extract_structure
 from ..numerics import echelon_rows, exact_rank, left_null_space, solve_left
 
 __all__ = ["design_virtual_sensor_canonical"]
-
-S = sp.Dummy("s")  # never a model parameter named s
 
 
 def _blocks(F, H1, H0, L, k):
@@ -165,17 +164,15 @@ def design_virtual_sensor_canonical(model: PlantModel, *, estimate, variant: str
     if st.terms:
         mats["C_star"] = Phi * sp.Matrix(st.C)
     eigs = parse_eigenvalues(eigenvalues) if eigenvalues else default_eigenvalues(work.time, k)
-    K = place_poles(Fs, Hs, eigs)
+    placed = pole_placement(Fs, Hs, eigs)
+    K = sp.Matrix(placed.K)
     mats["K"] = K
     mats = {name: Mx.applyfunc(sp.cancel) for name, Mx in mats.items()}
     plant = dict(F=F, G=G, H=H, C=sp.Matrix(st.C), D=sp.zeros(n, 0), L=L)
     cert = certify_design(plant, mats, M=M, substitutions=idents)
     Fcl = (mats["F_star"] - K * mats["H_star"]).applyfunc(sp.cancel)
-    cl = sp.roots(Fcl.charpoly(S))
-    cl_list = []
-    for root, mult in cl.items():
-        cl_list += [root] * mult
-    cl_list = tuple(sorted(cl_list, key=lambda z: (float(sp.re(z)), float(sp.im(z)))))
+    # certified: det(sI − F* + K H*) = Π(s − μ_i) exactly, so the μ_i are the eigenvalues
+    cl_list = closed_loop_eigenvalues(placed)
 
     conds = [
         Condition(f"rank condition (3.3) at k = {k}" + (" (outputs y and y_v = z)" if variant == "004" else ""),
@@ -185,7 +182,8 @@ def design_virtual_sensor_canonical(model: PlantModel, *, estimate, variant: str
         Condition("virtual-sensor condition rank [Φ; H] = rank [Φ; H; M]", True,
                   f"M = H_z Φ + Q H with H_z = {list(Hz)}, Q = {list(Q)}", "seed 002 eq. (3.2)"),
         Condition("closed-loop eigenvalues of F* − K H*", True,
-                  f"requested {[str(e) for e in eigs]}, obtained exactly {[str(e) for e in cl_list]}",
+                  f"requested {[str(e) for e in eigs]}, obtained exactly {[str(e) for e in cl_list]}"
+                  f" ({placed.method}; det(sI − F* + K H*) recomputed and equal to Π(s − μ_i))",
                   "METHOD §3"),
     ]
     require_stable(cl_list, work.time, eigs)

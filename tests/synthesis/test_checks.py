@@ -114,14 +114,22 @@ def test_reduced_C_psi_lipschitz(tank):
     assert res.lipschitz and res.constant == 4 and res.tight
 
 
-def test_sampled_fallback_and_stated_bound():
-    """|x3 − 1| has derivative sign(x3 − 1), which sympy's range analysis does not
-    handle: the result is a sampled lower bound, and a stated upper bound is used."""
+def test_abs_of_affine_argument_is_bounded_exactly():
+    """|x3 − 1| has derivative sign(x3 − 1): the range analysis splits at x3 = 1 and
+    bounds each smooth piece exactly (issue 14 item 7), N = 1 rigorously."""
     res = lipschitz([sp.Abs(x3 - 1)], [x3], [x3 >= 0])
+    assert res.kind == "symbolic" and res.lipschitz is True and res.constant == 1
+
+
+def test_sampled_fallback_and_stated_bound():
+    """max(0, x3 − 1) has derivative Heaviside(x3 − 1), which sympy's range analysis
+    does not handle: the result is a sampled lower bound, and a stated upper bound is used."""
+    f = sp.Max(0, x3 - 1)
+    res = lipschitz([f], [x3], [x3 >= 0])
     assert res.kind == "sampled" and res.lipschitz is None and res.lower == pytest.approx(1)
-    res = lipschitz([sp.Abs(x3 - 1)], [x3], [x3 >= 0], stated_upper=1)
+    res = lipschitz([f], [x3], [x3 >= 0], stated_upper=1)
     assert res.kind == "sampled" and res.lipschitz is True and res.constant == 1
-    res = lipschitz([sp.Abs(x3 - 1)], [x3], [x3 >= 0], stated_upper=sp.Rational(1, 2))
+    res = lipschitz([f], [x3], [x3 >= 0], stated_upper=sp.Rational(1, 2))
     assert res.lipschitz is False  # the statement contradicts the samples
 
 

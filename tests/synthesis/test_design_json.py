@@ -108,6 +108,17 @@ def test_tampered_matrix_fails_the_certificate(designed):
         Design.from_json(data, model)
 
 
+@pytest.mark.parametrize("key", ["diagnostic-canonical", "virtual-sensor-004"])
+def test_tampered_gain_fails_the_pole_certificate(designed, key):
+    """K is re-checked on reading: det(sI − F* + K H*) must equal Π(s − μ) for the recorded
+    closed-loop eigenvalues."""
+    model, d = designed[key]
+    data = json.loads(json.dumps(d.to_json()))
+    data["matrices"]["K"][0][0] = "123"
+    with pytest.raises(CertificateError, match="pole placement failed its exact check"):
+        Design.from_json(data, model)
+
+
 @pytest.mark.parametrize("payload", [
     "__import__('os').system('touch PWNED')",
     "x1.__class__",

@@ -212,3 +212,24 @@ def test_design_jordan_auto_selects_the_float_path_for_large_models(models_dir):
     ds = design_jordan(load_model(models_dir / "three_tank_linear.py"), observer="virtual-sensor",
                        estimate="x1")
     assert ds.method == "exact" and ds.certificate.exact
+
+
+@pytest.mark.parametrize("time", ["discrete", "continuous"])
+@pytest.mark.parametrize("observer", ["diagnostic", "virtual-sensor"])
+def test_generic_case_uses_well_separated_default_lambdas(time, observer):
+    # n = 60, l = 8, p = 1: P(λ) is 67 × 60, so 7 rows per λ; a residual (or z = x1) needs
+    # 7k + 8 > 60 at generic λ, so k = 8. The default list is fixed and well separated
+    # (discrete: dyadic points of (0, 1); continuous: −1, −2, −1/2, −3, …), not the
+    # crowded 1/2 … 1/2ⁿ, whose near-parallel rows gave spurious or failed designs.
+    m = randsys.random_model(60, 8, 1, seed=1, integer=False, time=time)
+    kw = {} if observer == "diagnostic" else {"estimate": "x1"}
+    d = design_jordan_float(m, observer=observer, **kw)
+    assert d.conditions[0].name == "admissible λ" and "generic" in d.conditions[0].detail
+    assert d.k == 8 and d.certificate.passed
+    lams = sorted(float(v) for v in d.lambdas)
+    assert len(set(lams)) == d.k
+    assert min(b - a for a, b in zip(lams, lams[1:])) >= 1 / 16
+    if time == "discrete":
+        assert all(0 < v < 1 and (v * 16).is_integer() for v in lams)
+    else:
+        assert all(-8 <= v <= -1 / 8 and (v * 8).is_integer() for v in lams)
