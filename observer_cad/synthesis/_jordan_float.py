@@ -480,7 +480,7 @@ def _design(model, observer, task, lambdas, rtol, structure=None):
             lam1 = _one_row_lambda(F, H, L if decoupled else np.zeros((n, 0)), Mn, tol)
             if lam1 is not None and _stable(lam1, work.time) and \
                     all(abs(lam1 - v) > 1e-9 * (1 + abs(v)) for v in lam_list):
-                lam_list.append(lam1)
+                lam_list.insert(0, lam1)  # first: the narrow generic search stops early
     else:
         lam_list = [v for v in values if _stable(v, work.time)]
         if not lam_list:
