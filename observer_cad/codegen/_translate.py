@@ -121,7 +121,7 @@ class Translator:
             if e is sp.nan:
                 return ca.SX(float("nan"))
             return ca.SX(_num(e))
-        if e is sp.pi or e is sp.E:
+        if e is sp.pi or e is sp.E or isinstance(e, sp.CRootOf):  # CRootOf: an irrational λ
             return ca.SX(_num(e))
         if e is sp.true:
             return ca.SX(1.0)

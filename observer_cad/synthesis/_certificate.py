@@ -15,6 +15,7 @@ Identities (METHOD §2)::
 from __future__ import annotations
 
 import dataclasses
+import functools
 
 import numpy as np
 import sympy as sp
@@ -57,7 +58,57 @@ def _is_zero(e) -> bool:
     e = sp.cancel(sp.together(e))
     if e == 0:
         return True
+    if not e.free_symbols and e.has(sp.CRootOf):  # an algebraic number: decide in its field
+        zero = _algebraic_is_zero(e)
+        if zero is not None:
+            return zero
     return sp.simplify(e) == 0
+
+
+def _algebraic_is_zero(e):
+    """Exact zero test of a constant built from ``CRootOf`` roots (irrational λ of the Jordan
+    form; ``simplify`` of such expressions takes minutes). Nonzero when a 50-digit
+    evaluation is clearly away from 0. Zero when, with every root r_i of a polynomial p
+    replaced by a symbol t_i, the numerator reduces to 0 modulo the Cauchy modules of p
+    (p(t_1), p[t_1, t_2], p[t_1, t_2, t_3], … — relations every set of distinct roots
+    satisfies; their leading terms are pure powers of distinct t_i, so they are a
+    Groebner basis); else (dependent roots, e.g. of a cyclic cubic) in the number field
+    QQ(roots). None when none of these decides."""
+    if abs(complex(e.evalf(50))) > 1e-30:
+        return False
+    groups: dict = {}
+    for r in sorted(e.atoms(sp.CRootOf), key=lambda r: (str(r.expr), r.index)):
+        groups.setdefault(r.expr, []).append(r)
+    subs, modules, gens = {}, [], []
+    for expr, roots in groups.items():
+        x = roots[0].poly.gen
+        ts = [sp.Dummy(f"t{i}") for i in range(len(roots))]
+        f = [expr.subs(x, ts[0])]
+        for j in range(1, len(roots)):  # divided differences: p[t_1, …, t_(j+1)]
+            prev = f[-1]
+            f.append(sp.cancel((prev.subs(ts[j - 1], ts[j]) - prev) / (ts[j] - ts[j - 1])))
+        subs.update(zip(roots, ts))
+        modules += [sp.expand(m) for m in f]
+        gens += ts
+    num = sp.expand(sp.fraction(sp.together(e.xreplace(subs)))[0])
+    if num == 0:
+        return True
+    try:
+        _, rem = sp.reduced(num, modules, *reversed(gens), order="lex")
+    except sp.polys.polyerrors.PolynomialError:  # pragma: no cover - not a polynomial
+        return None
+    if sp.expand(rem) == 0:
+        return True
+    try:  # the roots are dependent (e.g. a cyclic cubic): compute in the number field
+        K = _number_field(tuple(subs))
+        return bool(K.is_zero(K.from_sympy(e)))
+    except Exception:  # pragma: no cover - sympy could not build the field
+        return None
+
+
+@functools.lru_cache(maxsize=32)
+def _number_field(gens):
+    return sp.QQ.algebraic_field(*gens)
 
 
 def _exact_identity(name: str, residual) -> Identity:

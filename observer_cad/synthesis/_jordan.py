@@ -29,6 +29,7 @@ import dataclasses
 import itertools
 from typing import Sequence
 
+import numpy as np
 import sympy as sp
 
 from ..progress import report
@@ -38,6 +39,7 @@ from ..errors import ExpressionError, InfeasibleDesignError, ModelError, UsageEr
 from ..model import ObserverKind, PlantModel, Task, parse_expression
 from ._nonlinear import substitute_arguments
 from ._poles import default_eigenvalues
+from ._lambda_search import family_jump_lambdas, one_row_lambdas
 from ._reduced import is_stable, jordan_equations, observer_symbols, output_symbols
 from ._signature import residual_response
 from ._task import task_for, task_parts
@@ -223,6 +225,7 @@ def design_jordan(model: PlantModel, *, observer: str, estimate=None,
                        f"{adm.describe()}; {adm.evidence}"
                        + (f"; complex roots {', '.join(map(str, adm.other_roots))} are not usable"
                           if adm.other_roots else ""), "METHOD §2b; seed 002 eq. (2.5)")]
+    one_row = jumps = None  # the special-λ analysis (every λ admissible, none requested)
     if lambdas:
         lam_list = []
         for v in lambdas:
@@ -246,23 +249,24 @@ def design_jordan(model: PlantModel, *, observer: str, estimate=None,
                 raise InfeasibleDesignError(
                     f"{where}: λ = {lam} is not stable in {work.time} time (needs {need})")
             lam_list.append(lam)
-    elif adm.generic:
+    elif adm.generic:  # the defaults, and the special λ that fewer rows may need
         lam_list = default_eigenvalues(work.time, n)
-    else:
-        lam_list = [v for v in adm.values if is_stable(v, work.time) is not False
-                    and not v.has(sp.CRootOf)]  # roots of cubic and higher factors: not used
-        lam_list.sort(key=lambda v: (not v.is_rational, str(v)))
+        one_row, jumps = _special_lambdas(observer, F, H, L0, L if decoupled else sp.zeros(n, 0),
+                                          M, work.time)
+        for v in (one_row.stable if one_row else ()) + jumps.stable:
+            if not any(_same_number(v, w) for w in lam_list):
+                lam_list.append(v)
+    else:  # every stable admissible root, exactly (CRootOf for irreducible cubics and up)
+        lam_list = [v for v in adm.values if is_stable(v, work.time) is not False]
+        lam_list.sort(key=lambda v: (not v.is_rational, v.has(sp.CRootOf), str(v)))
         if not lam_list:
-            unusable = [v for v in adm.values if v.has(sp.CRootOf)]
-            why = (" (the stable ones are roots of an irreducible factor of degree ≥ 3, which"
-                   " exact synthesis does not use)" if unusable else "")
             lead = ""
             if observer == "diagnostic":
                 lead = (f"{', '.join(task.targets)} cannot be detected"
                         f"{_with_decoupled(task)}: no stable λ gives a row Φ with Φ L = 0"
                         " (a reduced model of order < n); ")
             raise InfeasibleDesignError(
-                f"{where}: {lead}no stable admissible λ{why}: {adm.describe()} ({adm.evidence})",
+                f"{where}: {lead}no stable admissible λ: {adm.describe()} ({adm.evidence})",
                 (adm.evidence,))
 
     # Step 3: for every λ the whole family of rows: Φ = c N_λ L0, J* = c J_λ
@@ -304,10 +308,15 @@ def design_jordan(model: PlantModel, *, observer: str, estimate=None,
     chosen = None
     if M is not None:  # directed: M ∈ rowspace(H) + Σ_λ rowspace(N_λ L0), one row per λ
         chosen = _directed_rows(fam, lam_list, H, M, n, observer, D, st, tried, names)
-    if chosen is None:
-        chosen = _combination_rows(pool, n, observer, H, D, M, st, tried, names)
-    if chosen is None and sums:  # the basis rows alone do not do it: generic members too
-        chosen = _combination_rows(pool + sums, n, observer, H, D, M, st, tried, names)
+    for size in range(1, n) if chosen is None else ():  # fewest rows first, every strategy
+        chosen = _combination_rows(pool, n, observer, H, D, M, st, tried, names, (size,))
+        if chosen is None and sums:  # the basis rows alone do not do it: generic members too
+            chosen = _combination_rows(pool + sums, n, observer, H, D, M, st, tried, names,
+                                       (size,))
+        if chosen is None and observer == "diagnostic" and size > 1:  # rows of several λ
+            chosen = _combined_rows(fam, lam_list, H, D, n, observer, M, st, tried, names, size)
+        if chosen is not None:
+            break
     if chosen is None and observer == "diagnostic":
         raise InfeasibleDesignError(_diagnostic_refusal(where, task, names, pool, D, lam_list,
                                                         tried, n), tuple(tried))
@@ -357,9 +366,12 @@ def design_jordan(model: PlantModel, *, observer: str, estimate=None,
     conds += _report_conditions(observer, work.time, lams, mats, Phi, H, D, M, fault_syms, CA,
                                  nonlinear, k, decoupled)
     conds.append(Condition("certificate", cert.passed, cert.summary(), "METHOD §2"))
+    minimal = _minimality(observer, k, n, lams, lam_list, adm, bool(lambdas), one_row, jumps,
+                          work.time)
+    conds.append(minimal)
     choice = (f"k = {k}: rows with λ = ({', '.join(map(str, lams))}) chosen from"
               f" {len(pool)} candidate row(s) for λ in {{{', '.join(map(str, lam_list))}}};"
-              f" the fewest rows that satisfy the {observer} conditions"
+              f" the fewest rows that satisfy the {observer} conditions; {minimal.detail}"
               + (f" (smaller sets rejected: {'; '.join(tried[:4])})" if tried else ""))
     assumptions = set(pivots)
     for lam in set(lams):
@@ -468,6 +480,8 @@ def _directed_rows(fam, lam_list, H, M, n, observer, D, st, tried, names=()):
         report(f"designing (Jordan form): {size} row(s) of at most {n - 1}")
         for combo in itertools.combinations(lams, size):
             B = sp.Matrix.vstack(*[fam[lam][0] for lam in combo])
+            if _irrational(combo) and not _maybe_in_rowspace(sp.Matrix.vstack(B, H), M):
+                continue  # numerically far from solvable: skip the algebraic-field solve
             X = solve_left(sp.Matrix.vstack(B, H), M)
             if X is None:
                 continue
@@ -486,9 +500,9 @@ def _directed_rows(fam, lam_list, H, M, n, observer, D, st, tried, names=()):
     return None
 
 
-def _combination_rows(pool, n, observer, H, D, M, st, tried, names=()):
+def _combination_rows(pool, n, observer, H, D, M, st, tried, names=(), sizes=None):
     """Fewest rows from the pool; sets with distinct λ before sets that repeat one."""
-    for size in range(1, n):
+    for size in sizes or range(1, n):
         report(f"designing (Jordan form): {size} row(s) of at most {n - 1}")
         for distinct in (True, False):
             for combo in itertools.combinations(range(len(pool)), size):
@@ -499,6 +513,134 @@ def _combination_rows(pool, n, observer, H, D, M, st, tried, names=()):
                 if _check_rows(rows, size, observer, H, D, M, st, tried, names):
                     return rows
     return None
+
+
+def _same_number(a, b) -> bool:
+    """Exact equality of two real numbers (rationals, surds, CRootOf); a float comparison
+    first, so that distinct values never reach ``simplify``."""
+    if a == b:
+        return True
+    if a.free_symbols or b.free_symbols:
+        return sp.simplify(a - b) == 0
+    if abs(float(a) - float(b)) > 1e-9 * (1 + abs(float(a))):
+        return False
+    return sp.simplify(a - b) == 0
+
+
+def _irrational(lams) -> bool:
+    return any(lam.is_number and not lam.is_rational for lam in lams)
+
+
+#: float pre-check for sets with irrational λ: relative least-squares residual above which
+#: X B = M is certainly not solvable (an exact solution leaves ~1e-15; the exact solve decides)
+_PRECHECK_RTOL = 1e-6
+
+
+def _maybe_in_rowspace(B, M) -> bool:
+    """False when X B = M is far from solvable in floating point (exact arithmetic in an
+    algebraic field of high degree is slow; only sets that pass are solved exactly)."""
+    try:
+        Bn = np.array(B.evalf(30).tolist(), dtype=float)
+        Mn = np.array(M.evalf(30).tolist(), dtype=float)
+    except (TypeError, ValueError):  # symbolic entries: let the exact solve decide
+        return True
+    X, *_ = np.linalg.lstsq(Bn.T, Mn.T, rcond=None)
+    res = np.linalg.norm(X.T @ Bn - Mn)
+    return bool(res <= _PRECHECK_RTOL * max(1.0, np.linalg.norm(Mn)) * max(1.0, np.linalg.norm(Bn)))
+
+
+def _float_rank_full(A) -> bool:
+    """True when A has full row rank with a clear margin in floating point."""
+    try:
+        An = np.array(A.evalf(30).tolist(), dtype=float)
+    except (TypeError, ValueError):
+        return False
+    if An.shape[0] > An.shape[1]:
+        return False
+    s = np.linalg.svd(An, compute_uv=False)
+    return bool(s.size and s[-1] > _PRECHECK_RTOL * s[0])
+
+
+def _combined_rows(fam, lam_list, H, D, n, observer, M, st, tried, names, size):
+    """Diagnostic rows of ``size`` distinct λ whose sum lies in rowspace H (seed 002 (2.7)):
+    Σ_λ c_λ N_λ L0 + h H = 0 from the left null space of [N_λ1 L0; …; H], one row
+    Φ_i = c_λi N_λi L0 per λ, every λ used (a smaller set is tried before)."""
+    lams = [lam for lam in lam_list if lam in fam]
+    for combo in itertools.combinations(lams, size):
+        Bs = [fam[lam][0] for lam in combo]
+        if _irrational(combo) and _float_rank_full(sp.Matrix.vstack(*Bs, H)):
+            continue  # no combination in rowspace H (numerically clear): skip the exact solve
+        basis, _ = left_null_space(sp.Matrix.vstack(*Bs, H))
+        if not basis:
+            continue
+        cands = list(basis) + ([sum(basis[1:], basis[0])] if len(basis) > 1 else [])
+        for v in cands:
+            rows, off = [], 0
+            for lam, B in zip(combo, Bs):
+                c = v[:, off:off + B.rows]
+                off += B.rows
+                Phi_i = (c * B).applyfunc(sp.cancel)
+                if Phi_i == sp.zeros(1, n):
+                    break
+                rows.append((lam, Phi_i, (c * fam[lam][1]).applyfunc(sp.cancel)))
+            if len(rows) == size and _check_rows(rows, size, observer, H, D, M, st, tried,
+                                                 names):
+                return rows
+    return None
+
+
+def _special_lambdas(observer, F, H, L0, L, M, time):
+    """Every λ admissible: the exact special λ (METHOD §2b) — those a one-row design needs
+    (virtual sensor / interval observer; diagnostic one-row designs do not depend on λ) and
+    those where the family of rows grows."""
+    one = None
+    if M is not None and observer != "diagnostic":
+        one = one_row_lambdas(F, H, L, M, LAMBDA, time)
+    return one, family_jump_lambdas(F, H, L0, LAMBDA, time)
+
+
+def _minimality(observer, k, n, lams, lam_list, adm, requested, one_row, jumps, time) -> Condition:
+    """Why fewer rows are impossible, as far as it is proven (METHOD §2b)."""
+    ref = "METHOD §2b; seed 002 §2"
+    name = "k is minimal over λ"
+    special = [v for v in lams if not any(_same_number(v, w)
+                                          for w in default_eigenvalues(time, n))]
+    found = (f"λ = {', '.join(map(str, special))} found exactly (not in the default list); "
+             if adm.generic and special else "")
+    if k == 1:
+        return Condition(name, True, found + "k = 1: one row, the fewest possible", ref,
+                         required=False)
+    if requested:
+        return Condition(name, False, f"k = {k} for the requested λ only; other λ were not"
+                         " searched", ref, required=False)
+    if not adm.generic:
+        return Condition(name, True, f"every stable admissible λ ({', '.join(map(str, lam_list))};"
+                         f" {adm.describe()}) was searched: no set of fewer than {k} rows"
+                         " satisfies the task", ref, required=False)
+    stable_txt = ", ".join(map(str, one_row.stable)) if one_row else ""
+    if observer == "diagnostic":
+        k1 = ("k = 1 is impossible for every λ: a one-row residual needs Φ ∈ rowspace H, and"
+              " Φ (F − λI) ∈ rowspace H does not depend on λ")
+    elif one_row is None or not one_row.analysed:
+        k1 = (f"k = 1 was searched over λ in {{{', '.join(map(str, lam_list))}}} only"
+              + (f" ({one_row.evidence})" if one_row else ""))
+    elif one_row.generic:
+        k1 = (f"k = 1 rows exist for all but finitely many λ ({one_row.evidence}) but none"
+              f" satisfies the {observer} conditions (nonlinear argument substitution)")
+    elif not one_row.stable:
+        k1 = (f"k = 1 is impossible for every real λ: {one_row.evidence}; none is stable"
+              if one_row.roots else
+              f"k = 1 is impossible for every λ: {one_row.evidence}; no real λ admits one row")
+    else:
+        k1 = (f"k = 1 is impossible for every real λ: {one_row.evidence}; the stable root(s)"
+              f" {stable_txt} were tried and fail the task")
+    proven = k == 2 and (observer == "diagnostic" or (one_row is not None and one_row.analysed
+                                                       and not one_row.generic))
+    more = ("" if k == 2 else
+            f"; 2 ≤ k < {k} was searched over λ in {{{', '.join(map(str, lam_list))}}} (the"
+            " defaults and the stable roots where P(λ) drops rank"
+            f" — {jumps.evidence if jumps else 'not analysed'}) only")
+    return Condition(name, proven, found + k1 + more, ref, required=False)
 
 
 def _task_ok(observer, Phi, H, D, M, st, names=()):

@@ -476,6 +476,11 @@ def _design(model, observer, task, lambdas, rtol, structure=None):
             lam_list.append(lam)
     elif generic:
         lam_list = _defaults(work.time, n)
+        if Mn is not None and observer != "diagnostic":  # the λ a one-row design needs
+            lam1 = _one_row_lambda(F, H, L if decoupled else np.zeros((n, 0)), Mn, tol)
+            if lam1 is not None and _stable(lam1, work.time) and \
+                    all(abs(lam1 - v) > 1e-9 * (1 + abs(v)) for v in lam_list):
+                lam_list.insert(0, lam1)  # first: the narrow generic search stops early
     else:
         lam_list = [v for v in values if _stable(v, work.time)]
         if not lam_list:
@@ -623,6 +628,28 @@ def _design(model, observer, task, lambdas, rtol, structure=None):
         method="float", choice=choice, attempts=tuple(tried), time=work.time,
         lambdas=tuple(sp.Float(v) for v in lams), nonlinear=(), equations=equations,
         observer_states=tuple(xs), outputs=tuple(outputs))
+
+
+def _one_row_lambda(F, H, L, M, tol):
+    """The one λ (or None) at which a one-row virtual sensor / interval observer exists when
+    it does not for generic λ (METHOD §2b). Φ ∝ M − Q H needs (Q, J*) E0 = m0 − λ m1 with
+    E0 = [H L, H F; 0, H], m0 = (M L, M F), m1 = (0, M) (λ H absorbed into J*): λ enters
+    linearly, so it is the coefficient of m1 in the least-squares solution of
+    (x, λ) [E0; m1] = m0, kept when the relative residual is below ``tol``-scaled 1e-7 and
+    m1 is not in rowspace E0 (then every λ or none works: the defaults decide)."""
+    if M.shape[0] != 1:
+        return None
+    n, l, p = F.shape[0], H.shape[0], L.shape[1]  # noqa: E741
+    E0 = np.block([[H @ L, H @ F], [np.zeros((l, p)), H]])
+    m0 = np.hstack([M @ L, M @ F])
+    m1 = np.hstack([np.zeros((1, p)), M])
+    _, r1 = _lstsq_rel(E0, m1)
+    if r1 <= max(1e-7, 100.0 * tol):
+        return None
+    X, res = _lstsq_rel(np.vstack([E0, m1]), m0)
+    if res > max(1e-7, 100.0 * tol):
+        return None
+    return float(X[0, -1])
 
 
 def _lam_set(lams) -> str:

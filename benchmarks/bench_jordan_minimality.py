@@ -1,0 +1,122 @@
+#!/usr/bin/env python3
+"""Jordan minimality benchmark (issue 14 item 6): the fewest rows over all admissible
+real λ, against the default λ lists, side by side in one run.
+
+    python3 benchmarks/bench_jordan_minimality.py            # measure, print the table
+    python3 benchmarks/bench_jordan_minimality.py --write    # ... and update README.md
+
+The plants are those of tests/synthesis/test_jordan_minimality.py: z = M x with M a left
+eigenvector direction of F (eigenvalue −3/2, continuous; 1/3, discrete), an unmeasured
+block with modes −2 ± √2 (k = 2 with irrational λ) and an unmeasured companion block with
+an irreducible cubic (three CRootOf λ, k = 3). For each: ``design_jordan`` with the default
+λ list requested (what the search did before: −1, −2, … / 1/2, 1/4, …) and with the new
+search (defaults plus the exact special λ). Reported: k (or "none" when the defaults give
+no design), the λ found, median wall and CPU time of ``--runs`` calls. Target: the new
+search reaches the minimal k (known by construction) — met/MISSED.
+"""
+from __future__ import annotations
+
+import argparse
+import statistics
+import sys
+import time
+from pathlib import Path
+
+import sympy as sp
+
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "tests" / "synthesis"))
+
+from observer_cad import InfeasibleDesignError, PlantModel  # noqa: E402
+from observer_cad.synthesis import default_eigenvalues, design_jordan  # noqa: E402
+from common import load as _load, machine as _machine, write_section  # noqa: E402
+
+README = Path(__file__).resolve().parent / "README.md"
+BEGIN = "<!-- BEGIN JORDAN MINIMALITY RESULTS (bench_jordan_minimality.py --write) -->"
+END = "<!-- END JORDAN MINIMALITY RESULTS -->"
+
+x1, x2, x3, x4, u = sp.symbols("x1 x2 x3 x4 u")
+
+
+def _rational(mu, time_):
+    T = sp.Matrix([[1, 1, 0], [0, 1, 1], [1, 0, 1]])
+    F0 = sp.Matrix([[mu, 0, 0], [1, sp.Rational(1, 5), 1], [0, 1, sp.Rational(2, 5)]])
+    X = sp.Matrix([x1, x2, x3])
+    F, H, M = T * F0 * T.inv(), sp.Matrix([[0, 1, 0]]) * T.inv(), sp.Matrix([[1, 0, 0]]) * T.inv()
+    m = PlantModel(name=f"eigen_{time_}", time=time_, states=[x1, x2, x3], inputs=[u],
+                   outputs=list(H * X), dynamics=list(F * X + sp.Matrix([1, 0, 1]) * u))
+    return m, (M * X)[0]
+
+
+def cases(slow: bool):
+    out = [("z on a left eigenvector, λ = −3/2 (continuous)", *_rational(sp.Rational(-3, 2), "continuous"), 1),
+           ("z on a left eigenvector, λ = 1/3 (discrete)", *_rational(sp.Rational(1, 3), "discrete"), 1),
+           ("unmeasured block, modes −2 ± √2", PlantModel(
+               name="quadratic", time="continuous", states=[x1, x2, x3], inputs=[u], outputs=[x3],
+               dynamics=[-2 * x1 + x2, 2 * x1 - 2 * x2 + u, -x3 + u]), "x1", 2)]
+    if slow:
+        out.append(("unmeasured companion block, λ³ + 6λ² + 8λ + 1", PlantModel(
+            name="cubic", time="continuous", states=[x1, x2, x3, x4], inputs=[u], outputs=[x4],
+            dynamics=[x2, x3, -x1 - 8 * x2 - 6 * x3 + u, -x4 + u]), "x1", 3))
+    return out
+
+
+def _timed(model, z, lambdas):
+    t, c = time.perf_counter(), time.process_time()
+    try:
+        d = design_jordan(model, observer="virtual-sensor", estimate=z, lambdas=lambdas)
+    except InfeasibleDesignError:
+        d = None
+    return time.perf_counter() - t, time.process_time() - c, d
+
+
+def measure(model, z, lambdas, runs):
+    walls, cpus, d = [], [], None
+    for _ in range(runs):
+        w, c, d = _timed(model, z, lambdas)
+        walls.append(w)
+        cpus.append(c)
+    return statistics.median(walls), statistics.median(cpus), d
+
+
+def _fmt(t):
+    return f"{t * 1e3:.0f} ms" if t < 1 else f"{t:.2f} s"
+
+
+def _k(d):
+    return "none" if d is None else str(d.k)
+
+
+def _lams(d):
+    return "—" if d is None else ", ".join(str(v) for v in d.lambdas)
+
+
+def run(runs: int, slow: bool) -> str:
+    info = _machine()
+    lines = [f"Machine: {info['nproc']} CPU(s), {info['cpu']}; Python {info['python']}, sympy"
+             f" {info['sympy']}; load average before: {_load()}. Medians of {runs} run(s).", "",
+             "| plant | minimal k | defaults only: k (time) | new search: k, λ (time wall / CPU) | target |",
+             "|---|---|---|---|---|"]
+    for label, model, z, kmin in cases(slow):
+        defaults = [str(v) for v in default_eigenvalues(model.time, len(model.states))]
+        w0, c0, d0 = measure(model, z, defaults, runs)
+        w1, c1, d1 = measure(model, z, None, runs)
+        ok = d1 is not None and d1.k == kmin and d1.certificate.passed
+        lines.append(f"| {label} | {kmin} | {_k(d0)} ({_fmt(w0)}) | {_k(d1)}, λ = {_lams(d1)}"
+                     f" ({_fmt(w1)} / {_fmt(c1)}) | k = {kmin} certified: {'met' if ok else '**MISSED**'} |")
+        print(lines[-1], flush=True)
+    lines += ["", f"Load average after: {_load()}. Reproduce: `python3 benchmarks/bench_jordan_minimality.py"
+              f" --runs {runs}{' --slow' if slow else ''} --write`."]
+    return "\n".join(lines)
+
+
+if __name__ == "__main__":
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--runs", type=int, default=3)
+    ap.add_argument("--slow", action="store_true", help="include the cubic (three CRootOf λ) plant")
+    ap.add_argument("--write", action="store_true")
+    a = ap.parse_args()
+    table = run(a.runs, a.slow)
+    print(table)
+    if a.write:
+        write_section(README, BEGIN, END, table)

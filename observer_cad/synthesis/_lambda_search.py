@@ -1,0 +1,203 @@
+"""Special eigenvalues for the Jordan form when every λ is admissible (METHOD §2b).
+
+When [L0(F − λI); H] loses row rank for every λ, the default lists (−1, −2, … or
+1/2, 1/4, …) give generic rows. A design of fewer rows may need a *particular* λ; every
+such λ is a root of an exact polynomial, computed here:
+
+* **one row (k = 1)**, virtual sensor / interval observer for z = M x (M one row, not
+  in rowspace H): Φ = M − Q H (up to a nonzero factor) must satisfy Φ L = 0 and
+  Φ (F − λI) = J* H, i.e. (Q, J*) E(λ) = m(λ) with
+
+      E(λ) = [H L, H(F − λI); 0, H],     m(λ) = (M L, M(F − λI)).
+
+  Solvable at λ iff rank [E(λ); m(λ)] = rank E(λ). When that fails for λ a free symbol
+  (rank r + 1 against r), it can hold only where [E; m] drops below r + 1, so only at
+  the roots of the pivots of an exact elimination of [E; m] over QQ(λ): if no pivot
+  vanishes at λ0, the same elimination is valid at λ0 and gives the same rank.
+  The roots of those factors are the candidates p(λ) = 0; each is then checked exactly
+  by the design itself.
+* **one row, diagnostic**: Φ = R* H (Φ ∈ rowspace H), and Φ(F − λI) ∈ rowspace H does
+  not depend on λ: no λ is special.
+* **family jumps**: where P(λ) drops below its rank for λ a free symbol (the pivots
+  of its exact elimination: unobservable or decoupled eigenvalues of F, transmission
+  zeros), the family of rows Φ_λ is larger; a design of several rows may need those λ
+  (a row coinciding with a left eigenvector direction, a fixed mode of the reduced
+  model). They are candidates for k ≥ 2.
+
+Roots are exact: rationals, quadratic surds, and real roots of irreducible factors of
+degree ≥ 3 as ``sympy.CRootOf`` (arithmetic in the algebraic number field, exact).
+
+References: seed 002 §2 eqs. (2.4)-(2.5); METHOD §2b.
+"""
+from __future__ import annotations
+
+import dataclasses
+import random
+
+import numpy as np
+import sympy as sp
+
+from sympy.polys.matrices import DomainMatrix
+
+from ..numerics import solve_left
+from ._reduced import is_stable
+
+__all__ = ["SpecialLambdas", "one_row_lambdas", "family_jump_lambdas", "exact_real_roots"]
+
+
+@dataclasses.dataclass(frozen=True)
+class SpecialLambdas:
+    """The real λ at which a condition polynomial in λ vanishes, found exactly.
+
+    ``generic``: the condition holds for λ a free symbol (no λ is special);
+    ``analysed``: False when the question was not decided (then ``evidence`` says why);
+    ``polynomial``: p(λ), the product of the candidate factors (1 when none);
+    ``roots``: its real roots, exact, ascending; ``stable``: the stable ones.
+    """
+
+    generic: bool
+    analysed: bool
+    polynomial: sp.Expr
+    roots: tuple
+    stable: tuple
+    evidence: str
+
+
+def exact_real_roots(factors, lam) -> list:
+    """Real roots of irreducible polynomials in ``lam`` (numeric coefficients), exactly:
+    rationals, square roots, ``CRootOf`` for degree ≥ 3; ascending, without repeats."""
+    out = []
+    for f in factors:
+        poly = sp.Poly(f, lam)
+        if poly.degree() <= 0:
+            continue
+        if poly.degree() <= 2:
+            rts = [r for r in sp.roots(poly).keys() if r.is_real]
+        else:
+            rts = list(poly.real_roots())
+        for r in rts:
+            if not any(abs(float(r) - float(o)) <= 1e-9 * (1 + abs(float(o)))
+                       and sp.simplify(r - o) == 0 for o in out):
+                out.append(r)
+    out.sort(key=lambda v: float(v.evalf(30)))
+    return out
+
+
+def _factors(conditions, lam) -> list:
+    """The λ-polynomials of an ExactRank's pivot conditions ``Ne(f, 0)``."""
+    fs = []
+    for c in conditions:
+        f = sp.expand(c.lhs)
+        if f.free_symbols == {lam}:
+            fs.append(f)
+    fs.sort(key=str)
+    return fs
+
+
+def _product(factors):
+    return sp.Mul(*factors) if factors else sp.Integer(1)
+
+
+def _special(conditions, lam, time, generic: bool, what: str) -> SpecialLambdas:
+    fs = _factors(conditions, lam)
+    roots = exact_real_roots(fs, lam)
+    stable = tuple(r for r in roots if is_stable(r, time))
+    p = _product(fs)
+    rt = ", ".join(map(str, roots)) or "none real"
+    ev = f"{what}: p(λ) = {sp.factor(p)}" + (f", real roots {rt}" if fs else " (no factor)")
+    return SpecialLambdas(generic, True, p, tuple(roots), stable, ev)
+
+
+def one_row_lambdas(F, H, L, M, lam, time: str) -> SpecialLambdas:
+    """The λ admitting a one-row virtual sensor / interval observer for z = M x.
+
+    ``L``: the decoupled inputs (n × p, p may be 0); ``M``: one row, not in rowspace H.
+    Adding λ times the H block to E(λ) removes λ from it: (Q, J*) E(λ) = m(λ) becomes
+    x E0 = m0 − λ m1 with E0 = [H L, H F; 0, H], m0 = (M L, M F), m1 = (0, M); so λ is
+    the coefficient of m1 in the exact solution of (x, λ) [E0; m1] = m0 — one rational λ,
+    every λ (m1, m0 ∈ rowspace E0), or none.
+    """
+    F, H, L, M = (sp.Matrix(X) for X in (F, H, L, M))
+    n, l = F.rows, H.rows  # noqa: E741
+    free = set().union(*(X.free_symbols for X in (F, H, L, M)))
+    if free:
+        return SpecialLambdas(False, False, sp.Integer(1), (), (),
+                              "not analysed: symbolic parameters (only the default λ are tried)")
+    if M.rows != 1:
+        return SpecialLambdas(False, False, sp.Integer(1), (), (),
+                              f"not analysed: z has {M.rows} components")
+    E0 = sp.Matrix.vstack(sp.Matrix.hstack(H * L, H * F),
+                          sp.Matrix.hstack(sp.zeros(l, L.cols), H))
+    m0 = sp.Matrix.hstack(M * L, M * F)
+    m1 = sp.Matrix.hstack(sp.zeros(1, L.cols), M)
+    how = ("k = 1 needs Φ = M − Q H with Φ L = 0 and Φ (F − λI) ∈ rowspace H, i.e."
+           " (x, λ) [E0; m1] = m0 with E0 = [H L, H F; 0, H], m0 = (M L, M F), m1 = (0, M)")
+    if solve_left(E0, m1) is not None:  # λ drops out: every λ or none
+        if solve_left(E0, m0) is not None:
+            return SpecialLambdas(True, True, sp.Integer(1), (), (),
+                                  f"{how}: m0 and m1 lie in rowspace E0, so every λ admits one row")
+        return SpecialLambdas(False, True, sp.Integer(1), (), (),
+                              f"{how}: m1 lies in rowspace E0 but m0 does not, so no λ admits one"
+                              " row")
+    X = solve_left(sp.Matrix.vstack(E0, m1), m0)
+    if X is None:
+        return SpecialLambdas(False, True, sp.Integer(1), (), (),
+                              f"{how}: m0 is not in rowspace [E0; m1], so no λ admits one row")
+    root = sp.sympify(X[0, X.cols - 1])  # exact (rational) already
+    p = lam - root
+    stable = (root,) if is_stable(root, time) else ()
+    return SpecialLambdas(False, True, p, (root,), stable,
+                          f"{how}: it needs λ = {root}, the root of p(λ) = {p}")
+
+
+def family_jump_lambdas(F, H, L0, lam, time: str) -> SpecialLambdas:
+    """The λ where P(λ) = [L0(F − λI); H] drops below its rank r for λ a free symbol.
+
+    Candidates: the roots of gcd(det(U₁ P V₁), det(U₂ P V₂)) for random integer U_i (r × rows),
+    V_i (n × r) — by Cauchy–Binet each is a combination of the r × r minors, so divisible by
+    their gcd: the drop points are among the roots (a superset, never fewer); the roots
+    where P keeps rank r are then removed by a singular-value check.
+    """
+    F, H, L0 = (sp.Matrix(X) for X in (F, H, L0))
+    if set().union(*(X.free_symbols for X in (F, H, L0))):
+        return SpecialLambdas(False, False, sp.Integer(1), (), (),
+                              "not analysed: symbolic parameters")
+    P = sp.Matrix.vstack(L0 * (F - lam * sp.eye(F.rows)), H)
+    dm = DomainMatrix.from_Matrix(P).convert_to(sp.QQ[lam])
+    r = dm.convert_to(sp.QQ.frac_field(lam)).rank()
+    rng = random.Random(20261122)
+    g, tries = None, 0
+    while tries < 6 and (g is None or tries < 2):
+        tries += 1
+        U = DomainMatrix([[sp.QQ[lam](rng.randint(-9, 9)) for _ in range(P.rows)] for _ in range(r)],
+                         (r, P.rows), sp.QQ[lam])
+        V = DomainMatrix([[sp.QQ[lam](rng.randint(-9, 9)) for _ in range(r)] for _ in range(P.cols)],
+                         (P.cols, r), sp.QQ[lam])
+        d = sp.QQ[lam].to_sympy((U * dm * V).det())
+        if d == 0:
+            continue
+        g = d if g is None else sp.gcd(g, d)
+    if g is None:  # pragma: no cover - every compression singular (probability 0)
+        return SpecialLambdas(False, False, sp.Integer(1), (), (), "not analysed: singular compressions")
+    _, facs = sp.factor_list(g, lam)
+    conds = [sp.Ne(f, 0) for f, _m in facs if f.has(lam)]
+    sp_ = _special(conds, lam, time, not conds,
+                   f"rank P(λ) = {r} for λ a free symbol; it drops (a larger family of rows)"
+                   " only at roots of gcd(det(U P V)) over two random compressions")
+    # keep the roots where P really drops rank (an exact root of a true drop leaves σ_r at
+    # rounding level; a spurious one a clear σ_r)
+    keep = tuple(v for v in sp_.stable if _drops(P, lam, v, r))
+    dropped = [v for v in sp_.stable if v not in keep]
+    ev = sp_.evidence + (f"; P(λ) keeps rank {r} at {', '.join(map(str, dropped))}"
+                         f" (σ_{r}/σ_1 > {_DROP_RTOL:.0e})" if dropped else "")
+    return dataclasses.replace(sp_, stable=keep, evidence=ev)
+
+
+#: P(λ0) drops below its generic rank r when σ_r / σ_1 ≤ this (λ0 an exact root)
+_DROP_RTOL = 1e-8
+
+
+def _drops(P, lam, v, r) -> bool:
+    Pn = np.array(P.subs(lam, sp.Float(v.evalf(30), 30)).evalf(30).tolist(), dtype=float)
+    s = np.linalg.svd(Pn, compute_uv=False)
+    return bool(s.size < r or s[0] == 0 or s[r - 1] <= _DROP_RTOL * s[0])
