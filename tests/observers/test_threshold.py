@@ -199,3 +199,15 @@ def test_scenario_parameters_validation(uncertain):
     b = simulate(m, o, scenario_from_dict({**base, "parameters": {"k5": {"uniform": [0.951, 0.969]}}}),
                  runs=3)
     assert np.array_equal(a["w2"], b["w2"])
+
+
+def test_residual_generator_nonlinear_in_its_states_is_refused(drive):
+    m, o = drive
+    xs1 = o.states[0]
+    bent = dataclasses.replace(o, update=(o.update[0] + xs1 ** 3 / 100,))
+    with pytest.raises(UsageError, match="linear in its own states"):
+        guaranteed_threshold(m, bent)
+    # an observer that does not reproduce the plant (a wrong gain) has no fault-free band
+    wrong = dataclasses.replace(o, update=(o.update[0] + sp.Symbol("y1") / 10,))
+    with pytest.raises(UsageError, match="does not reproduce the plant"):
+        guaranteed_threshold(m, wrong)
