@@ -11,6 +11,7 @@ import re
 import pytest
 
 import observer_cad.cli._demo as demo  # fault injection: the case list is patched
+import observer_cad.cli._demo_evaluation as evaluation
 from observer_cad.reporting import md_escape, symbol_latex
 
 
@@ -66,7 +67,8 @@ def test_report_references_existing_pngs(demo_run):
         assert p.is_file() and p.stat().st_size > 10_000, r
         assert p.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     written = {p.name for p in (out / "figures").glob("*.png")}
-    assert written == {name for name, *_ in demo.FIGURES} | {demo.BANK_FIGURE}
+    assert written == {name for name, *_ in demo.FIGURES} | {demo.BANK_FIGURE} | {
+        evaluation.DRIVE_FIGURE, evaluation.BANK_FIGURE, evaluation.BANK_RUN_FIGURE}
     assert {r.split("/")[1] for r in refs} == written
     # the papers' figures are all there
     for name in ("000_fig1", "000_fig2", "000_fig3", "000_fig4", "002_fig2", "002_fig3", "001_fig2"):
@@ -214,3 +216,20 @@ def test_markdown_and_latex_helpers():
     assert symbol_latex("rho_hat") == r"\hat{\rho}"
     assert symbol_latex("x1_upper") == r"\overline{x}_{1}"
     assert symbol_latex("y2_lag1") == "{y_{2}}^{[-1]}"
+
+
+@pytest.mark.slow  # the whole demo run
+def test_report_has_the_residual_evaluation(demo_run):
+    """Issue 13: the evaluation section, measured by this run: no false alarm with the
+    guaranteed threshold over the fault-free runs, the step fault detected in every run with
+    its delay, and the three-tank bank's confusion matrix (every run isolated)."""
+    rc, out, log, _ = demo_run
+    report = (out / "report.md").read_text(encoding="utf-8")
+    sec = report[report.index('<a id="evaluation"></a>'):]
+    assert "| no fault | 200 | — | — | — | 0 | 0/200 |" in sec
+    assert re.search(r"\| d = 0\.2 from t = 100 \| 200 \| 1 \| 1 steps \| 1 steps \| 0 \| 0/200 \| 0 \| 1 \|", sec)
+    for f in ("f1", "f2", "f3"):
+        row = {"f1": "0 | 40 | 0 | 0", "f2": "0 | 0 | 40 | 0", "f3": "0 | 0 | 0 | 40"}[f]
+        assert f"| {f} | {row} | 0 |" in sec
+    assert "comparison system stable" in sec and "594/625" in sec
+    assert "0 false alarms in 200 fault-free runs" in report
