@@ -485,17 +485,27 @@ def _directed_rows(fam, lam_list, H, M, n, observer, D, st, tried, names=()):
             X = solve_left(sp.Matrix.vstack(B, H), M)
             if X is None:
                 continue
-            rows, off = [], 0
+            rows, off, used = [], 0, 0
             for lam in combo:
                 PhiB, JB = fam[lam]
                 c = X[:, off:off + PhiB.rows]
                 off += PhiB.rows
-                Phi_i = (c * PhiB).applyfunc(sp.cancel)
-                if Phi_i != sp.zeros(1, n):
-                    rows.append((lam, Phi_i, (c * JB).applyfunc(sp.cancel)))
-            if len(rows) != size:
+                # one row per independent combination: z = M x with several components
+                # may need several rows of the same λ (rows of c N_λ L0 that add rank)
+                block = (c * PhiB).applyfunc(sp.cancel)
+                Jblock = (c * JB).applyfunc(sp.cancel)
+                mine = []
+                for i in range(block.rows):
+                    if block[i, :] == sp.zeros(1, n):
+                        continue
+                    trial = sp.Matrix.vstack(*[r[1] for r in mine], block[i, :])
+                    if _rank(trial) == len(mine) + 1:
+                        mine.append((lam, block[i, :], Jblock[i, :]))
+                used += bool(mine)
+                rows += mine
+            if used != size:
                 continue  # a smaller set does it (found earlier unless the task failed)
-            if _check_rows(rows, size, observer, H, D, M, st, tried, names):
+            if _check_rows(rows, len(rows), observer, H, D, M, st, tried, names):
                 return rows
     return None
 

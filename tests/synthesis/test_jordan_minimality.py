@@ -145,3 +145,15 @@ def test_algebraic_zero_test(cubic):
     assert _algebraic_is_zero(a**3 + 6 * a**2 + e2 * a + 1) is True
     assert _algebraic_is_zero(a + b + 1) is False
     assert _algebraic_is_zero(a * b - 1 + sp.Rational(1, 10**40)) is not True
+
+
+def test_directed_rows_for_a_vector_z_give_one_row_per_component(models_dir):
+    """z = (x1, x2) of a nonlinear chain: the directed solve needs two rows of the same λ
+    (it used to stack a 2-row block as one 'row' and end in a raw ShapeError)."""
+    from observer_cad import load_model
+    from observer_cad.synthesis import design_jordan
+    m = load_model(models_dir / "nonmonotone_chain.py")
+    d = design_jordan(m, observer="interval", estimate=["x1", "x2"])
+    Phi, F = sp.Matrix(d.matrices.Phi), sp.Matrix(d.matrices.F_star)
+    assert Phi.rows == F.rows == d.k and Phi.rank() == d.k
+    assert d.certificate.passed
