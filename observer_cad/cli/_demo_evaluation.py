@@ -23,6 +23,7 @@ from ..errors import ObserverCadError
 from ..model import load_model
 from ..observers import build_observer, decide, decision_rule, guaranteed_threshold, min_detectable_fault
 from ..simulation import FaultCase, evaluate_ensemble, load_scenario, simulate
+from ..synthesis import design, design_bank
 
 __all__ = ["EvaluationOutcome", "run_evaluation", "evaluation_section", "evaluation_summary",
            "DRIVE_MODEL", "BANK_MODEL"]
@@ -65,8 +66,6 @@ def run_evaluation(models_dir: Path, fig_dir: Path, log) -> EvaluationOutcome:
     try:
         t0 = time.perf_counter()
         m = load_model(models_dir / DRIVE_MODEL)
-        d = None
-        from ..synthesis import design
         d = design(m, observer="diagnostic")
         ob = guaranteed_threshold(m, build_observer(m, d))
         out.drive_conditions = ob.threshold.conditions
@@ -94,15 +93,15 @@ def run_evaluation(models_dir: Path, fig_dir: Path, log) -> EvaluationOutcome:
 
         step = "residual bank"
         t0 = time.perf_counter()
-        from ..synthesis import design_bank
         bm = load_model(models_dir / BANK_MODEL)
         bank = design_bank(bm)
         bo = guaranteed_threshold(bm, build_observer(bm, bank))
         out.bank_conditions = bo.threshold.conditions
         brule = decision_rule(bm, bank)
         bsc = load_scenario(models_dir / "scenarios" / f"{BANK_SCENARIO}.json")
-        noisy = dataclasses.replace(_sans_faults(bsc, bm), signals={
-            **{k: v for k, v in bsc.signals.items() if k not in {f.name for f in bm.faults}},
+        quiet = _sans_faults(bsc, bm)
+        noisy = dataclasses.replace(quiet, signals={
+            **quiet.signals,
             **{w.name: {"uniform": [float(bm.bounds[w][0]), float(bm.bounds[w][1])]}
                for w in bm.noise}})
         log(f"[evaluation 2/2] {bm.name}: bank of {len(bank.designs)} residuals with guaranteed"
