@@ -41,7 +41,7 @@ from observer_cad.observers import DecisionRule, build_observer, decide, decisio
 from observer_cad import simulation as _sim  # noqa: E402
 from observer_cad.simulation import evaluate_ensemble, scenario_from_dict  # noqa: E402
 from observer_cad.synthesis import design, design_bank  # noqa: E402
-from common import load as _load, machine as _machine, write_section  # noqa: E402
+from common import load as _load, machine as _machine, publish  # noqa: E402
 
 ROOT = Path(__file__).resolve().parent.parent
 README = Path(__file__).resolve().parent / "README.md"
@@ -246,10 +246,7 @@ def main():
     ap.add_argument("--repeat", type=int, default=5)
     args = ap.parse_args()
     table = run(args)
-    print(table)
-    if args.write:
-        write_section(README, BEGIN, END, table)
-        print(f"wrote {README}")
+    publish(table, README, BEGIN, END, write=args.write)
 
 
 if __name__ == "__main__":

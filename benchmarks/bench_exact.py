@@ -33,7 +33,7 @@ import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
-from common import load as _load, machine as _machine, write_section  # noqa: E402
+from common import load as _load, machine as _machine, publish  # noqa: E402
 
 ROOT = Path(__file__).resolve().parent.parent
 README = Path(__file__).resolve().parent / "README.md"
@@ -172,11 +172,7 @@ def main(argv=None) -> int:
         _child(args.child)
         return 0
     table = run(args.runs)
-    print()
-    print(table)
-    if args.write:
-        write_section(README, BEGIN, END, table)
-        print(f"\nwrote {README}")
+    publish(table, README, BEGIN, END, write=args.write)
     return 0
 
 

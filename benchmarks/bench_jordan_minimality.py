@@ -29,7 +29,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "tests" / "synth
 
 from observer_cad import InfeasibleDesignError, PlantModel  # noqa: E402
 from observer_cad.synthesis import default_eigenvalues, design_jordan  # noqa: E402
-from common import load as _load, machine as _machine, write_section  # noqa: E402
+from common import load as _load, machine as _machine, publish  # noqa: E402
 
 README = Path(__file__).resolve().parent / "README.md"
 BEGIN = "<!-- BEGIN JORDAN MINIMALITY RESULTS (bench_jordan_minimality.py --write) -->"
@@ -117,6 +117,4 @@ if __name__ == "__main__":
     ap.add_argument("--write", action="store_true")
     a = ap.parse_args()
     table = run(a.runs, a.slow)
-    print(table)
-    if a.write:
-        write_section(README, BEGIN, END, table)
+    publish(table, README, BEGIN, END, write=a.write)

@@ -48,7 +48,7 @@ sys.path.insert(0, str(ROOT))
 
 import numpy as np  # noqa: E402
 
-from common import cpu_name, load as _load, machine, write_section  # noqa: E402
+from common import cpu_name, load as _load, machine, publish  # noqa: E402
 
 README = Path(__file__).resolve().parent / "README.md"
 BEGIN = "<!-- BEGIN LATENCY RESULTS (bench_latency.py --write) -->"
@@ -322,10 +322,7 @@ def main():
         w, c = cli[("floor", name)]
         lines.append(f"| `{name}` | {w:.2f} s | {c:.2f} s |")
     table = "\n".join(lines)
-    print(table)
-    if args.write:
-        write_section(README, BEGIN, END, table)
-        print(f"wrote {README}")
+    publish(table, README, BEGIN, END, write=args.write)
 
 
 if __name__ == "__main__":

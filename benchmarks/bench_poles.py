@@ -37,7 +37,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
 from observer_cad import PlantModel  # noqa: E402
 from observer_cad.synthesis import design_virtual_sensor_canonical, pole_placement  # noqa: E402
-from common import load as _load, machine as _machine, write_section  # noqa: E402
+from common import load as _load, machine as _machine, publish  # noqa: E402
 
 README = Path(__file__).resolve().parent / "README.md"
 BEGIN = "<!-- BEGIN POLES RESULTS (bench_poles.py --write) -->"
@@ -223,11 +223,7 @@ def main(argv=None) -> int:
         _run_previous(args.previous)
         return 0
     table = run(args.runs, args.limit)
-    print()
-    print(table)
-    if args.write:
-        write_section(README, BEGIN, END, table)
-        print(f"\nwrote {README}")
+    publish(table, README, BEGIN, END, write=args.write)
     return 0
 
 

@@ -31,7 +31,7 @@ import sys
 import time
 from pathlib import Path
 
-from common import load as _load, machine as _machine, write_section
+from common import load as _load, machine as _machine, publish
 
 ROOT = Path(__file__).resolve().parent.parent
 README = Path(__file__).resolve().parent / "README.md"
@@ -191,11 +191,7 @@ def main(argv=None) -> int:
         print(json.dumps(out))
         return 0
     table = run(args.cold)
-    print()
-    print(table)
-    if args.write:
-        write_section(README, BEGIN, END, table)
-        print(f"\nwrote {README}")
+    publish(table, README, BEGIN, END, write=args.write)
     return 0
 
 

@@ -48,3 +48,12 @@ def write_section(readme: Path, begin: str, end: str, table: str) -> None:
     before, rest = text.split(begin, 1)
     _, after = rest.split(end, 1)
     atomic_write_text(readme, before + begin + "\n" + table + "\n" + end + after)
+
+
+def publish(table: str, readme: Path, begin: str, end: str, *, write: bool) -> None:
+    """Print the table and, with ``write``, replace its section of ``readme``."""
+    print()
+    print(table)
+    if write:
+        write_section(readme, begin, end, table)
+        print(f"\nwrote {readme}")
