@@ -22,7 +22,7 @@ import numpy as np
 from ..errors import ObserverCadError
 from ..model import load_model
 from ..observers import build_observer, decide, decision_rule, guaranteed_threshold, min_detectable_fault
-from ..simulation import FaultCase, evaluate_ensemble, load_scenario, simulate
+from ..simulation import FaultCase, evaluate_ensemble, fault_free, load_scenario, simulate
 from ..synthesis import design, design_bank
 
 __all__ = ["EvaluationOutcome", "run_evaluation", "evaluation_section", "evaluation_summary",
@@ -53,11 +53,6 @@ class EvaluationOutcome:
     error: str | None = None
 
 
-def _sans_faults(sc, model):
-    faults = {f.name for f in model.faults}
-    return dataclasses.replace(sc, signals={k: v for k, v in sc.signals.items() if k not in faults})
-
-
 def run_evaluation(models_dir: Path, fig_dir: Path, log) -> EvaluationOutcome:
     """Run both ensembles, write the figures; errors are recorded, not raised."""
     from ..reporting import plot_confusion, plot_residuals
@@ -75,7 +70,7 @@ def run_evaluation(models_dir: Path, fig_dir: Path, log) -> EvaluationOutcome:
         log(f"[evaluation 1/2] {m.name}: guaranteed threshold, {DRIVE_RUNS} fault-free runs and"
             f" {DRIVE_RUNS} runs with d = 0.2 from t = {onset:g} (k5 sampled per run from its"
             " declared uncertainty)")
-        out.drive_metrics = evaluate_ensemble(m, ob, _sans_faults(sc, m), rule,
+        out.drive_metrics = evaluate_ensemble(m, ob, fault_free(m, sc), rule,
                                               cases=[FaultCase("d", 0.2, onset)],
                                               runs=DRIVE_RUNS, seed=sc.seed)
         res = simulate(m, ob, sc)
@@ -99,7 +94,7 @@ def run_evaluation(models_dir: Path, fig_dir: Path, log) -> EvaluationOutcome:
         out.bank_conditions = bo.threshold.conditions
         brule = decision_rule(bm, bank)
         bsc = load_scenario(models_dir / "scenarios" / f"{BANK_SCENARIO}.json")
-        quiet = _sans_faults(bsc, bm)
+        quiet = fault_free(bm, bsc)
         noisy = dataclasses.replace(quiet, signals={
             **quiet.signals,
             **{w.name: {"uniform": [float(bm.bounds[w][0]), float(bm.bounds[w][1])]}

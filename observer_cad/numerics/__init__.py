@@ -2,7 +2,7 @@
 conditions, float linear algebra with rank evidence, interval arithmetic on matrices.
 """
 from ._floats import (np_exact, to_sympy_float, SingleThreadBLAS, rationalize_floats, rational_approximation)
-from ._intervals import (pos, neg, box_min, box_max)
+from ._intervals import (pos, neg, box_min, box_max, comparison_stability)
 from ._linalg import (default_rtol, rank_from_sv, ExactRank, FloatRank, exact_rank, left_null_space, echelon_rows, solve_left, float_rank, float_left_null_space, nonzero_conditions, denominator_conditions, to_domain_matrix, rational_rref, rational_left_null, left_null_echelon, exact_rank_value, as_rational, from_rational, RATIONAL_BACKEND)
 
-__all__ = ["np_exact", "to_sympy_float", "SingleThreadBLAS", "rationalize_floats", "rational_approximation", "pos", "neg", "box_min", "box_max", "default_rtol", "rank_from_sv", "ExactRank", "FloatRank", "exact_rank", "left_null_space", "echelon_rows", "solve_left", "float_rank", "float_left_null_space", "nonzero_conditions", "denominator_conditions", "to_domain_matrix", "rational_rref", "rational_left_null", "left_null_echelon", "exact_rank_value", "as_rational", "from_rational", "RATIONAL_BACKEND"]
+__all__ = ["np_exact", "to_sympy_float", "SingleThreadBLAS", "rationalize_floats", "rational_approximation", "pos", "neg", "box_min", "box_max", "comparison_stability", "default_rtol", "rank_from_sv", "ExactRank", "FloatRank", "exact_rank", "left_null_space", "echelon_rows", "solve_left", "float_rank", "float_left_null_space", "nonzero_conditions", "denominator_conditions", "to_domain_matrix", "rational_rref", "rational_left_null", "left_null_echelon", "exact_rank_value", "as_rational", "from_rational", "RATIONAL_BACKEND"]

@@ -62,7 +62,7 @@ from ..synthesis import Condition, Design
 from ..errors import InfeasibleDesignError, ModelError, UsageError
 from ..model import PlantModel
 from ._observer import Observer, output_symbols
-from ..numerics import box_max, box_min, neg, pos, rationalize_floats
+from ..numerics import box_max, box_min, comparison_stability, neg, pos, rationalize_floats
 from ..model import extract_structure
 from ..synthesis import Domain, RangeAnalyzer, argument_range, derivative_range, format_number, interval_scale, lipschitz, nonlinear_conditions, range_sign, reduced_nonlinearity
 
@@ -533,22 +533,10 @@ def _width_matrix(k, time, xs, how_rows, shifts, Fs, terms, d_range):
 
 
 def _comparison_stability(M, time):
-    """(stable, figure, text): exact test that −M (continuous, M Metzler) or I − M
-    (discrete, M ≥ 0) is a nonsingular M-matrix — all leading principal minors > 0 —
-    which is equivalent to spectral abscissa α(M) < 0 (resp. spectral radius ρ(M) < 1);
-    the figure (α or ρ, in floating point) is reported alongside."""
-    import numpy as np
-    k = M.rows
-    if any(e.has(sp.oo, -sp.oo, sp.zoo) for e in M):
-        return False, float("inf"), "M has unbounded entries (a derivative is unbounded)"
-    Z = -M if time == "continuous" else sp.eye(k) - M
-    minors = [sp.simplify(Z[:r, :r].det()) for r in range(1, k + 1)]
-    try:
-        stable = all(bool(m > 0) for m in minors)
-    except TypeError:  # a sign sympy cannot decide: not proven
-        stable = False
-    ev = np.linalg.eigvals(np.array(M.evalf(), dtype=float))
-    fig = float(np.max(ev.real)) if time == "continuous" else float(np.max(np.abs(ev)))
+    """(stable, figure, text) of :func:`observer_cad.numerics.comparison_stability`."""
+    stable, fig, minors = comparison_stability(M, time)
+    if not minors and fig == float("inf"):
+        return False, fig, "M has unbounded entries (a derivative is unbounded)"
     return stable, fig, "leading principal minors of " + ("−M" if time == "continuous" else "I − M") \
         + f": {[format_number(m) for m in minors]}"
 

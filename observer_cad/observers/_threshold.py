@@ -40,6 +40,7 @@ import sympy as sp
 
 from ..errors import ExpressionError, UsageError
 from ..model import PlantModel, parse_number
+from ..numerics import comparison_stability, neg, pos
 from ..synthesis import Condition, argument_range, format_number
 from ._observer import Observer, output_symbols
 
@@ -239,17 +240,6 @@ def _sym_iv_pow(a, n):
     if n % 2 == 1:
         return (lo ** n, hi ** n)
     return (sp.Max(0, lo, -hi) ** n, sp.Max(lo ** n, hi ** n))
-
-
-def _split(M):
-    M = sp.Matrix(M)
-    P = M.applyfunc(lambda v: v if v > 0 else 0)
-    return P, P - M
-
-
-def _leading_minors(M) -> list:
-    M = sp.Matrix(M)
-    return [M[:i, :i].det(method="bareiss") for i in range(1, M.shape[0] + 1)]
 
 
 # --------------------------------------------------------------------------- the threshold
@@ -464,15 +454,14 @@ def guaranteed_threshold(model: PlantModel, observer: Observer, *, initial_error
     # comparison system and its exact stability certificate
     Ad = sp.diag(*[A[i, i] for i in range(k)]) if k else sp.zeros(0, 0)
     if model.time == "discrete":
-        Ap, An = _split(A)
-        M = sp.eye(k) - (Ap + An)
+        Ap, An = pos(A), neg(A)
         what = "ρ(|A|) < 1 (I − |A| a nonsingular M-matrix)"
     else:
-        Ap, An = _split(A - Ad)
-        M = -(Ad + Ap + An)
+        Ap, An = pos(A - Ad), neg(A - Ad)
         what = "A_d + |A_o| Hurwitz (−(A_d + |A_o|) a nonsingular M-matrix)"
-    minors = _leading_minors(M) if k else []
-    stable = all(sp.sympify(mn) > 0 for mn in minors)
+    # the comparison matrix: |A| (discrete) or A_d + |A_o| (continuous)
+    stable, _, minors = comparison_stability((Ad if model.time == "continuous" else sp.zeros(k, k))
+                                             + Ap + An, model.time)
     conds.append(Condition(
         "comparison system stable", bool(stable),
         f"{what}: leading principal minors " + ", ".join(format_number(mn) for mn in minors),
@@ -504,7 +493,7 @@ def guaranteed_threshold(model: PlantModel, observer: Observer, *, initial_error
     else:
         nl = Ad * L + Ap * L - An * U + sp.Matrix(Dl)
         nh = Ad * U + Ap * U - An * L + sp.Matrix(Dh)
-    Np, Nn = _split(-C)
+    Np, Nn = pos(-C), neg(-C)
     rl = Np * L - Nn * U + sp.Matrix(Gl)
     rh = Np * U - Nn * L + sp.Matrix(Gh)
     outputs = list(observer.outputs)
