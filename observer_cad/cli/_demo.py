@@ -292,6 +292,19 @@ class _Engine:
                          " falling back to the reference simulator (numpy) for every design")
         return None
 
+    def prepare_logged(self, model, observer, timings: dict):
+        """:meth:`prepare`, timed into ``timings["compile"]`` and logged with the observer's
+        build time; returns (simulator or None, the engine's description)."""
+        t0 = time.perf_counter()
+        sim = self.prepare(model, observer)
+        if sim is None:
+            self.log(f"        build observer {timings['observer']:.2f} s · not compiled: {self.reason}")
+            return None, "reference simulator (numpy)"
+        timings["compile"] = time.perf_counter() - t0
+        self.log(f"        build observer {timings['observer']:.2f} s · compile {timings['compile']:.2f} s"
+                 f" ({'from the cache' if sim.cached else 'C compiled now'})")
+        return sim, "compiled C" + (" (cache hit)" if sim.cached else "")
+
     @staticmethod
     def run(sim, model, observer, scenario):
         if sim is not None:
@@ -332,16 +345,7 @@ def _run_case(i: int, n: int, case: Case, models_dir: Path, models: dict, engine
             held = sum(1 for c in extra if c.holds)
             log(f"          observer: {held} of {len(extra)} conditions hold"
                 + "".join(f"\n          {_mark(c)} {_short(c.name, 90)}" for c in extra if not c.holds))
-        t0 = time.perf_counter()
-        sim = engine.prepare(model, ob)
-        if sim is not None:
-            out.timings["compile"] = time.perf_counter() - t0
-            out.engine = "compiled C" + (" (cache hit)" if sim.cached else "")
-            log(f"        build observer {out.timings['observer']:.2f} s · compile {out.timings['compile']:.2f} s"
-                f" ({'from the cache' if sim.cached else 'C compiled now'})")
-        else:
-            out.engine = "reference simulator (numpy)"
-            log(f"        build observer {out.timings['observer']:.2f} s · not compiled: {engine.reason}")
+        sim, out.engine = engine.prepare_logged(model, ob, out.timings)
         t0 = time.perf_counter()
         for run in case.runs:
             sc = load_scenario(models_dir / "scenarios" / f"{run.scenario}.json")
@@ -431,16 +435,7 @@ def _run_diagnosability(ex: DiagnosabilityExample, models_dir: Path, engine: _En
         t0 = time.perf_counter()
         ob = out.observer = build_observer(bm, bank)
         out.timings["observer"] = time.perf_counter() - t0
-        t0 = time.perf_counter()
-        sim = engine.prepare(bm, ob)
-        if sim is not None:
-            out.timings["compile"] = time.perf_counter() - t0
-            out.engine = "compiled C" + (" (cache hit)" if sim.cached else "")
-            log(f"        build observer {out.timings['observer']:.2f} s · compile {out.timings['compile']:.2f} s"
-                f" ({'from the cache' if sim.cached else 'C compiled now'})")
-        else:
-            out.engine = "reference simulator (numpy)"
-            log(f"        build observer {out.timings['observer']:.2f} s · not compiled: {engine.reason}")
+        sim, out.engine = engine.prepare_logged(bm, ob, out.timings)
         t0 = time.perf_counter()
         sc = load_scenario(models_dir / "scenarios" / f"{ex.scenario}.json")
         out.sim = engine.run(sim, bm, ob, sc)

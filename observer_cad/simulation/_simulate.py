@@ -90,6 +90,21 @@ def _whole(where, what, v):
     return int(v)
 
 
+def _is_uniform(spec) -> bool:
+    return isinstance(spec, dict) and set(spec) == {"uniform"}
+
+
+def _check_uniform(where, what, spec) -> None:
+    """``{"uniform": [low, high]}``: two finite numbers, low ≤ high (signals and parameters)."""
+    rng = spec["uniform"]
+    if not isinstance(rng, (list, tuple)) or len(rng) != 2:
+        raise UsageError(f"{where}: {what}: use {{\"uniform\": [low, high]}}")
+    lo = _finite(where, f"{what}: uniform low", rng[0])
+    hi = _finite(where, f"{what}: uniform high", rng[1])
+    if lo > hi:
+        raise UsageError(f"{where}: {what}: uniform low {lo} > high {hi}")
+
+
 def _signal_spec(where, name, spec, depth=0):
     """Check one signal specification (and parse its expressions); nothing is evaluated."""
     what = f"signal '{name}'"
@@ -99,14 +114,8 @@ def _signal_spec(where, name, spec, depth=0):
     if _is_number(spec):
         _finite(where, what, spec)
         return
-    if isinstance(spec, dict) and set(spec) == {"uniform"}:
-        rng = spec["uniform"]
-        if not isinstance(rng, (list, tuple)) or len(rng) != 2:
-            raise UsageError(f"{where}: {what}: use {{\"uniform\": [low, high]}}")
-        lo = _finite(where, f"{what}: uniform low", rng[0])
-        hi = _finite(where, f"{what}: uniform high", rng[1])
-        if lo > hi:
-            raise UsageError(f"{where}: {what}: uniform low {lo} > high {hi}")
+    if _is_uniform(spec):
+        _check_uniform(where, what, spec)
         return
     if isinstance(spec, dict) and set(spec) == {"piecewise"} and depth == 0:
         segs = spec["piecewise"]
@@ -155,14 +164,8 @@ class Scenario:
                 if not isinstance(name, str):
                     raise UsageError(f"{where}: parameters: names must be text, got {name!r}")
                 what = f"parameter '{name}'"
-                if isinstance(spec, dict) and set(spec) == {"uniform"}:
-                    rng = spec["uniform"]
-                    if not isinstance(rng, (list, tuple)) or len(rng) != 2:
-                        raise UsageError(f"{where}: {what}: use {{\"uniform\": [low, high]}}")
-                    lo = _finite(where, f"{what}: uniform low", rng[0])
-                    hi = _finite(where, f"{what}: uniform high", rng[1])
-                    if lo > hi:
-                        raise UsageError(f"{where}: {what}: uniform low {lo} > high {hi}")
+                if _is_uniform(spec):
+                    _check_uniform(where, what, spec)
                 elif _is_number(spec):
                     _finite(where, what, spec)
                 else:
