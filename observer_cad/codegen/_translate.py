@@ -566,22 +566,32 @@ def joint_step_name(model: PlantModel, observer: Observer | None,
     return _cname(name or f"{(observer.name if observer else model.name)}_sim_step")
 
 
-def joint_identity(model: PlantModel, observer: Observer | None, *, name=None) -> tuple:
+def joint_identity(model: PlantModel, observer: Observer | None, *, name=None,
+                   parameters: bool = False) -> tuple:
     """What determines :func:`joint_step`'s Function before translation (the model's
-    equations with its parameter values, the observer's, the name)."""
-    return ("joint_step", joint_step_name(model, observer, name), _model_parts(model),
-            _observer_parts(observer))
+    equations with its parameter values — or only their names with ``parameters=True`` —
+    the observer's, the name)."""
+    mp, op = _model_parts(model), _observer_parts(observer)
+    if parameters:
+        mp = mp[:-1] + (tuple(model.parameters),)
+        if observer is not None:
+            op = op[:5] + (tuple(observer.parameters),) + op[6:]
+    return ("joint_step", joint_step_name(model, observer, name), bool(parameters), mp, op)
 
 
-def joint_step(model: PlantModel, observer: Observer | None, *, name: str | None = None
-               ) -> ca.Function:
+def joint_step(model: PlantModel, observer: Observer | None, *, name: str | None = None,
+               parameters: bool = False) -> ca.Function:
     """``NAME(s, v, h) -> (s_next, y, out)``: plant + observer as the reference simulator
     integrates them (see the module docstring).  ``s = [x; ξ]``; ``h`` is ignored in
-    discrete time.  Parameters (model and observer) are substituted by their values."""
-    m, xs, vs, _ = _plant_parts(model, True)
+    discrete time.  Parameters (model and observer) are substituted by their values; with
+    ``parameters=True`` they are a run-time input instead, ``NAME(s, v, p, h)`` with ``p``
+    the model's parameters then the observer's (each in its own order): one compiled
+    function serves every parameter sample."""
+    m, xs, vs, _ = _plant_parts(model, not parameters)
     if observer is not None and observer.time != m.time:
         raise UsageError(f"observer is {observer.time}-time but the model is {m.time}-time")
-    par = dict(observer.parameters) if observer else {}
+    par = {} if (parameters or observer is None) else dict(observer.parameters)
+    ps = (list(m.parameters) + list(observer.parameters if observer else ())) if parameters else []
     obs_states = list(observer.states) if observer else []
     obs_upd = [sp.sympify(e).xreplace(par) for e in (observer.update if observer else ())]
     obs_out = [sp.sympify(e).xreplace(par) for _, e in (observer.outputs if observer else ())]
@@ -589,7 +599,8 @@ def joint_step(model: PlantModel, observer: Observer | None, *, name: str | None
     allx = xs + obs_states
     n, nv = len(allx), len(vs)
     S, V, H = _sym("s", n), _sym("v", nv), ca.SX.sym("h")
-    vmap = dict(zip(vs, _scalars(V, nv)))
+    P = _sym("p", len(ps))
+    vmap = {**dict(zip(vs, _scalars(V, nv))), **dict(zip(ps, _scalars(P, len(ps))))}
 
     def rhs_and_y(sv):
         t = Translator({**vmap, **dict(zip(allx, _scalars(sv, n)))}, allx)
@@ -614,14 +625,17 @@ def joint_step(model: PlantModel, observer: Observer | None, *, name: str | None
             return _vec(rhs_and_y(sv)[2])
         sn = rk4(f, S, H)
     fname = joint_step_name(m, observer, name)
-    F = ca.Function(fname, [S, V, H], [sn, y, out], ["s", "v", "h"], ["s_next", "y", "out"], _OPTS)
-    doc = [f"{fname}(s, v, h) -> (s_next, y, out): plant '{m.name}'"
+    ins, in_names = ([S, V, P, H], ["s", "v", "p", "h"]) if parameters else ([S, V, H], ["s", "v", "h"])
+    F = ca.Function(fname, ins, [sn, y, out], in_names, ["s_next", "y", "out"], _OPTS)
+    doc = [f"{fname}({', '.join(in_names)}) -> (s_next, y, out): plant '{m.name}'"
            + (f" + {observer.kind} observer '{observer.name}'" if observer else "")
            + f", {m.time} time" + (" (RK4, signals held over the step)" if m.time == "continuous" else "")
            + ".",
            f"  s      [{n}]  plant states then observer states: {_fmt(allx)}",
-           f"  v      [{nv}]  inputs, faults, disturbances, noise (held): {_fmt(vs)}",
-           "  h      [1]  step size" + (" (unused in discrete time)" if m.time == "discrete" else ""),
+           f"  v      [{nv}]  inputs, faults, disturbances, noise (held): {_fmt(vs)}"]
+    if parameters:
+        doc.append(f"  p      [{len(ps)}]  parameters (the model's, then the observer's): {_fmt(ps)}")
+    doc += ["  h      [1]  step size" + (" (unused in discrete time)" if m.time == "discrete" else ""),
            f"  s_next [{n}]  joint state one step later",
            f"  y      [{len(ysyms)}]  plant outputs at the current state: {_fmt(ysyms)}",
            f"  out    [{len(obs_out)}]  observer outputs at the current state:"

@@ -3,6 +3,8 @@ observer together.
 """
 from ._evaluation import (RunOutcome, Metrics, FaultCase, evaluate_result, evaluate_ensemble, fault_onsets, true_labels)
 from ._simulate import (signal_arrays, align_delay, Scenario, load_scenario, scenario_from_dict, simulate, SimulationResult, column_units, T, memory_limit, check_memory, find_nonfinite, finish_result, parameter_arrays, MEMORY_LIMIT_ENV, DEFAULT_MEMORY_LIMIT)
+from ._random import (RANDOM_C, PARAMETER_STREAMS, mix64, stream_keys, uniform_samples, normal_samples)
+from ._sampling import (Distribution, SignalProgram, signal_program, RunDraws, draw_runs, ParameterLayout, parameter_layout, SAMPLING_METHODS, NOMINAL_CASE)
 from ._quantile import (quantile_threshold, fault_free, apply_threshold)
 
-__all__ = ["RunOutcome", "Metrics", "FaultCase", "evaluate_result", "evaluate_ensemble", "fault_onsets", "true_labels", "signal_arrays", "align_delay", "Scenario", "load_scenario", "scenario_from_dict", "simulate", "SimulationResult", "column_units", "T", "memory_limit", "check_memory", "find_nonfinite", "finish_result", "parameter_arrays", "MEMORY_LIMIT_ENV", "DEFAULT_MEMORY_LIMIT", "quantile_threshold", "fault_free", "apply_threshold"]
+__all__ = ["RunOutcome", "Metrics", "FaultCase", "evaluate_result", "evaluate_ensemble", "fault_onsets", "true_labels", "signal_arrays", "align_delay", "Scenario", "load_scenario", "scenario_from_dict", "simulate", "SimulationResult", "column_units", "T", "memory_limit", "check_memory", "find_nonfinite", "finish_result", "parameter_arrays", "MEMORY_LIMIT_ENV", "DEFAULT_MEMORY_LIMIT", "quantile_threshold", "fault_free", "apply_threshold", "RANDOM_C", "PARAMETER_STREAMS", "mix64", "stream_keys", "uniform_samples", "normal_samples", "Distribution", "SignalProgram", "signal_program", "RunDraws", "draw_runs", "ParameterLayout", "parameter_layout", "SAMPLING_METHODS", "NOMINAL_CASE"]

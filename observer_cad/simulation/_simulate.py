@@ -42,6 +42,8 @@ from ..errors import NonFiniteError, UsageError
 from ..files import read_json_file
 from ..model import PlantModel, parse_expression
 from ..observers import Observer, output_symbols
+from ._sampling import (NOMINAL_CASE, SAMPLING_METHODS, check_distribution, draw_runs,
+                        parameter_layout, signal_program)
 
 __all__ = ["signal_arrays", "align_delay", "Scenario", "load_scenario", "scenario_from_dict",
            "simulate", "SimulationResult", "column_units", "T", "memory_limit", "check_memory",
@@ -55,7 +57,7 @@ MEMORY_LIMIT_ENV = "OBSERVER_CAD_MEMORY_LIMIT"
 #: default limit of :func:`check_memory`: 2 GiB
 DEFAULT_MEMORY_LIMIT = 2 * 1024 ** 3
 _KNOWN_KEYS = ("steps", "t_end", "dt", "seed", "initial", "observer_initial", "signals",
-               "description", "parameters")
+               "description", "parameters", "observer_parameters", "sampling", "cases")
 
 
 def _is_number(v) -> bool:
@@ -90,21 +92,6 @@ def _whole(where, what, v):
     return int(v)
 
 
-def _is_uniform(spec) -> bool:
-    return isinstance(spec, dict) and set(spec) == {"uniform"}
-
-
-def _check_uniform(where, what, spec) -> None:
-    """``{"uniform": [low, high]}``: two finite numbers, low ≤ high (signals and parameters)."""
-    rng = spec["uniform"]
-    if not isinstance(rng, (list, tuple)) or len(rng) != 2:
-        raise UsageError(f"{where}: {what}: use {{\"uniform\": [low, high]}}")
-    lo = _finite(where, f"{what}: uniform low", rng[0])
-    hi = _finite(where, f"{what}: uniform high", rng[1])
-    if lo > hi:
-        raise UsageError(f"{where}: {what}: uniform low {lo} > high {hi}")
-
-
 def _signal_spec(where, name, spec, depth=0):
     """Check one signal specification (and parse its expressions); nothing is evaluated."""
     what = f"signal '{name}'"
@@ -114,8 +101,8 @@ def _signal_spec(where, name, spec, depth=0):
     if _is_number(spec):
         _finite(where, what, spec)
         return
-    if _is_uniform(spec):
-        _check_uniform(where, what, spec)
+    if isinstance(spec, dict) and len(spec) == 1 and next(iter(spec)) in ("uniform", "normal"):
+        check_distribution(where, what, spec)
         return
     if isinstance(spec, dict) and set(spec) == {"piecewise"} and depth == 0:
         segs = spec["piecewise"]
@@ -136,7 +123,8 @@ def _signal_spec(where, name, spec, depth=0):
     if isinstance(spec, bool):
         raise UsageError(f"{where}: {what} must be a number or an expression in t, got {json.dumps(spec)}")
     raise UsageError(f"{where}: {what}: use an expression in t, a number,"
-                     " {\"uniform\": [low, high]} or {\"piecewise\": [[value, condition], ...]}")
+                     " {\"uniform\": [low, high]}, {\"normal\": [mean, std]} or"
+                     " {\"piecewise\": [[value, condition], ...]}")
 
 
 @dataclasses.dataclass(frozen=True)
@@ -154,34 +142,44 @@ class Scenario:
     seed: int = 0
     source: str | None = None
     parameters: Mapping | None = None
+    observer_parameters: Mapping | None = None
+    sampling: str = "random"
+    cases: Mapping | None = None
 
     def __post_init__(self):
         where = self.source or "scenario"
-        if self.parameters is not None:
-            if not isinstance(self.parameters, Mapping):
-                raise UsageError(f"{where}: 'parameters' must be an object {{name: value}}")
-            for name, spec in self.parameters.items():
-                if not isinstance(name, str):
-                    raise UsageError(f"{where}: parameters: names must be text, got {name!r}")
-                what = f"parameter '{name}'"
-                if _is_uniform(spec):
-                    _check_uniform(where, what, spec)
-                elif _is_number(spec):
-                    _finite(where, what, spec)
-                else:
-                    raise UsageError(f"{where}: {what} must be a number or"
-                                     " {\"uniform\": [low, high]}")
         for key, val in (("signals", self.signals), ("initial", self.initial)):
             if not isinstance(val, Mapping):
                 raise UsageError(f"{where}: '{key}' must be an object {{name: value}}, got"
                                  f" {type(val).__name__ if not isinstance(val, list) else 'a list'}")
-        if self.observer_initial is not None and not isinstance(self.observer_initial, Mapping):
-            raise UsageError(f"{where}: 'observer_initial' must be an object {{name: value}}")
-        for key, val in (("initial", self.initial), ("observer_initial", self.observer_initial or {})):
-            for name, v in val.items():
+        for key in ("observer_initial", "parameters", "observer_parameters"):
+            val = getattr(self, key)
+            if val is not None and not isinstance(val, Mapping):
+                raise UsageError(f"{where}: '{key}' must be an object {{name: value}}")
+        for key, val, what in (("initial", self.initial, "initial"),
+                               ("observer_initial", self.observer_initial, "observer_initial"),
+                               ("parameters", self.parameters, "parameter"),
+                               ("observer_parameters", self.observer_parameters, "observer parameter")):
+            for name, v in (val or {}).items():
                 if not isinstance(name, str):
                     raise UsageError(f"{where}: {key}: names must be text, got {name!r}")
-                _finite(where, f"{key} '{name}'", v)
+                check_distribution(where, f"{what} '{name}'", v, declared=key == "parameters")
+        if self.sampling not in SAMPLING_METHODS:
+            raise UsageError(f"{where}: 'sampling' must be one of {', '.join(SAMPLING_METHODS)},"
+                             f" got {self.sampling!r}")
+        if self.cases is not None:
+            if not isinstance(self.cases, Mapping) or not self.cases:
+                raise UsageError(f"{where}: 'cases' must be a non-empty object"
+                                 " {case name: {signal: value}}")
+            for cname, sigs in self.cases.items():
+                if not isinstance(cname, str) or not cname.strip():
+                    raise UsageError(f"{where}: cases: a case name must be non-empty text, got {cname!r}")
+                if not isinstance(sigs, Mapping):
+                    raise UsageError(f"{where}: case '{cname}' must be an object {{signal: value}}")
+                for name, spec in sigs.items():
+                    if not isinstance(name, str):
+                        raise UsageError(f"{where}: case '{cname}': signal names must be text, got {name!r}")
+                    _signal_spec(f"{where}: case '{cname}'", name, spec)
         for name, spec in self.signals.items():
             if not isinstance(name, str):
                 raise UsageError(f"{where}: signal names must be text, got {name!r}")
@@ -203,6 +201,11 @@ class Scenario:
         if seed < 0:
             raise UsageError(f"{where}: 'seed' must be a non-negative whole number, got {seed}")
         object.__setattr__(self, "seed", seed)
+
+    @property
+    def case_names(self) -> tuple:
+        """The fault cases' names: ``"cases"``'s keys, or ("nominal",) without cases."""
+        return tuple(self.cases) if self.cases else (NOMINAL_CASE,)
 
     def size(self, time: str) -> int:
         """The number of time points, computed without allocating anything."""
@@ -249,7 +252,9 @@ def scenario_from_dict(data: dict, source: str | None = None) -> Scenario:
     return Scenario(signals=data.get("signals", {}), initial=data.get("initial", {}),
                     observer_initial=data.get("observer_initial"), steps=data.get("steps"),
                     t_end=data.get("t_end"), dt=data.get("dt"), seed=data.get("seed", 0),
-                    source=source, parameters=data.get("parameters"))
+                    source=source, parameters=data.get("parameters"),
+                    observer_parameters=data.get("observer_parameters"),
+                    sampling=data.get("sampling", "random"), cases=data.get("cases"))
 
 
 def memory_limit() -> int:
@@ -454,80 +459,20 @@ def find_nonfinite(columns: Mapping, order, *, t: np.ndarray, delays: Mapping, s
     return cause
 
 
-def signal_arrays(model: PlantModel, sc: Scenario, t: np.ndarray, runs: int):
-    where = sc.source or "scenario"
-    names = {s.name: s for s in model.inputs + model.faults + model.disturbances + model.noise}
-    for key in sc.signals:
-        if key not in names:
-            raise UsageError(f"{where}: signal '{key}' is not an input, fault, disturbance or"
-                             f" noise of {model.name} (known: {', '.join(names) or 'none'})")
-    rng = np.random.default_rng(sc.seed)
-    out = {}
-
-    def evaluate(e, name):
-        with np.errstate(all="ignore"):
-            try:
-                return sp.lambdify(T, e, "numpy")(t)
-            except (ArithmeticError, ValueError, TypeError) as exc:
-                raise UsageError(f"{where}: signal '{name}': cannot evaluate {e}:"
-                                 f" {type(exc).__name__}") from None
-
-    def values(spec, name):
-        if isinstance(spec, dict) and set(spec) == {"uniform"}:
-            lo, hi = (float(v) for v in spec["uniform"])
-            return rng.uniform(lo, hi, size=(runs, t.size))
-        if isinstance(spec, dict) and set(spec) == {"piecewise"}:
-            # [[value spec, condition in t], ...]: the first true condition wins
-            res = np.zeros((runs, t.size))
-            taken = np.zeros(t.size, dtype=bool)
-            for seg in spec["piecewise"]:
-                vals = values(seg[0], name)
-                cond = seg[1] if isinstance(seg[1], bool) else parse_expression(
-                    seg[1], {"t": T}, where=f"{where}: signal '{name}' condition", condition=True)
-                cond = sp.true if cond is True else (sp.false if cond is False else cond)
-                c = np.broadcast_to(np.asarray(evaluate(cond, name), dtype=bool), t.shape)
-                use = c & ~taken
-                res[:, use] = vals[:, use]
-                taken |= c
-            return res
-        if isinstance(spec, str):
-            e = parse_expression(spec, {"t": T}, where=f"{where}: signal '{name}'")
-        else:
-            e = sp.Float(float(spec))
-        v = np.broadcast_to(np.asarray(evaluate(e, name), dtype=float), t.shape)
-        return np.broadcast_to(v, (runs, t.size)).copy()
-
-    for name in sorted(names):
-        out[name] = values(sc.signals.get(name, 0), name)
-    return out
+def signal_arrays(model: PlantModel, sc: Scenario, t: np.ndarray, runs: int, *,
+                  first_run: int = 0, case: str | None = None) -> dict:
+    """The scenario's signals for runs ``first_run … first_run + runs − 1``: {name: (R, N)}
+    (the model's inputs, faults, disturbances and noise; see :class:`SignalProgram`)."""
+    prog = signal_program(model, sc, t, case=case)
+    V = prog.values(sc.seed, np.arange(first_run, first_run + runs))
+    return {name: V[:, :, j] for j, name in enumerate(prog.names)}
 
 
-def parameter_arrays(model: PlantModel, sc: Scenario, runs: int) -> dict:
-    """The true plant parameters a scenario sets: {symbol: array (runs,)}. Random values come
-    from their own seeded stream (the signals' realisations do not change when parameters are
-    added); a value outside the model's declared uncertainty is refused."""
-    where = sc.source or "scenario"
-    out = {}
-    rng = np.random.default_rng([sc.seed, 1])
-    for name in sorted(sc.parameters or {}):
-        spec = sc.parameters[name]
-        p = next((q for q in model.parameters if q.name == name), None)
-        if p is None:
-            raise UsageError(f"{where}: parameter '{name}' is not a parameter of {model.name}"
-                             f" (parameters: {', '.join(q.name for q in model.parameters) or 'none'})")
-        if isinstance(spec, dict):
-            lo, hi = (float(v) for v in spec["uniform"])
-            vals = rng.uniform(lo, hi, size=runs)
-        else:
-            lo = hi = float(spec)
-            vals = np.full(runs, lo)
-        if p in model.uncertainty:
-            ulo, uhi = (float(v) for v in model.uncertainty[p])
-            if lo < ulo or hi > uhi:
-                raise UsageError(f"{where}: parameter '{name}' in [{lo:g}, {hi:g}] leaves the model's"
-                                 f" declared uncertainty [{ulo:g}, {uhi:g}]")
-        out[p] = vals
-    return out
+def parameter_arrays(model: PlantModel, sc: Scenario, runs: int, *, first_run: int = 0) -> dict:
+    """The true plant parameters a scenario sets: {symbol: array (runs,)} (see
+    :func:`draw_runs`); a value outside the model's declared uncertainty is refused."""
+    d = draw_runs(model, None, sc, np.arange(first_run, first_run + runs), total=first_run + runs)
+    return {p: d.plant[p.name] for p in model.parameters if p.name in d.plant}
 
 
 def align_delay(v: np.ndarray, delay: int) -> np.ndarray:
@@ -560,8 +505,17 @@ def _vector_fn(args, exprs):
 
 
 def simulate(model: PlantModel, observer: Observer | None, scenario: Scenario, *,
-             runs: int | None = None, keep_nonfinite: bool = False) -> SimulationResult:
-    """Simulate the plant (parameters at their defaults) with the observer attached.
+             runs: int | None = None, keep_nonfinite: bool = False, first_run: int = 0,
+             case: str | None = None, samples: int | None = None) -> SimulationResult:
+    """Simulate the plant with the observer attached.
+
+    The plant's parameters are the scenario's ``"parameters"`` (sampled per run) or the
+    model's values; the observer's are its own (or the scenario's
+    ``"observer_parameters"``). ``runs=R`` simulates the samples ``first_run … first_run
+    + R − 1`` at once (vectorised); what is random about sample k depends on (seed, k)
+    only, so a run is the same in any batch (:mod:`observer_cad.simulation` sampling).
+    ``case``: a name of the scenario's ``"cases"`` (its signal overrides); ``samples``:
+    the ensemble's number of samples (only ``"sampling": "lhs"`` needs it).
 
     Refuses (UsageError) a scenario whose arrays would exceed :func:`memory_limit`
     before allocating them. A value that is not finite (NaN, ±inf) in a signal, a
@@ -569,66 +523,47 @@ def simulate(model: PlantModel, observer: Observer | None, scenario: Scenario, *
     first one (time, column, likely cause) — or, with ``keep_nonfinite=True``, is kept
     and described in ``result.nonfinite``.
     """
-    m = model.substitute_parameters() if model.parameters else model
+    m = model
     if observer is not None and observer.time != m.time:
         raise UsageError(f"observer is {observer.time}-time but the model is {m.time}-time")
     R = 1 if runs is None else int(runs)
     if R < 1:
         raise UsageError(f"runs must be at least 1, got {runs}")
-    true_par = parameter_arrays(model, scenario, R) if scenario.parameters else {}
-    if true_par:  # the plant at the scenario's parameters, kept as run-time arguments
-        vals = {p: v for p, v in model.parameter_values().items() if p not in true_par}
-        m = dataclasses.replace(m, dynamics=tuple(sp.sympify(f).xreplace(vals) for f in model.dynamics),
-                                outputs=tuple(sp.sympify(h).xreplace(vals) for h in model.outputs),
-                                parameters={p: model.parameters[p] for p in true_par})
-    pars = list(true_par)
-    pvals = [true_par[p] for p in pars]
+    first_run = int(first_run)
+    if first_run < 0:
+        raise UsageError(f"first_run must be ≥ 0, got {first_run}")
     nsig = len(m.inputs) + len(m.faults) + len(m.disturbances) + len(m.noise)
     ncols = 1 + 2 * len(m.states) + len(m.outputs) + 2 * nsig + (
         2 * len(observer.states) + len(observer.outputs) if observer is not None else 0)
     check_memory(scenario, m.time, runs=R, columns=ncols)
     t = scenario.grid(m.time)
     N = t.size
-    sig = signal_arrays(m, scenario, t, R)
+    ks = np.arange(first_run, first_run + R)
+    draws = draw_runs(m, observer, scenario, ks, total=samples or first_run + R)
+    layout = parameter_layout(m, observer)
+    pars = list(layout.plant) + list(layout.observer)
+    pvals = [draws.P[:, j] for j in range(len(pars))]
+    prog = signal_program(m, scenario, t, case=case)
+    Vall = prog.values(scenario.seed, ks)
     xs = list(m.states)
     ins = list(m.inputs) + list(m.faults) + list(m.disturbances) + list(m.noise)
     ys = list(output_symbols(len(m.outputs)))
     y_expr = list(m.outputs)
     obs_states = list(observer.states) if observer else []
-    par = dict(observer.parameters) if observer else {}
-    # the observer sees y = h(x, w) and u
-    obs_upd = [sp.sympify(e).xreplace(par) for e in (observer.update if observer else ())]
-    obs_out = [sp.sympify(e).xreplace(par) for _, e in (observer.outputs if observer else ())]
+    # the observer sees y = h(x, w) and u; its parameters are run-time arguments
+    obs_upd = [sp.sympify(e) for e in (observer.update if observer else ())]
+    obs_out = [sp.sympify(e) for _, e in (observer.outputs if observer else ())]
     ysub = dict(zip(ys, y_expr))
     joint_args = xs + obs_states + ins
     f_joint = _vector_fn(joint_args + pars,
                          list(m.dynamics) + [e.xreplace(ysub) for e in obs_upd])
     f_y = _vector_fn(xs + ins + pars, y_expr)
-    f_out = _vector_fn(obs_states + ys + ins, obs_out) if obs_out else None
+    f_out = _vector_fn(obs_states + ys + ins + pars, obs_out) if obs_out else None
 
-    where = scenario.source or "scenario"
-    init_names = {s.name: s for s in xs}
-    for key in scenario.initial:
-        if key not in init_names:
-            raise UsageError(f"{where}: initial state '{key}' is not a state of {m.name}")
-    x0 = {s: float(scenario.initial.get(s.name, 0.0)) for s in xs}
     X = np.zeros((len(joint_args) - len(ins), R, N))
-    for i, s in enumerate(xs):
-        X[i, :, 0] = x0[s]
-    if observer is not None:
-        oinit = dict(scenario.observer_initial or {})
-        names = {str(s): s for s in obs_states}
-        for key in oinit:
-            if key not in names:
-                raise UsageError(f"{where}: observer_initial '{key}' is not an observer state"
-                                 f" (states: {', '.join(names)})")
-        for j, s in enumerate(obs_states):
-            if str(s) in oinit:
-                v = float(oinit[str(s)])
-            else:
-                v = float(sp.sympify(observer.initial.get(s, 0)).xreplace(x0))
-            X[len(xs) + j, :, 0] = v
-    U = np.stack([sig[s.name] for s in ins]) if ins else np.zeros((0, R, N))
+    X[:len(xs), :, 0] = draws.x0.T
+    X[len(xs):, :, 0] = draws.xi0.T
+    U = np.ascontiguousarray(np.moveaxis(Vall, 2, 0)) if ins else np.zeros((0, R, N))
     nx = X.shape[0]
     with np.errstate(all="ignore"):  # non-finite values are reported below, not warned
         for i in range(N - 1):
@@ -663,15 +598,16 @@ def simulate(model: PlantModel, observer: Observer | None, scenario: Scenario, *
     delays = {}
     if f_out is not None:
         with np.errstate(all="ignore"):
-            ov = f_out(*[X[len(xs) + j] for j in range(len(obs_states))], *yv, *allu)
+            ov = f_out(*[X[len(xs) + j] for j in range(len(obs_states))], *yv, *allu,
+                       *[v[:, None] for v in pvals])
         for (name, _), v in zip(observer.outputs, ov):
             delays[name] = int(observer.delays.get(name, 0))
             cols[name] = align_delay(np.array(v, dtype=float), delays[name])
             order.append(name)
     res = finish_result(cols, order, delays, t, m, observer, runs, keep_nonfinite,
                         where=scenario.source)
-    if true_par:
-        par_cols = {p.name: (v if runs is not None else v[0]) for p, v in true_par.items()}
+    if draws.plant:
+        par_cols = {name: (v if runs is not None else v[0]) for name, v in draws.plant.items()}
         res = dataclasses.replace(res, parameters=par_cols)
     return res
 

@@ -47,6 +47,10 @@ from observer_cad.synthesis import design
 ROOT = Path(__file__).resolve().parents[2]
 SCEN = ROOT / "models" / "scenarios"
 RTOL = 1e-12
+# random single steps: the compiled step takes the observer's parameters (gains, bounds) at
+# run time while the numpy oracle folds them into its constants, and the delayed
+# unknown-input estimators subtract nearly equal lagged values; measured ≤ 1.1e-12
+RTOL_STEP = 1e-11
 needs_cc = pytest.mark.skipif(
     not any((Path(d) / "cc").exists() for d in __import__("os").environ.get("PATH", "").split(":")),
     reason="no C compiler")
@@ -151,7 +155,7 @@ def _interpreted(cs, t, V, s0):
     step = cs.step
     for i in range(N):
         h = t[i + 1] - t[i] if i + 1 < N else 0.0
-        sn, yv, out = step(s, V[i], h)
+        sn, yv, out = step(s, V[i], cs.nominal, h)
         S[i] = s
         Y[i] = np.asarray(yv, float).ravel()
         O[i] = np.asarray(out, float).ravel()
@@ -251,13 +255,13 @@ def test_random_single_steps_every_kind(case, built):
         v = V[0, i] + rng.uniform(-1e-3, 1e-3, cs.nv)
         sn_ref, y_ref, o_ref = ref(s, v, h)
         S2, Y2, O2 = cs.run_arrays(tt, np.vstack([v, v]), s)
-        sn_i, y_i, o_i = (np.asarray(r, float).ravel() for r in cs.step(s, v, h))
+        sn_i, y_i, o_i = (np.asarray(r, float).ravel() for r in cs.step(s, v, cs.nominal, h))
         for got in (S2[1], sn_i):
             _close(sn_ref, got, what="next joint state")
         for got in (Y2[0], y_i):
             _close(y_ref, got, what="y")
         for got in (O2[0], o_i):
-            _close(o_ref, got, what="observer outputs")
+            _close(o_ref, got, rtol=RTOL_STEP, what="observer outputs")
 
 
 # ------------------------------------------------------------------ sliding mode
