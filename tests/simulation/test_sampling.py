@@ -1,0 +1,170 @@
+"""Counter-based random numbers, signal programs and per-run draws (issue 16, item 3):
+a run depends on (seed, run index) only — never on the batch it is computed in."""
+from __future__ import annotations
+
+import ctypes
+import shutil
+from pathlib import Path
+
+import numpy as np
+import pytest
+from hypothesis import given, settings, strategies as st
+
+from observer_cad.errors import UsageError
+from observer_cad.model import load_model
+from observer_cad.observers import build_observer
+from observer_cad.simulation import (RANDOM_C, draw_runs, normal_samples, scenario_from_dict,
+                                     signal_program, simulate, stream_keys, uniform_samples)
+from observer_cad.synthesis import design
+
+ROOT = Path(__file__).resolve().parents[2]
+MODELS = ROOT / "models"
+needs_cc = pytest.mark.skipif(shutil.which("cc") is None and shutil.which("gcc") is None,
+                              reason="no C compiler")
+
+
+# ------------------------------------------------------------------ the generator
+def test_splitmix64_reference_values():
+    """The finaliser is splitmix64's: the first outputs of the generator seeded with 0
+    (Vigna's reference implementation, prng.di.unimi.it/splitmix64.c)."""
+    from observer_cad.simulation import mix64
+    G = 0x9E3779B97F4A7C15
+    got = [int(mix64(np.uint64((k * G) % 2 ** 64))) for k in (1, 2, 3)]
+    assert got == [0xE220A8397B1DCDAF, 0x6E789E6AA1B965F4, 0x06C45D188009454F]
+
+
+def test_uniform_samples_are_uniform_and_streams_independent():
+    keys = stream_keys(5, np.arange(4), [0, 1])
+    assert keys.shape == (4, 2) and len(set(keys.ravel().tolist())) == 8
+    u = uniform_samples(keys[:, 0], 50_000)
+    assert u.shape == (4, 50_000) and u.min() >= 0 and u.max() < 1
+    assert abs(u.mean() - 0.5) < 0.005 and abs(u.var() - 1 / 12) < 0.002
+    assert abs(np.corrcoef(u[0], u[1])[0, 1]) < 0.02
+    z = normal_samples(keys[:, 0], keys[:, 1], 50_000)
+    assert abs(z.mean()) < 0.02 and abs(z.std() - 1) < 0.02
+    # a later block of samples is the continuation of the stream
+    np.testing.assert_array_equal(uniform_samples(keys[:, 0], 10, first=100), u[:, 100:110])
+
+
+@needs_cc
+def test_c_generator_gives_the_same_bits(tmp_path, monkeypatch):
+    monkeypatch.setenv("OBSERVER_CAD_CACHE", str(tmp_path))
+    from observer_cad.codegen import compile_source
+    src = RANDOM_C + r"""
+void fill(uint64_t k1, uint64_t k2, long long n, double* u, double* z) {
+  for (long long i = 0; i < n; ++i) { u[i] = oc_uniform(k1, i); z[i] = oc_normal(k1, k2, i); }
+}
+"""
+    lib = ctypes.CDLL(str(compile_source(src, "rng_test").path))
+    k1, k2 = (int(k) for k in stream_keys(123, [7], [4, 5])[0])
+    n = 2000
+    u, z = np.empty(n), np.empty(n)
+    lib.fill(ctypes.c_uint64(k1), ctypes.c_uint64(k2), ctypes.c_longlong(n),
+             u.ctypes.data_as(ctypes.c_void_p), z.ctypes.data_as(ctypes.c_void_p))
+    np.testing.assert_array_equal(u, uniform_samples(np.uint64(k1), n))
+    np.testing.assert_allclose(z, normal_samples(np.uint64(k1), np.uint64(k2), n),
+                               rtol=1e-14, atol=1e-15)
+
+
+# ------------------------------------------------------------------ programs and draws
+@pytest.fixture(scope="module")
+def drive():
+    m = load_model(MODELS / "electric_drive_uncertain.py")
+    o = build_observer(m, design(m, observer="diagnostic"))
+    return m, o
+
+
+SCEN = {"steps": 60, "seed": 3,
+        "initial": {"x1": {"uniform": [-0.1, 0.1]}, "x3": {"normal": [0, 0.05]}},
+        "parameters": {"k5": "declared"},
+        "signals": {"u": "2*sin(t/10)", "rho": {"normal": [0, 0.01]},
+                    "w1": {"uniform": [0, 0.02]},
+                    "w2": {"piecewise": [[{"uniform": [-0.01, 0.01]}, "t < 30"], [0.005, True]]}},
+        "cases": {"none": {}, "d step": {"d": "Piecewise((0, t < 20), (0.2, True))"}}}
+
+
+@settings(max_examples=25, deadline=None)
+@given(first=st.integers(0, 40), count=st.integers(1, 8), seed=st.integers(0, 2 ** 40))
+def test_a_run_does_not_depend_on_its_batch(drive, first, count, seed):
+    m, o = drive
+    sc = scenario_from_dict({**SCEN, "seed": seed})
+    t = sc.grid(m.time)
+    prog = signal_program(m, sc, t, case="d step")
+    whole = prog.values(sc.seed, np.arange(50))
+    part = prog.values(sc.seed, np.arange(first, first + count))
+    np.testing.assert_array_equal(part, whole[first:first + count])
+    for method in ("random", "sobol"):
+        s2 = scenario_from_dict({**SCEN, "seed": seed, "sampling": method})
+        a = draw_runs(m, o, s2, np.arange(50))
+        b = draw_runs(m, o, s2, np.arange(first, first + count))
+        np.testing.assert_array_equal(b.P, a.P[first:first + count])
+        np.testing.assert_array_equal(b.x0, a.x0[first:first + count])
+        np.testing.assert_array_equal(b.xi0, a.xi0[first:first + count])
+
+
+def test_program_coefficients_and_cases(drive):
+    m, o = drive
+    sc = scenario_from_dict(SCEN)
+    t = sc.grid(m.time)
+    p0, p1 = signal_program(m, sc, t, case="none"), signal_program(m, sc, t, case="d step")
+    j = {n: i for i, n in enumerate(p0.names)}
+    np.testing.assert_allclose(p0.base[:, j["u"]], 2 * np.sin(t / 10), rtol=1e-15, atol=1e-15)
+    assert p0.random[j["w2"]] and not p0.random[j["u"]] and p0.normal[j["rho"]]
+    assert np.all(p0.su[:30, j["w2"]] == 0.02) and np.all(p0.su[30:, j["w2"]] == 0)
+    assert np.all(p0.base[30:, j["w2"]] == 0.005)
+    assert np.all(p0.base[:, j["d"]] == 0) and p1.base[25, j["d"]] == 0.2
+    # common random numbers: the cases share every random sample
+    v0, v1 = p0.values(3, [0, 1]), p1.values(3, [0, 1])
+    keep = [k for n, k in j.items() if n != "d"]
+    np.testing.assert_array_equal(v0[:, :, keep], v1[:, :, keep])
+    with pytest.raises(UsageError, match="no case 'other'"):
+        signal_program(m, sc, t, case="other")
+
+
+def test_draws_respect_distributions_and_the_declared_box(drive):
+    m, o = drive
+    sc = scenario_from_dict(SCEN)
+    d = draw_runs(m, o, sc, np.arange(4000))
+    k5 = d.plant["k5"]
+    assert 0.9504 <= k5.min() and k5.max() <= 0.9696 and k5.std() > 0.005
+    x1, x3 = d.x0[:, 0], d.x0[:, 2]
+    assert -0.1 <= x1.min() and x1.max() <= 0.1 and abs(x3.std() - 0.05) < 0.003
+    assert np.all(d.x0[:, 1] == 0)
+    # the observer's default initial state is its initial map of x(0), per run
+    assert np.isfinite(d.xi0).all()
+    lhs = scenario_from_dict({**SCEN, "sampling": "lhs"})
+    a = draw_runs(m, o, lhs, np.arange(100), total=100).plant["k5"]
+    # a Latin hypercube puts exactly one sample in each of the 100 strata
+    strata = np.floor((a - 0.9504) / (0.9696 - 0.9504) * 100).astype(int)
+    assert sorted(strata.tolist()) == list(range(100))
+
+
+@pytest.mark.parametrize("change, message", [
+    ({"initial": {"x1": {"normal": [0, -1]}}}, "normal std -1 < 0"),
+    ({"parameters": {"k1": "declared"}}, "declares no uncertainty"),
+    ({"parameters": {"k5": {"normal": [0.96, 0.001]}}}, "normal distribution leaves"),
+    ({"parameters": {"k5": {"uniform": [0.9, 0.96]}}}, "leaves the model's declared uncertainty"),
+    ({"sampling": "grid"}, "'sampling' must be one of"),
+    ({"cases": {"x": {"nope": 1}}}, "signal 'nope' is not"),
+    ({"cases": []}, "'cases' must be a non-empty object"),
+    ({"observer_parameters": {"zz": 1}}, "is not a parameter of the observer"),
+    ({"signals": {"u": {"normal": [0]}}}, "use {\"normal\": [mean, std]}"),
+])
+def test_bad_sampling_specifications(drive, change, message):
+    m, o = drive
+    with pytest.raises(UsageError, match=message.replace("(", r"\(").replace("{", r"\{")
+                       .replace("[", r"\[")):
+        sc = scenario_from_dict({**SCEN, **change})
+        for case in sc.case_names:
+            signal_program(m, sc, sc.grid(m.time), case=case)
+        draw_runs(m, o, sc, np.arange(3))
+
+
+def test_reference_simulator_runs_are_batch_independent(drive):
+    m, o = drive
+    sc = scenario_from_dict({k: v for k, v in SCEN.items() if k != "cases"})
+    whole = simulate(m, o, sc, runs=6)
+    part = simulate(m, o, sc, runs=2, first_run=3)
+    for c in whole.columns:
+        np.testing.assert_array_equal(part[c], whole[c][3:5])
+    np.testing.assert_array_equal(part.parameters["k5"], whole.parameters["k5"][3:5])
