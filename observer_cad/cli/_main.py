@@ -77,10 +77,11 @@ def build_parser() -> argparse.ArgumentParser:
     _add_threshold_options(d, quantile=False)
 
     sim = sub.add_parser("simulate", help="simulate plant and observer on a scenario, write CSV",
-                         description="Design the observer, run the reference simulator on a "
-                                     "scenario (JSON) and write DIR/signals.csv: t, the plant "
-                                     "states, y1.., every input, fault and disturbance, and the "
-                                     "observer's outputs (<signal>_hat, <signal>_lower/_upper, r).")
+                         description="Design the observer, simulate it with the plant on a "
+                                     "scenario (JSON; compiled C by default) and write "
+                                     "DIR/signals.csv: t, the plant states, y1.., every input, "
+                                     "fault and disturbance, and the observer's outputs "
+                                     "(<signal>_hat, <signal>_lower/_upper, r).")
     sim.add_argument("model", metavar="MODEL", help="path to a model file")
     _add_design_options(sim)
     sim.add_argument("--scenario", metavar="FILE", required=True, help="scenario JSON file")
@@ -89,6 +90,7 @@ def build_parser() -> argparse.ArgumentParser:
                      help="when a value becomes NaN or infinite, still write the CSV (with nan/inf"
                           " written literally; an empty cell always means 'not available') and"
                           " exit with status 4 after a one-line warning")
+    _add_run_options(sim)
     _add_threshold_options(sim, quantile=True)
 
     cg = sub.add_parser("codegen", help="export the observer as standalone C",
@@ -164,6 +166,55 @@ def _add_threshold_options(p, *, quantile: bool) -> None:
                             " (default 1)")
         p.add_argument("--quantile-runs", metavar="R", type=_positive_int("--quantile-runs"),
                        default=200, help="--threshold quantile: fault-free runs (default 200)")
+
+
+def _add_run_options(p) -> None:
+    """--engine, --case, --run (simulate)."""
+    p.add_argument("--engine", choices=["compiled", "reference"], default="compiled",
+                   help="compiled: plant and observer as one C trajectory function (cached;"
+                        " without a C compiler the reference simulator is used, with a"
+                        " warning); reference: the numpy simulator (default compiled)")
+    p.add_argument("--case", metavar="NAME", default=None,
+                   help="the scenario's fault case to simulate (its \"cases\"; default the first)")
+    p.add_argument("--run", metavar="K", type=_nonnegative_int("--run"), default=0,
+                   help="the sample to simulate: its random signals, parameters and initial"
+                        " states are those of sample K of an ensemble with the same scenario"
+                        " (replays a run of 'observer-cad ensemble'; default 0)")
+
+
+def _nonnegative_int(option):
+    def convert(text):
+        try:
+            v = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{option} {text}: not a whole number") from None
+        if v < 0:
+            raise argparse.ArgumentTypeError(f"{option} {text}: must be ≥ 0")
+        return v
+    return convert
+
+
+def _simulate_with_engine(args, model, observer, scenario):
+    """One run of ``scenario`` (case ``--case``, sample ``--run``) on the engine ``--engine``:
+    (result, the engine's description)."""
+    from ..simulation import simulate
+    case = args.case
+    if case is None and scenario.cases:
+        case = scenario.case_names[0]
+    elif case is not None and case not in scenario.case_names:
+        raise UsageError(f"{scenario.source}: no case '{case}' (cases:"
+                         f" {', '.join(scenario.case_names)})")
+    kw = dict(keep_nonfinite=args.keep_nonfinite, first_run=args.run, case=case)
+    if args.engine == "compiled":
+        from ..codegen import CodegenError, CompiledSimulator
+        try:
+            sim = CompiledSimulator(model, observer)
+        except CodegenError as exc:
+            print(f"{PROG}: warning: not compiled ({str(exc).splitlines()[0]}); using the"
+                  " reference simulator", file=sys.stderr)
+        else:
+            return sim.simulate(scenario, **kw), "compiled C" + (" (cache hit)" if sim.cached else "")
+    return simulate(model, observer, scenario, **kw), "reference simulator (numpy)"
 
 
 def _positive_int(option):
@@ -475,7 +526,7 @@ def _refuse_failed(observer) -> None:
 def _cmd_simulate(args) -> int:
     from ..reporting import write_signals_csv
     from ..observers import build_observer
-    from ..simulation import load_scenario, simulate
+    from ..simulation import load_scenario
     if args.symbolic:
         raise UsageError("simulate needs numeric parameters: drop --symbolic")
     scenario = load_scenario(args.scenario)  # validated before the design's work
@@ -486,7 +537,7 @@ def _cmd_simulate(args) -> int:
     observer = _threshold_from_args(args, model, observer, scenario)
     _refuse_failed(observer)
     report("simulating", stage=True)
-    res = simulate(model, observer, scenario, keep_nonfinite=args.keep_nonfinite)
+    res, engine = _simulate_with_engine(args, model, observer, scenario)
     decisions = None
     if observer.threshold is not None:
         from ..observers import decide, decision_rule
@@ -498,7 +549,7 @@ def _cmd_simulate(args) -> int:
         raise UsageError("--persistence applies with --threshold")
     path = write_signals_csv(res if decisions is None else written, args.out)
     order = res.order if decisions is None else written.order
-    print(f"wrote {path} ({len(res['t'])} rows, columns: {', '.join(order)})")
+    print(f"wrote {path} ({len(res['t'])} rows, columns: {', '.join(order)}; {engine})")
     from ..reporting import UNITS_FILE
     units = ", ".join(f"{c} [{u}]" for c, u in res.units.items() if c in res.order)
     print(f"wrote {path.with_name(UNITS_FILE)} ({'units: ' + units if units else 'no units: the model declares none'})")

@@ -139,6 +139,74 @@ def _buf(a):
 _DUMMY = np.zeros(8)
 
 
+class TrajectoryEngine:
+    """The compiled trajectory loops of a :class:`CompiledSimulator`, without the model:
+    what an ensemble worker needs.  Picklable (the library travels as its
+    :class:`~observer_cad.codegen.LibrarySpec`: C source and content key); a worker —
+    another process, another machine — loads the library from its own content-hashed
+    cache on first use (compiling it there if it is missing; a library whose key differs
+    is refused)."""
+
+    def __init__(self, spec, fname: str, dims: tuple, inputs: tuple):
+        self.spec, self.fname, self.inputs = spec, fname, tuple(inputs)
+        self.ns, self.ny, self.no, self.nv, self.np = dims
+        self._batch = None
+
+    def __getstate__(self):
+        return {"spec": self.spec, "fname": self.fname, "inputs": self.inputs,
+                "dims": (self.ns, self.ny, self.no, self.nv, self.np)}
+
+    def __setstate__(self, state):
+        self.__init__(state["spec"], state["fname"], state["dims"], state["inputs"])
+
+    def _function(self):
+        if self._batch is None:
+            lib = load_library(self.spec)
+            try:
+                fn = getattr(lib, f"{self.fname}_batch")
+            except AttributeError:
+                raise CodegenError(f"{self.fname}_batch is missing from the library") from None
+            fn.restype = ctypes.c_int
+            fn.argtypes = [ctypes.c_longlong, ctypes.c_longlong] + [_P] * 11
+            self._batch = fn
+        return self._batch
+
+    def run_batch(self, t, program, seed: int, samples, P, S0, *, S=None, Y=None, O=None, V=None):
+        """Runs of a scenario in one compiled call: ``program`` the
+        :class:`~observer_cad.simulation.SignalProgram` on the grid ``t``, ``samples`` (R,)
+        the sample indices (their random signals come from (seed, sample)), ``P`` (R, np)
+        run-time parameters, ``S0`` (R, ns) initial joint states.  Outputs (R, N, ·)
+        C-contiguous (created when None).  Returns ``(S, Y, O, V)``."""
+        t = np.ascontiguousarray(t, dtype=np.float64)
+        N = t.size
+        samples = np.atleast_1d(np.asarray(samples, dtype=np.int64))
+        R = samples.size
+        if program.base.shape != (N, self.nv) or tuple(program.names) != self.inputs:
+            raise UsageError("the signal program does not match this simulator's grid and signals")
+        P = np.ascontiguousarray(P, dtype=np.float64).reshape(R, self.np)
+        S = np.empty((R, N, self.ns)) if S is None else S
+        Y = np.empty((R, N, self.ny)) if Y is None else Y
+        O = np.empty((R, N, self.no)) if O is None else O
+        V = np.empty((R, N, self.nv)) if V is None else V
+        for a, k, what in ((S, self.ns, "S"), (Y, self.ny, "Y"), (O, self.no, "O"), (V, self.nv, "V")):
+            if a.shape != (R, N, k) or a.dtype != np.float64 or not a.flags.c_contiguous \
+                    or not a.flags.writeable:
+                raise UsageError(f"{what} must be a writeable C-contiguous float64 ({R}, {N}, {k}) array")
+        if N == 0 or R == 0:
+            return S, Y, O, V
+        S[:, 0, :] = S0
+        keys = stream_keys(seed, samples, np.arange(2 * self.nv))
+        kind = np.array([(1 if program.random[j] else 0) | (2 if program.normal[j] else 0)
+                         for j in range(self.nv)], dtype=np.intc)
+        rc = self._function()(R, N, _buf(t), _buf(program.base), _buf(program.su),
+                              _buf(program.sn), _buf(kind), _buf(keys), _buf(P), _buf(S),
+                              _buf(Y), _buf(O), _buf(V))
+        if rc:
+            r, i = divmod(rc - 1, N)
+            raise CodegenError(f"{self.fname} failed at step {i} of run {int(samples[r])}")
+        return S, Y, O, V
+
+
 class CompiledSimulator:
     """Plant + observer compiled into one trajectory function.
 
@@ -166,6 +234,9 @@ class CompiledSimulator:
         self._step = None
         self._source = None
         self._programs = {}
+        self._engine = None
+        self._local = None
+        self._cc = cc
         self.translated = False
         self.inputs = list(m.inputs) + list(m.faults) + list(m.disturbances) + list(m.noise)
         self.ns = len(m.states) + (len(observer.states) if observer is not None else 0)
@@ -176,7 +247,7 @@ class CompiledSimulator:
         self.np = len(self.layout.plant) + len(self.layout.observer)
         #: the nominal run-time parameter vector: the model's values, the observer's
         self.nominal = np.array([float(v) for v in m.parameter_values().values()]
-                                + [float(observer.parameters[q]) for q in self.layout.observer],
+                                + [float(v) for v in observer.parameters.values()],
                                 dtype=float) if self.np else np.zeros(0)
         fname = joint_step_name(m, observer, name)
         lib_name = f"{fname}_traj"
@@ -292,39 +363,26 @@ class CompiledSimulator:
                 raise CodegenError(f"{self._fname} failed at step {rc - 1}")
         return S, Y, O
 
-    def run_batch(self, t, program, seed: int, samples, P, S0, *, S=None, Y=None, O=None, V=None):
-        """Runs of a scenario in one compiled call: ``program`` the
-        :class:`~observer_cad.simulation.SignalProgram` on the grid ``t``, ``samples`` (R,)
-        the sample indices (their random signals come from (seed, sample)), ``P`` (R, np)
-        run-time parameters, ``S0`` (R, ns) initial joint states.  Outputs (R, N, ·)
-        C-contiguous (created when None).  Returns ``(S, Y, O, V)``."""
-        t = np.ascontiguousarray(t, dtype=np.float64)
-        N = t.size
-        samples = np.atleast_1d(np.asarray(samples, dtype=np.int64))
-        R = samples.size
-        if program.base.shape != (N, self.nv) or tuple(program.names) != tuple(s.name for s in self.inputs):
-            raise UsageError("the signal program does not match this simulator's grid and signals")
-        P = np.ascontiguousarray(P, dtype=np.float64).reshape(R, self.np)
-        S = np.empty((R, N, self.ns)) if S is None else S
-        Y = np.empty((R, N, self.ny)) if Y is None else Y
-        O = np.empty((R, N, self.no)) if O is None else O
-        V = np.empty((R, N, self.nv)) if V is None else V
-        for a, k, what in ((S, self.ns, "S"), (Y, self.ny, "Y"), (O, self.no, "O"), (V, self.nv, "V")):
-            if a.shape != (R, N, k) or a.dtype != np.float64 or not a.flags.c_contiguous \
-                    or not a.flags.writeable:
-                raise UsageError(f"{what} must be a writeable C-contiguous float64 ({R}, {N}, {k}) array")
-        if N == 0 or R == 0:
-            return S, Y, O, V
-        S[:, 0, :] = S0
-        keys = stream_keys(seed, samples, np.arange(2 * self.nv))
-        kind = np.array([(1 if program.random[j] else 0) | (2 if program.normal[j] else 0)
-                         for j in range(self.nv)], dtype=np.intc)
-        rc = self._batch(R, N, _buf(t), _buf(program.base), _buf(program.su), _buf(program.sn),
-                         _buf(kind), _buf(keys), _buf(P), _buf(S), _buf(Y), _buf(O), _buf(V))
-        if rc:
-            r, i = divmod(rc - 1, N)
-            raise CodegenError(f"{self._fname} failed at step {i} of run {int(samples[r])}")
-        return S, Y, O, V
+    def engine(self) -> TrajectoryEngine:
+        """The compiled loops as a picklable :class:`TrajectoryEngine` (for workers)."""
+        if self._engine is None:
+            spec = LibrarySpec(source=self.source, name=self.library_name,
+                               flags=tuple(self.flags), key=self.key, cc=self._cc)
+            eng = TrajectoryEngine(spec, self._fname, self._dims(), tuple(s.name for s in self.inputs))
+            eng._batch = self._batch  # this process has it loaded already
+            self._engine = eng
+        return self._engine
+
+    def _dims(self) -> tuple:
+        return (self.ns, self.ny, self.no, self.nv, self.np)
+
+    def run_batch(self, t, program, seed: int, samples, P, S0, **out):
+        """:meth:`TrajectoryEngine.run_batch` on this simulator's library."""
+        if self._local is None:
+            eng = TrajectoryEngine(None, self._fname, self._dims(), tuple(s.name for s in self.inputs))
+            eng._batch = self._batch
+            self._local = eng
+        return self._local.run_batch(t, program, seed, samples, P, S0, **out)
 
     # ------------------------------------------------------------------ scenarios
     def program(self, scenario: Scenario, case: str | None = None):

@@ -42,6 +42,7 @@ import sympy as sp
 from ..errors import UsageError
 from ..model import PlantModel
 from ..observers import Observer
+from ..simulation import parameter_layout
 
 __all__ = ["to_casadi", "Translator", "observer_step", "plant_step", "joint_step",
            "describe", "split_signals", "rk4", "zoh_matrices", "DISCRETISATIONS",
@@ -591,7 +592,11 @@ def joint_step(model: PlantModel, observer: Observer | None, *, name: str | None
     if observer is not None and observer.time != m.time:
         raise UsageError(f"observer is {observer.time}-time but the model is {m.time}-time")
     par = {} if (parameters or observer is None) else dict(observer.parameters)
-    ps = (list(m.parameters) + list(observer.parameters if observer else ())) if parameters else []
+    ps = []
+    if parameters:  # the plant's then the observer's (renamed where they clash)
+        layout = parameter_layout(m, observer)
+        par = dict(layout.rename)
+        ps = list(layout.plant) + list(layout.observer)
     obs_states = list(observer.states) if observer else []
     obs_upd = [sp.sympify(e).xreplace(par) for e in (observer.update if observer else ())]
     obs_out = [sp.sympify(e).xreplace(par) for _, e in (observer.outputs if observer else ())]

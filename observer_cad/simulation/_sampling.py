@@ -209,20 +209,36 @@ def signal_program(model: PlantModel, scenario, t: np.ndarray, *, case: str | No
 # ---------------------------------------------------------------------------- per-run draws
 @dataclasses.dataclass(frozen=True)
 class ParameterLayout:
-    """The run-time parameter vector p of the compiled trajectory: the plant's parameters
-    (the model's order) then the observer's (its order)."""
+    """The run-time parameter vector p of both simulators: the plant's parameters (the
+    model's order) then the observer's (its order). An observer parameter with the name of
+    a plant parameter (a design that kept k1 symbolic) is renamed ``<name>_observer``
+    (``rename``): the observer keeps its own value while the plant's is sampled."""
 
     plant: tuple
     observer: tuple
+    rename: tuple = ()  # ((observer's symbol, its name in p), ...)
 
     @property
     def names(self) -> tuple:
         return tuple(p.name for p in self.plant) + tuple(str(p) for p in self.observer)
 
+    def observer_equation(self, e):
+        """An observer expression with the renamed parameters."""
+        return sp.sympify(e).xreplace(dict(self.rename)) if self.rename else sp.sympify(e)
+
 
 def parameter_layout(model: PlantModel, observer) -> ParameterLayout:
-    return ParameterLayout(tuple(model.parameters),
-                           tuple(observer.parameters) if observer is not None else ())
+    plant = tuple(model.parameters)
+    names = {p.name for p in plant}
+    rename, obs = [], []
+    for q in (tuple(observer.parameters) if observer is not None else ()):
+        if str(q) in names:
+            fresh = sp.Symbol(f"{q}_observer")
+            rename.append((q, fresh))
+            obs.append(fresh)
+        else:
+            obs.append(q)
+    return ParameterLayout(plant, tuple(obs), tuple(rename))
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
@@ -321,7 +337,8 @@ def draw_runs(model: PlantModel, observer, scenario, samples, *, total: int | No
     for j, s in enumerate(xs):
         quantities.append(("x", j, Distribution.of(scenario.initial.get(s.name, 0.0))))
     obs_states = list(observer.states) if observer is not None else []
-    oinit = dict(scenario.observer_initial or {})
+    # without an observer (the plant alone) the observer's entries do not apply
+    oinit = dict(scenario.observer_initial or {}) if observer is not None else {}
     onames = [str(s) for s in obs_states]
     for key in oinit:
         if key not in onames:
@@ -330,13 +347,15 @@ def draw_runs(model: PlantModel, observer, scenario, samples, *, total: int | No
     for j, s in enumerate(obs_states):
         if str(s) in oinit:
             quantities.append(("xi", j, Distribution.of(oinit[str(s)])))
-    opar = dict(scenario.observer_parameters or {})
-    onp = [str(p) for p in layout.observer]
+    opar = dict(scenario.observer_parameters or {}) if observer is not None else {}
+    original = {fresh: q for q, fresh in layout.rename}
+    onp = [str(original.get(p, p)) for p in layout.observer]
     for key in opar:
         if key not in onp:
             raise UsageError(f"{where}: observer_parameters '{key}' is not a parameter of the"
                              f" observer (parameters: {', '.join(onp) or 'none'})")
     for j, p in sorted(enumerate(layout.observer), key=lambda jp: str(jp[1])):
+        p = original.get(p, p)
         d = Distribution.of(opar[str(p)]) if str(p) in opar else \
             Distribution("fixed", float(observer.parameters[p]))
         quantities.append(("op", j, d))

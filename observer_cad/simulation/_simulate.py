@@ -551,8 +551,8 @@ def simulate(model: PlantModel, observer: Observer | None, scenario: Scenario, *
     y_expr = list(m.outputs)
     obs_states = list(observer.states) if observer else []
     # the observer sees y = h(x, w) and u; its parameters are run-time arguments
-    obs_upd = [sp.sympify(e) for e in (observer.update if observer else ())]
-    obs_out = [sp.sympify(e) for _, e in (observer.outputs if observer else ())]
+    obs_upd = [layout.observer_equation(e) for e in (observer.update if observer else ())]
+    obs_out = [layout.observer_equation(e) for _, e in (observer.outputs if observer else ())]
     ysub = dict(zip(ys, y_expr))
     joint_args = xs + obs_states + ins
     f_joint = _vector_fn(joint_args + pars,

@@ -191,7 +191,7 @@ def test_scenario_parameters_validation(uncertain):
         simulate(m, o, scenario_from_dict({"steps": 3, "parameters": {"k9": 1}}))
     with pytest.raises(UsageError, match=r"leaves the model's declared uncertainty"):
         simulate(m, o, scenario_from_dict({"steps": 3, "parameters": {"k5": 0.9}}))
-    with pytest.raises(UsageError, match="must be a number or"):
+    with pytest.raises(UsageError, match="must be a number,"):
         scenario_from_dict({"steps": 3, "parameters": {"k5": "0.96"}})
     # the signals' realisations do not change when parameters are drawn
     base = {"steps": 5, "seed": 3, "signals": {"w2": {"uniform": [-0.01, 0.01]}}}

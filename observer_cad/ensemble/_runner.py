@@ -1,0 +1,335 @@
+"""Ensembles: thousands to millions of runs of plant + observer, summarised as they finish.
+
+An ensemble runs ``runs`` samples of every fault case of a scenario (``"cases"``; one case
+without them): run ``i = c·runs + k`` is sample k of case c, and what is random about it —
+the true plant's parameters, the observer's free parameters, the initial states, every
+random signal sample — is drawn from (seed, k) alone (:mod:`observer_cad.simulation`
+sampling). The runs are cut into chunks; a worker (a thread, a process, a Dask worker)
+simulates a chunk in one compiled call (:class:`~observer_cad.codegen.TrajectoryEngine`,
+the signals generated in C) and reduces it to per-run summaries
+(:func:`~observer_cad.simulation.summarise`) before the next: memory is O(runs ×
+summaries), never O(runs × steps). The summaries, and so the statistics, do not depend on
+the chunk size, the backend or the number of workers: a run is the same computation
+wherever it happens (tested bit for bit).
+
+The worst runs are replayed afterwards (:func:`replay`: the same run alone, bit-identical
+summary — checked) to keep their full trajectories.
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+import threading
+import time
+from typing import Callable
+
+import numpy as np
+
+from ..errors import ObserverCadError, UsageError
+from ..model import PlantModel
+from ..observers import DecisionRule, Observer, output_symbols
+from ..simulation import (EnsembleStatistics, Monitors, RunSummaries, Scenario, SignalProgram,
+                          align_delay, draw_runs, monitors, signal_program, simulate, summarise)
+from ._backends import Backend, Interrupted, map_chunks
+
+__all__ = ["Chunk", "EnsembleResult", "run_ensemble", "replay", "ReplayError", "ENGINES",
+           "default_chunk", "CHUNK_BYTES"]
+
+ENGINES = ("compiled", "reference")
+#: the default chunk keeps a worker's trajectory buffers near this size (they are reused)
+CHUNK_BYTES = 8 * 1024 ** 2
+
+
+class ReplayError(ObserverCadError):
+    """A run replayed alone did not reproduce its summary: a bug, never a result."""
+
+
+@dataclasses.dataclass(frozen=True)
+class Chunk:
+    """Samples ``first … first + count − 1`` of case ``case`` (an index into the cases);
+    ``P`` (count, np) and ``S0`` (count, ns): their run-time parameters and initial joint
+    states, drawn by the main process."""
+
+    case: int
+    first: int
+    count: int
+    P: np.ndarray
+    S0: np.ndarray
+
+    def samples(self) -> np.ndarray:
+        return np.arange(self.first, self.first + self.count)
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class _Layout:
+    """Column names of the joint arrays (S, Y, O, V) and the observer outputs' delays."""
+
+    states: tuple
+    outputs: tuple
+    inputs: tuple
+    observer: tuple
+    delays: tuple
+
+
+def _layout(model: PlantModel, observer: Observer | None) -> _Layout:
+    return _Layout(tuple(s.name for s in model.states),
+                   tuple(str(y) for y in output_symbols(len(model.outputs))),
+                   tuple(s.name for s in list(model.inputs) + list(model.faults)
+                         + list(model.disturbances) + list(model.noise)),
+                   tuple(observer.output_names) if observer is not None else (),
+                   tuple(int(observer.delays.get(n, 0)) for n in observer.output_names)
+                   if observer is not None else ())
+
+
+def _columns(layout: _Layout, S, Y, O, V) -> dict:
+    """The columns of a chunk as views of the joint arrays (delayed outputs shifted)."""
+    cols = {}
+    for j, name in enumerate(layout.states):
+        cols[name] = S[:, :, j]
+    for j, name in enumerate(layout.outputs):
+        cols[name] = Y[:, :, j]
+    for j, name in enumerate(layout.inputs):
+        cols[name] = V[:, :, j]
+    for j, (name, k) in enumerate(zip(layout.observer, layout.delays)):
+        cols[name] = align_delay(O[:, :, j], k)
+    return cols
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class _Payload:
+    """What every worker needs once (the library travels as its spec)."""
+
+    engine: object
+    t: np.ndarray
+    programs: tuple
+    seed: int
+    monitors: Monitors
+    layout: _Layout
+
+
+_BUFFERS = threading.local()
+
+
+def _buffers(R, N, engine):
+    """Per-thread trajectory buffers, reused from chunk to chunk (allocating and
+    page-faulting megabytes per chunk costs as much as simulating it)."""
+    shape = (R, N, engine.ns, engine.ny, engine.no, engine.nv)
+    got = getattr(_BUFFERS, "arrays", None)
+    if got is None or got[0] != shape:
+        got = (shape, np.empty((R, N, engine.ns)), np.empty((R, N, engine.ny)),
+               np.empty((R, N, engine.no)), np.empty((R, N, engine.nv)))
+        _BUFFERS.arrays = got
+    return got[1:]
+
+
+def _compiled_chunk(payload: _Payload, chunk: Chunk) -> RunSummaries:
+    """One chunk on the compiled engine: simulate, then reduce to per-run summaries."""
+    N = payload.t.size
+    S, Y, O, V = _buffers(chunk.count, N, payload.engine)
+    payload.engine.run_batch(payload.t, payload.programs[chunk.case], payload.seed,
+                             chunk.samples(), chunk.P, chunk.S0, S=S, Y=Y, O=O, V=V)
+    return summarise(payload.monitors, _columns(payload.layout, S, Y, O, V), payload.t)
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class _ReferencePayload:
+    model: PlantModel
+    observer: Observer
+    scenario: Scenario
+    cases: tuple
+    runs: int
+    monitors: Monitors
+
+
+def _reference_chunk(payload: _ReferencePayload, chunk: Chunk) -> RunSummaries:
+    res = simulate(payload.model, payload.observer, payload.scenario, runs=chunk.count,
+                   first_run=chunk.first, case=payload.cases[chunk.case],
+                   samples=payload.runs, keep_nonfinite=True)
+    t = np.asarray(res["t"])[0]
+    return summarise(payload.monitors, res.columns, t)
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class EnsembleResult:
+    """What an ensemble produced.
+
+    ``statistics`` (:class:`~observer_cad.simulation.Statistics`) over the finished runs;
+    ``accumulator`` the per-run summaries (``rows()``, ``worst()``); ``runs`` samples per
+    case, ``cases`` the case names (run i is sample i mod runs of case i div runs);
+    ``completed`` runs finished (all of them unless ``interrupted``); ``seconds`` wall
+    clock of the simulation; ``engine``, ``backend``, ``chunk`` how it ran;
+    ``kept``: replayed worst runs, tuples (run, case, sample, SimulationResult)."""
+
+    statistics: object
+    accumulator: EnsembleStatistics
+    runs: int
+    cases: tuple
+    completed: int
+    interrupted: bool
+    seconds: float
+    engine: str
+    backend: Backend
+    chunk: int
+    seed: int
+    sampling: str
+    kept: tuple = ()
+
+    @property
+    def total(self) -> int:
+        return self.runs * len(self.cases)
+
+    def locate(self, run: int) -> tuple:
+        """(case name, sample index) of the global run index."""
+        c, k = divmod(int(run), self.runs)
+        return self.cases[c], k
+
+
+def default_chunk(model: PlantModel, observer: Observer | None, scenario: Scenario) -> int:
+    """Runs per chunk: trajectory buffers of about :data:`CHUNK_BYTES` (1 … 256 runs)."""
+    n = scenario.size(model.time)
+    cols = (2 * len(model.states) + len(model.outputs) + len(model.inputs) + len(model.faults)
+            + len(model.disturbances) + len(model.noise))
+    if observer is not None:
+        cols += len(observer.states) + len(observer.outputs)
+    return int(max(1, min(256, CHUNK_BYTES // max(1, n * cols * 8))))
+
+
+def _whole(what, v, low):
+    if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < low:
+        raise UsageError(f"ensemble: {what} must be a whole number ≥ {low}, got {v!r}")
+    return int(v)
+
+
+def run_ensemble(model: PlantModel, observer: Observer, scenario: Scenario, *, runs: int,
+                 engine: str = "compiled", backend: Backend | None = None,
+                 chunk: int | None = None, settle: float = 0.0,
+                 rule: DecisionRule | None = None, keep: int = 0, worst_by: str | None = None,
+                 progress: Callable[[int], None] | None = None, simulator=None
+                 ) -> EnsembleResult:
+    """Run ``runs`` samples of every case of ``scenario`` and summarise each run.
+
+    ``engine``: ``"compiled"`` (default; one C library for every sample, loaded by every
+    worker from the content-hashed cache) or ``"reference"`` (the numpy simulator, for
+    validation: serial and thread backends only). ``backend``: a
+    :class:`~observer_cad.ensemble.Backend` (default: threads on every core).
+    ``chunk``: runs per chunk (default :func:`default_chunk`). ``settle``: summaries
+    ignore samples before this time. ``rule``: a decision rule for alarm summaries
+    (thresholds must be columns). ``keep``: replay the ``keep`` worst runs by
+    ``worst_by`` (default the first summary field) and keep their trajectories.
+    ``progress(n)``: called with the number of runs of every finished chunk.
+    ``simulator``: a :class:`~observer_cad.codegen.CompiledSimulator` already built.
+
+    A Ctrl-C stops the ensemble: the result then holds the finished runs
+    (``interrupted=True``), in run order, and the statistics over them.
+    """
+    runs = _whole("runs", runs, 1)
+    keep = _whole("keep", keep, 0)
+    if engine not in ENGINES:
+        raise UsageError(f"ensemble: engine must be one of {', '.join(ENGINES)}, got {engine!r}")
+    backend = backend or Backend("threads")
+    if not isinstance(backend, Backend):
+        raise UsageError(f"ensemble: backend must be a Backend, got {type(backend).__name__}")
+    if not (isinstance(settle, (int, float)) and math.isfinite(settle) and settle >= 0):
+        raise UsageError(f"ensemble: settle must be a finite time ≥ 0, got {settle!r}")
+    chunk = default_chunk(model, observer, scenario) if chunk is None else _whole("chunk", chunk, 1)
+    cases = scenario.case_names
+    t = scenario.grid(model.time)
+    mon = monitors(model, observer, settle=float(settle), rule=rule)
+    if engine == "compiled":
+        from ..codegen import CompiledSimulator
+        sim = simulator if simulator is not None else CompiledSimulator(model, observer)
+        programs = tuple(signal_program(model, scenario, t, case=c) for c in cases)
+        payload = _Payload(sim.engine(), t, programs, int(scenario.seed), mon,
+                           _layout(model, observer))
+        task = _compiled_chunk
+        desc = "compiled C" + (" (cache hit)" if sim.cached else "")
+    else:
+        if backend.kind not in ("serial", "threads"):
+            raise UsageError("ensemble: the reference engine runs in this process only"
+                             " (backend serial or threads)")
+        for c in cases:  # check every case before starting
+            signal_program(model, scenario, t[:1], case=c)
+        payload = _ReferencePayload(model, observer, scenario, cases, runs, mon)
+        task = _reference_chunk
+        desc = "reference simulator (numpy)"
+    acc = None
+    done = 0
+    interrupted = False
+
+    def chunks():
+        for c in range(len(cases)):
+            for first in range(0, runs, chunk):
+                n = min(chunk, runs - first)
+                d = draw_runs(model, observer, scenario, np.arange(first, first + n), total=runs)
+                yield Chunk(c, first, n, d.P, np.concatenate([d.x0, d.xi0], axis=1))
+
+    def take(ch: Chunk, summaries: RunSummaries):
+        nonlocal acc, done
+        if acc is None:
+            acc = EnsembleStatistics(summaries.fields)
+        acc.add(ch.case * runs + ch.samples(), cases[ch.case], summaries)
+        done += ch.count
+
+    t0 = time.perf_counter()
+    try:
+        for ch, summaries in map_chunks(task, payload, chunks(), backend=backend,
+                                        progress=progress):
+            take(ch, summaries)
+    except Interrupted as exc:
+        interrupted = True
+        for ch, summaries in exc.done:
+            if ch.case * runs + ch.first not in _taken(acc):
+                take(ch, summaries)
+    seconds = time.perf_counter() - t0
+    if acc is None:
+        acc = EnsembleStatistics(summarise(mon, {}, t[:0]).fields) if False else None
+    if acc is None:
+        raise Interrupted(done=[]) if interrupted else UsageError("ensemble: no run finished")
+    result = EnsembleResult(acc.result(), acc, runs, cases, done, interrupted, seconds, desc,
+                            backend, chunk, int(scenario.seed), scenario.sampling)
+    if keep and not interrupted:
+        field = worst_by or acc.fields[0].name
+        kept = []
+        for run in acc.worst(field, keep):
+            case, k = result.locate(run)
+            res = replay(model, observer, scenario, run, runs=runs, engine=engine,
+                         simulator=sim if engine == "compiled" else None, monitors_=mon,
+                         expect=acc)
+            kept.append((int(run), case, k, res))
+        result = dataclasses.replace(result, kept=tuple(kept))
+    return result
+
+
+def _taken(acc) -> set:
+    return set() if acc is None else set(acc.first_runs()) if hasattr(acc, "first_runs") else set()
+
+
+def replay(model: PlantModel, observer: Observer, scenario: Scenario, run: int, *, runs: int,
+           engine: str = "compiled", simulator=None, monitors_: Monitors | None = None,
+           expect: EnsembleStatistics | None = None, settle: float = 0.0,
+           rule: DecisionRule | None = None):
+    """The full trajectories of run ``run`` of an ensemble of ``runs`` samples per case
+    (a :class:`~observer_cad.simulation.SimulationResult` with one run). With ``expect``
+    (the ensemble's accumulator), the replayed run's summary must equal the recorded one
+    bit for bit — :class:`ReplayError` otherwise."""
+    cases = scenario.case_names
+    c, k = divmod(_whole("run", run, 0), runs)
+    if c >= len(cases):
+        raise UsageError(f"ensemble: run {run} does not exist ({runs} runs × {len(cases)} cases)")
+    kw = dict(runs=1, first_run=k, case=cases[c], samples=runs, keep_nonfinite=True)
+    if engine == "compiled":
+        from ..codegen import CompiledSimulator
+        sim = simulator if simulator is not None else CompiledSimulator(model, observer)
+        res = sim.simulate(scenario, threads=1, **kw)
+    else:
+        res = simulate(model, observer, scenario, **kw)
+    if expect is not None:
+        mon = monitors_ or monitors(model, observer, settle=settle, rule=rule)
+        got = summarise(mon, res.columns, np.asarray(res["t"])[0])
+        want = expect.values_of(int(run))
+        for f in got.fields:
+            a, b = float(got.values[f.name][0]), float(want[f.name])
+            if not (a == b or (math.isnan(a) and math.isnan(b))):
+                raise ReplayError(f"replay of run {run}: {f.name} = {a!r}, the ensemble recorded"
+                                  f" {b!r}")
+    return res
