@@ -44,8 +44,8 @@ import sympy as sp
 from ..errors import UsageError
 from ..model import PlantModel
 from ..observers import Observer, output_symbols
-from ..simulation import (RANDOM_C, Scenario, SimulationResult, align_delay, check_memory,
-                          draw_runs, finish_result, parameter_layout, signal_program, stream_keys)
+from ..simulation import (RANDOM_C, Scenario, SimulationResult, align_delay, check_memory, column_units,
+                          draw_plan, finish_result, parameter_layout, signal_program, stream_keys)
 from ._compile import CACHE_LOCK, FLAGS, STATS, CodegenError, compile_source, fingerprint, forget_fingerprint, generate_c, lookup_fingerprint, record_fingerprint, size_aware_flags
 from ._translate import describe, joint_identity, joint_step, joint_step_name
 
@@ -101,30 +101,49 @@ CASADI_SYMBOL_EXPORT int {name}_batch(casadi_int R, casadi_int N, const casadi_r
     const casadi_real* BASE, const casadi_real* SU, const casadi_real* SN, const int* KIND,
     const uint64_t* KEYS, const casadi_real* P,
     casadi_real* S, casadi_real* Y, casadi_real* O, casadi_real* V) {{
+  const casadi_real* arg[{sz_arg}];
+  casadi_real* res[{sz_res}];
+  casadi_int iw[{sz_iw}];
+  casadi_real w[{sz_w}];
+  casadi_real last[{max(ns, 1)}];
+  int rj[{max(nv, 1)}], nr = 0, q;
+  casadi_real h;
   casadi_int r, i, j;
+  for (i = 0; i < {sz_arg}; ++i) arg[i] = 0;
+  for (i = 0; i < {sz_res}; ++i) res[i] = 0;
+  for (j = 0; j < {nv}; ++j) if (KIND[j]) rj[nr++] = (int)j;
   for (r = 0; r < R; ++r) {{
     const uint64_t* key = KEYS + r * {2 * nv};
+    casadi_real* Sr = S + r * N * {ns};
+    casadi_real* Yr = Y + r * N * {ny};
+    casadi_real* Or = O + r * N * {no};
     casadi_real* Vr = V + r * N * {nv};
+    arg[2] = P + r * {npar};
     for (i = 0; i < N; ++i) {{
+      /* this step's signals: the deterministic part, then the random ones (same
+         arithmetic and order as SignalProgram.values) */
       const casadi_real* b = BASE + i * {nv};
       casadi_real* v = Vr + i * {nv};
-      for (j = 0; j < {nv}; ++j) {{
-        casadi_real x = b[j];
+      for (j = 0; j < {nv}; ++j) v[j] = b[j];
+      for (q = 0; q < nr; ++q) {{
+        j = rj[q];
         if (KIND[j] & 1) {{
           casadi_real su = SU[i * {nv} + j];
-          if (su != 0) x += su * oc_uniform(key[2 * j], (long long)i);
+          if (su != 0) v[j] += su * oc_uniform(key[2 * j], (long long)i);
         }}
         if (KIND[j] & 2) {{
           casadi_real sn = SN[i * {nv} + j];
-          if (sn != 0) x += sn * oc_normal(key[2 * j], key[2 * j + 1], (long long)i);
+          if (sn != 0) v[j] += sn * oc_normal(key[2 * j], key[2 * j + 1], (long long)i);
         }}
-        v[j] = x;
       }}
-    }}
-    {{
-      int rc = {name}_traj(N, t, Vr, P + r * {npar}, S + r * N * {ns}, Y + r * N * {ny},
-                           O + r * N * {no});
-      if (rc) return (int)(r * N + rc);
+      h = (i + 1 < N) ? t[i + 1] - t[i] : 0.0;
+      arg[0] = Sr + i * {ns};
+      arg[1] = v;
+      arg[3] = &h;
+      res[0] = (i + 1 < N) ? Sr + (i + 1) * {ns} : last;
+      res[1] = Yr + i * {ny};
+      res[2] = Or + i * {no};
+      if ({name}(arg, res, iw, w, 0)) return (int)(1 + r * N + i);
     }}
   }}
   return 0;
@@ -236,6 +255,7 @@ class CompiledSimulator:
         self._programs = {}
         self._engine = None
         self._local = None
+        self._units = None
         self._cc = cc
         self.translated = False
         self.inputs = list(m.inputs) + list(m.faults) + list(m.disturbances) + list(m.noise)
@@ -386,18 +406,32 @@ class CompiledSimulator:
 
     # ------------------------------------------------------------------ scenarios
     def program(self, scenario: Scenario, case: str | None = None):
-        """The scenario's :class:`~observer_cad.simulation.SignalProgram` on its grid (kept
-        for the last few scenarios: a repeated call skips evaluating the signals)."""
-        key = (id(scenario), case)
-        hit = self._programs.get(key)
-        if hit is not None and hit[0] is scenario:
-            return hit[1], hit[2]
-        t = scenario.grid(self.model.time)
-        prog = signal_program(self.model, scenario, t, case=case)
-        if len(self._programs) >= 8:
+        """``(t, program)``: the scenario's grid and
+        :class:`~observer_cad.simulation.SignalProgram` (kept for the last few scenarios:
+        a repeated call skips evaluating the signals)."""
+        hit = self._cached(scenario, ("program", case))
+        if hit is None:
+            t = scenario.grid(self.model.time)
+            hit = self._keep(scenario, ("program", case),
+                             (t, signal_program(self.model, scenario, t, case=case)))
+        return hit
+
+    def plan(self, scenario: Scenario):
+        """The scenario's :class:`~observer_cad.simulation.DrawPlan` (kept like programs)."""
+        hit = self._cached(scenario, ("plan",))
+        if hit is None:
+            hit = self._keep(scenario, ("plan",), draw_plan(self.model, self.observer, scenario))
+        return hit
+
+    def _cached(self, scenario, what):
+        hit = self._programs.get((id(scenario),) + what)
+        return hit[1] if hit is not None and hit[0] is scenario else None
+
+    def _keep(self, scenario, what, value):
+        if len(self._programs) >= 16:
             self._programs.pop(next(iter(self._programs)))
-        self._programs[key] = (scenario, t, prog)
-        return t, prog
+        self._programs[(id(scenario),) + what] = (scenario, value)
+        return value
 
     def prepare(self, scenario: Scenario, runs: int | None = None, *, first_run: int = 0,
                 case: str | None = None, samples: int | None = None):
@@ -413,7 +447,7 @@ class CompiledSimulator:
     def draws(self, scenario: Scenario, runs: int, *, first_run: int = 0, samples=None):
         """The per-run quantities (:func:`~observer_cad.simulation.draw_runs`)."""
         ks = np.arange(first_run, first_run + int(runs))
-        return draw_runs(self.model, self.observer, scenario, ks, total=samples or first_run + int(runs))
+        return self.plan(scenario).draw(ks, total=samples or first_run + int(runs))
 
     def simulate(self, scenario: Scenario, *, runs: int | None = None,
                  threads: int | None = None, keep_nonfinite: bool = False, first_run: int = 0,
@@ -451,14 +485,16 @@ class CompiledSimulator:
                 list(ex.map(lambda ab: block(*ab), zip(edges[:-1], edges[1:])))
         else:
             block(0, R)
-        res = self._result(t, R, N, V, S, Y, O, runs, keep_nonfinite, where=scenario.source)
+        finite = all(np.isfinite(np.sum(a)) for a in (S, Y, O, V))  # raw arrays: one pass each
+        res = self._result(t, R, N, V, S, Y, O, runs, keep_nonfinite, where=scenario.source,
+                           finite=finite)
         if d.plant:
             import dataclasses
             res = dataclasses.replace(res, parameters={
                 k: (v if runs is not None else v[0]) for k, v in d.plant.items()})
         return res
 
-    def _result(self, t, R, N, V, S, Y, O, runs, keep_nonfinite=False, where=None):
+    def _result(self, t, R, N, V, S, Y, O, runs, keep_nonfinite=False, where=None, finite=None):
         m, observer = self.model, self.observer
         cols = {"t": np.broadcast_to(t, (R, N)).copy()}
         for j, s in enumerate(m.states):
@@ -476,8 +512,10 @@ class CompiledSimulator:
                 delays[name] = int(observer.delays.get(name, 0))
                 cols[name] = align_delay(O[:, :, j], delays[name])
                 order.append(name)
+        if self._units is None:  # the units depend on the names only
+            self._units = column_units(m, observer, cols)
         return finish_result(cols, order, delays, t, m, observer, runs, keep_nonfinite,
-                             where=where)
+                             where=where, units=self._units, finite=finite)
 
     def simulate_many(self, scenarios, *, threads: int | None = None) -> list:
         """Many scenarios at once on threads (ctypes releases the GIL)."""

@@ -40,7 +40,7 @@ from ._random import PARAMETER_STREAMS, normal_samples, stream_keys, uniform_sam
 
 __all__ = ["Distribution", "SignalProgram", "signal_program", "RunDraws", "draw_runs",
            "parameter_layout", "ParameterLayout", "SAMPLING_METHODS", "NOMINAL_CASE",
-           "check_distribution"]
+           "check_distribution", "DrawPlan", "draw_plan"]
 
 #: how per-run quantities are drawn
 SAMPLING_METHODS = ("random", "sobol", "lhs")
@@ -313,13 +313,56 @@ def _uniforms(method, seed, samples, d, total):
     return _lhs(int(seed), d, int(total))[samples]
 
 
-def draw_runs(model: PlantModel, observer, scenario, samples, *, total: int | None = None
-              ) -> RunDraws:
-    """The per-run quantities of the sample indices ``samples`` (see the module
-    docstring). ``total``: the number of samples of the ensemble (``"lhs"`` only)."""
+@dataclasses.dataclass(frozen=True, eq=False)
+class DrawPlan:
+    """How a scenario's per-run quantities are drawn (validated once; :meth:`draw` is
+    cheap and needs no sympy): ``quantities`` (kind, index, Distribution) in the fixed
+    order of the module docstring; ``defaults`` the observer states initialised by the
+    observer's own map of x(0) (index, vectorised function)."""
+
+    quantities: tuple
+    defaults: tuple
+    method: str
+    seed: int
+    nx: int
+    nxi: int
+    nplant: int
+    nobs: int
+    sampled: tuple  # (name, index in P) of the plant parameters the scenario sets
+
+    def draw(self, samples, *, total: int | None = None) -> RunDraws:
+        samples = np.atleast_1d(np.asarray(samples, dtype=np.int64))
+        R = samples.size
+        rnd = [q for q in self.quantities if q[2].random]
+        U = _uniforms(self.method, self.seed, samples, len(rnd), total)
+        P = np.zeros((R, self.nplant + self.nobs))
+        x0 = np.zeros((R, self.nx))
+        xi0 = np.full((R, self.nxi), np.nan)
+        col = 0
+        for kind, j, d in self.quantities:
+            if d.random:
+                v = d.transform(U[:, col])
+                col += 1
+            else:
+                v = np.full(R, d.a)
+            if kind == "p":
+                P[:, j] = v
+            elif kind == "op":
+                P[:, self.nplant + j] = v
+            elif kind == "x":
+                x0[:, j] = v
+            else:
+                xi0[:, j] = v
+        for j, f in self.defaults:  # the observer's initial map of x(0)
+            xi0[:, j] = f(*(x0[:, i] for i in range(self.nx)))
+        plant = {name: P[:, j] for name, j in self.sampled}
+        return RunDraws(samples, P, x0, xi0, plant)
+
+
+def draw_plan(model: PlantModel, observer, scenario) -> DrawPlan:
+    """Validate the scenario's per-run quantities against the model and the observer
+    and fix how they are drawn (:class:`DrawPlan`)."""
     where = scenario.source or "scenario"
-    samples = np.atleast_1d(np.asarray(samples, dtype=np.int64))
-    R = samples.size
     layout = parameter_layout(model, observer)
     quantities = []  # (kind, index, Distribution)
     plant_vals = {p: Distribution("fixed", float(v)) for p, v in model.parameter_values().items()}
@@ -359,41 +402,34 @@ def draw_runs(model: PlantModel, observer, scenario, samples, *, total: int | No
         d = Distribution.of(opar[str(p)]) if str(p) in opar else \
             Distribution("fixed", float(observer.parameters[p]))
         quantities.append(("op", j, d))
-    rnd = [q for q in quantities if q[2].random]
-    U = _uniforms(scenario.sampling, int(scenario.seed), samples, len(rnd), total)
-    P = np.zeros((R, len(layout.plant) + len(layout.observer)))
-    x0 = np.zeros((R, len(xs)))
-    xi0 = np.full((R, len(obs_states)), np.nan)
-    col = 0
-    for kind, j, d in quantities:
-        if d.random:
-            v = d.transform(U[:, col])
-            col += 1
-        else:
-            v = np.full(R, d.a)
-        if kind == "p":
-            P[:, j] = v
-        elif kind == "op":
-            P[:, len(layout.plant) + j] = v
-        elif kind == "x":
-            x0[:, j] = v
-        else:
-            xi0[:, j] = v
-    for j, s in enumerate(obs_states):  # defaults: the observer's initial map of x(0)
-        if str(s) not in oinit:
-            xi0[:, j] = _initial_map(observer, s, tuple(xs))(*(x0[:, i] for i in range(len(xs))))
-    plant = {p.name: P[:, layout.plant.index(p)] for p in layout.plant
-             if p.name in (scenario.parameters or {})}
-    return RunDraws(samples, P, x0, xi0, plant)
+    defaults = tuple((j, _initial_map(observer, s, tuple(xs))) for j, s in enumerate(obs_states)
+                     if str(s) not in oinit)
+    sampled = tuple((p.name, layout.plant.index(p)) for p in layout.plant
+                    if p.name in (scenario.parameters or {}))
+    return DrawPlan(tuple(quantities), defaults, scenario.sampling, int(scenario.seed), len(xs),
+                    len(obs_states), len(layout.plant), len(layout.observer), sampled)
+
+
+def draw_runs(model: PlantModel, observer, scenario, samples, *, total: int | None = None
+              ) -> RunDraws:
+    """The per-run quantities of the sample indices ``samples`` (see the module
+    docstring). ``total``: the number of samples of the ensemble (``"lhs"`` only)."""
+    return draw_plan(model, observer, scenario).draw(samples, total=total)
 
 
 def _initial_map(observer, s, xs):
-    e = sp.sympify(observer.initial.get(s, 0))
+    return _initial_function(sp.sympify(observer.initial.get(s, 0)), xs)
+
+
+@functools.lru_cache(maxsize=256)
+def _initial_function(e, xs):
+    """x(0) ↦ the observer state's default initial value, vectorised over runs (cached:
+    lambdify costs milliseconds, a call microseconds)."""
     f = sp.lambdify(xs, e, "numpy")
 
     def call(*x):
         v = np.asarray(f(*x), dtype=float)
-        return np.broadcast_to(v, np.shape(x[0]) if x else ()).copy() if x else v
+        return np.broadcast_to(v, np.shape(x[0])).copy() if x else v
     return call
 
 

@@ -612,12 +612,29 @@ def simulate(model: PlantModel, observer: Observer | None, scenario: Scenario, *
     return res
 
 
+def _all_finite(cols, delays) -> bool:
+    """True when every value is finite (fast: a sum is finite only then; an overflowing
+    sum of finite values just sends the caller to the exact search)."""
+    with np.errstate(all="ignore"):
+        for name, v in cols.items():
+            k = int(delays.get(name, 0))
+            a = v[..., :v.shape[-1] - k] if k else v
+            if not math.isfinite(float(np.sum(a))):
+                return False
+    return True
+
+
 def finish_result(cols, order, delays, t, model, observer, runs, keep_nonfinite, *,
-                  where=None):
+                  where=None, units=None, finite=None):
     """The :class:`SimulationResult` of columns of shape (R, N), after the finiteness
-    check (shared by the reference and the compiled simulator)."""
+    check (shared by the reference and the compiled simulator). ``finite=True``: the
+    caller has checked that every value is finite; ``units``: the columns' units, when the
+    caller has them already."""
     ins = list(model.inputs) + list(model.faults) + list(model.disturbances) + list(model.noise)
-    msg = find_nonfinite(cols, order, t=t, delays=delays, signals=[s.name for s in ins],
+    if finite is None:
+        finite = _all_finite(cols, delays)
+    msg = None if finite else find_nonfinite(
+        cols, order, t=t, delays=delays, signals=[s.name for s in ins],
                          states=[s.name for s in model.states],
                          outputs=[str(y) for y in output_symbols(len(model.outputs))],
                          observer=[name for name, _ in observer.outputs] if observer else ())
@@ -628,5 +645,6 @@ def finish_result(cols, order, delays, t, model, observer, runs, keep_nonfinite,
     if runs is None:
         cols = {k: v[0] for k, v in cols.items()}
     return SimulationResult(cols, tuple(order), dict(delays), msg,
-                            units=column_units(model, observer, cols), model=model.name,
+                            units=units if units is not None else column_units(model, observer, cols),
+                            model=model.name,
                             time=model.time)
