@@ -1,4 +1,4 @@
-"""Command-line interface: ``observer-cad show|design|simulate|codegen|analyze|demo``.
+"""Command-line interface: ``observer-cad show|design|simulate|ensemble|codegen|analyze|demo``.
 
 Every user error prints one line ``observer-cad: error: ...`` on stderr and exits with
 status 2; a simulation that produced a value that is not finite (NaN, ±inf) exits with
@@ -92,6 +92,47 @@ def build_parser() -> argparse.ArgumentParser:
                           " exit with status 4 after a one-line warning")
     _add_run_options(sim)
     _add_threshold_options(sim, quantile=True)
+
+    en = sub.add_parser("ensemble", help="validate an observer over many sampled runs (statistics, worst cases)",
+                        description="Design the observer and run it with the plant over RUNS samples of "
+                                    "every fault case of the scenario: parameters (\"declared\" = the "
+                                    "model's uncertainty box), initial states and signals drawn from "
+                                    "the scenario's distributions, seeded per run (a run depends only on "
+                                    "(seed, run index), never on chunks or workers). Each run is reduced "
+                                    "to summaries (errors, inclusion slack and violations, residual and "
+                                    "alarm statistics) as it finishes. Writes DIR/summary.csv (one row "
+                                    "per run), DIR/statistics.json (quantiles, worst runs), histograms "
+                                    "and the worst runs' trajectories; a progress bar on stderr. Ctrl-C "
+                                    "stops and writes what finished.")
+    en.add_argument("model", metavar="MODEL", help="path to a model file")
+    _add_design_options(en)
+    en.add_argument("--scenario", metavar="FILE", required=True, help="scenario JSON file")
+    en.add_argument("--runs", metavar="N", type=_positive_int("--runs"), required=True,
+                    help="samples per fault case (run i is sample i mod N of case i div N)")
+    en.add_argument("--out", metavar="DIR", required=True, help="output directory")
+    en.add_argument("--workers", metavar="W", type=_positive_int("--workers"), default=None,
+                    help="threads or processes (default: every core)")
+    en.add_argument("--backend", choices=["threads", "processes", "dask", "serial"], default=None,
+                    help="threads (default; the compiled loop releases the GIL), processes (a loky"
+                         " pool), dask (a local cluster, or --dask ADDRESS), serial")
+    en.add_argument("--dask", metavar="ADDRESS", default=None,
+                    help="run on the Dask scheduler at ADDRESS (e.g. tcp://host:8786); workers load"
+                         " the compiled library from their own cache (compiling it once if missing)")
+    en.add_argument("--chunk", metavar="R", type=_positive_int("--chunk"), default=None,
+                    help="runs per chunk (default: trajectory buffers of about 8 MiB)")
+    en.add_argument("--engine", choices=["compiled", "reference"], default="compiled",
+                    help="compiled (default) or the numpy reference simulator (validation; slow)")
+    en.add_argument("--settle", metavar="T", type=_nonnegative_float("--settle"), default=0.0,
+                    help="summaries ignore samples before time T (the transient; default 0)")
+    en.add_argument("--keep", metavar="K", type=_nonnegative_int("--keep"), default=1,
+                    help="replay the K worst runs (by --worst-by) and write their trajectories"
+                         " to DIR/worst/run_<i>/ (default 1; 0: none)")
+    en.add_argument("--worst-by", metavar="FIELD", default=None,
+                    help="the summary field that ranks runs (default: the first field)")
+    en.add_argument("--replay", metavar="RUN", type=_nonnegative_int("--replay"), default=None,
+                    help="only replay run RUN of this ensemble: write DIR/run_<RUN>/signals.csv,"
+                         " figures and its summary")
+    _add_threshold_options(en, quantile=True)
 
     cg = sub.add_parser("codegen", help="export the observer as standalone C",
                         description="Design the observer and write NAME.c, NAME.h (argument "
@@ -190,6 +231,19 @@ def _nonnegative_int(option):
             raise argparse.ArgumentTypeError(f"{option} {text}: not a whole number") from None
         if v < 0:
             raise argparse.ArgumentTypeError(f"{option} {text}: must be ≥ 0")
+        return v
+    return convert
+
+
+def _nonnegative_float(option):
+    def convert(text):
+        import math
+        try:
+            v = float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{option} {text}: not a number") from None
+        if not (math.isfinite(v) and v >= 0):
+            raise argparse.ArgumentTypeError(f"{option} {text}: must be a finite number ≥ 0")
         return v
     return convert
 
@@ -614,6 +668,97 @@ def _print_evaluation(model, observer, res, decisions) -> None:
                   for f, v in sizes.items()))
 
 
+def _cmd_ensemble(args) -> int:
+    import time as _time
+    from ..observers import build_observer
+    from ..simulation import load_scenario
+    if args.symbolic:
+        raise UsageError("ensemble needs numeric parameters: drop --symbolic")
+    scenario = load_scenario(args.scenario)
+    from ..ensemble import Backend
+    kind = args.backend or ("dask" if args.dask else "threads")
+    if args.dask and kind != "dask":
+        raise UsageError(f"--dask ADDRESS runs on Dask: drop --backend {kind}")
+    backend = Backend(kind, workers=args.workers, address=args.dask)
+    model, result = _design_from_args(args)
+    report("building the observer", stage=True)
+    observer = build_observer(model, result, **_observer_options(args, result))
+    _refuse_failed(observer)
+    observer = _threshold_from_args(args, model, observer, scenario)
+    _refuse_failed(observer)
+    rule = None
+    if observer.threshold is not None:
+        from ..observers import decision_rule
+        rule = decision_rule(model, result, persistence=args.persistence)
+    elif args.persistence != 1:
+        raise UsageError("--persistence applies with --threshold")
+    from ..ensemble import replay, run_ensemble
+    from ..reporting import (plot_ensemble_histograms, plot_simulation, write_signals_csv,
+                             write_statistics_json, write_summary_csv)
+    out = Path(args.out)
+    title = f"{model.name}, {observer.kind}"
+    sim = None
+    if args.engine == "compiled":
+        from ..codegen import CodegenError, CompiledSimulator
+        report("compiling", stage=True)
+        try:
+            sim = CompiledSimulator(model, observer)
+        except CodegenError as exc:
+            raise UsageError(f"the compiled engine is not available ({str(exc).splitlines()[0]});"
+                             " use --engine reference (slow)") from None
+    if args.replay is not None:
+        res = replay(model, observer, scenario, args.replay, runs=args.runs, engine=args.engine,
+                     simulator=sim)
+        case, k = divmod(args.replay, args.runs)
+        d = out / f"run_{args.replay}"
+        print(f"run {args.replay}: case {scenario.case_names[case]}, sample {k}")
+        print(f"wrote {write_signals_csv(res, d)}")
+        for fig in plot_simulation(res, d, time=model.time, title=f"{title}, run {args.replay}"):
+            print(f"wrote {fig}")
+        return 0
+    total = args.runs * len(scenario.case_names)
+    from ..ensemble import progress_bar
+    t0 = _time.perf_counter()
+    with progress_bar(total, desc="runs") as bar:
+        res = run_ensemble(model, observer, scenario, runs=args.runs, engine=args.engine,
+                           backend=backend, chunk=args.chunk, settle=args.settle, rule=rule,
+                           keep=args.keep, worst_by=args.worst_by, progress=bar,
+                           simulator=sim)
+    wall = _time.perf_counter() - t0
+    from ..version import package_version
+    meta = {"model": model.name, "model_file": str(args.model), "observer": observer.kind,
+            "scenario": str(args.scenario), "seed": res.seed, "sampling": res.sampling,
+            "runs_per_case": res.runs, "cases": list(res.cases), "runs": res.total,
+            "completed": res.completed, "interrupted": res.interrupted,
+            "engine": res.engine, "backend": backend.kind, "workers": backend.workers,
+            "address": backend.address, "chunk": res.chunk, "settle": args.settle,
+            "threshold": observer.threshold.text() if observer.threshold is not None else None,
+            "seconds": round(res.seconds, 3),
+            "runs_per_second": round(res.completed / res.seconds, 1) if res.seconds > 0 else None,
+            "version": package_version()}
+    print(f"wrote {write_summary_csv(res.accumulator, out, runs=res.runs, seed=res.seed)}"
+          f" ({res.completed} runs)")
+    print(f"wrote {write_statistics_json(res.statistics, out, ensemble=meta)}")
+    if res.interrupted:
+        print(f"{PROG}: interrupted after {res.completed} of {res.total} runs; summary.csv and"
+              " statistics.json hold the finished runs", file=sys.stderr)
+        return 130
+    print(f"{res.completed} runs in {res.seconds:.2f} s ({res.completed / max(res.seconds, 1e-9):,.0f}"
+          f" runs/s; {res.engine}, {backend.kind} × {backend.workers}, chunks of {res.chunk}; wall"
+          f" clock with the design {wall:.2f} s)")
+    print()
+    print(res.statistics.to_text().rstrip())
+    for fig in plot_ensemble_histograms(res.accumulator, out / "figures", title=title):
+        print(f"wrote {fig}")
+    for run, case, k, traj in res.kept:
+        d = out / "worst" / f"run_{run}"
+        print(f"worst run {run} (case {case}, sample {k}; replayed, its summary reproduced"
+              f" exactly): wrote {write_signals_csv(traj, d)}")
+        for fig in plot_simulation(traj, d, time=model.time, title=f"{title}, worst run {run}"):
+            print(f"wrote {fig}")
+    return 0
+
+
 def _cmd_codegen(args) -> int:
     from ..observers import build_observer
     if args.symbolic:
@@ -672,7 +817,7 @@ def main(argv=None) -> int:
             parser.print_help()
             return 2
         run = {"show": _cmd_show, "design": _cmd_design, "simulate": _cmd_simulate,
-               "codegen": _cmd_codegen, "analyze": _cmd_analyze,
+               "codegen": _cmd_codegen, "analyze": _cmd_analyze, "ensemble": _cmd_ensemble,
                "demo": _cmd_demo}[args.command]
         if args.command == "demo":  # the demo prints its own progress
             return run(args)
