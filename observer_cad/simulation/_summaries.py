@@ -791,7 +791,7 @@ class EnsembleStatistics:
         ``summaries``: a :class:`RunSummaries` (or a mapping field → (R,) values)."""
         if not isinstance(case, str) or not case:
             raise UsageError(f"EnsembleStatistics.add: case must be a non-empty name, got {case!r}")
-        vals = getattr(summaries, "values", summaries)
+        vals = summaries.values if isinstance(summaries, RunSummaries) else summaries
         if not isinstance(vals, Mapping):
             raise UsageError("EnsembleStatistics.add: summaries must be RunSummaries")
         r = np.asarray(runs)
