@@ -25,10 +25,10 @@ summary. The fields (names are the ``summary.csv`` headers):
 - estimate ``<s>_hat``: ``<s>_hat.max_error`` (max |ŝ − s|), ``<s>_hat.rms_error``
   (sqrt of the mean of (ŝ − s)²), ``<s>_hat.final_error`` (|ŝ − s| at the last available
   sample);
-- interval ``<s>_lower``/``<s>_upper``: ``<s>.violations`` (samples where
-  lower − tol ≤ s ≤ upper + tol does not hold; a sample with a NaN, which shows no
-  inclusion, counts), ``<s>.min_slack`` (min of min(s − lower, upper − s); negative =
-  violated), ``<s>.max_width`` (max of upper − lower), ``<s>.first_violation`` (time; NaN
+- interval ``<s>_lower``/``<s>_upper``: ``<s>.violations`` (samples whose slack
+  min(s − lower, upper − s) is < −tol — with tol = 0 exactly s < lower or s > upper — or
+  NaN: a sample that shows no inclusion counts), ``<s>.min_slack`` (min of the slack;
+  negative = violated; in a finite run, violations > 0 exactly when min_slack < −tol), ``<s>.max_width`` (max of upper − lower), ``<s>.first_violation`` (time; NaN
   when none);
 - residual ``r``, ``r1`` …: ``<r>.max_abs`` (max |r|); with its band ``<r>_lower``/
   ``<r>_upper``: ``<r>.exceedances`` (samples with r < lower or r > upper, strict as in
@@ -51,7 +51,8 @@ number.
 Determinism: a run's summary is bit-identical whether it is summarised alone or in any
 batch of rows — every operand of a sum is a C-contiguous (R, n) array reduced along
 axis 1 (one row at a time, in the same order), everything else is elementwise or an exact
-reduction (max, min, counts). :class:`EnsembleStatistics` orders the stored values by run
+reduction (max, min, counts); rows are processed in blocks of about 131,072 values (small
+temporaries) and each row is reduced on its own. :class:`EnsembleStatistics` orders the stored values by run
 index before computing anything, so its results do not depend on the order of ``add``.
 
 Quantiles are empirical (``numpy.quantile(..., method="inverted_cdf")``: the smallest
@@ -521,7 +522,42 @@ def summarise(monitors: Monitors, columns, t) -> RunSummaries:
                              f"summarise: {names[0]} is delayed by {d} of {N} samples")
         return slice(start, stop)
 
+    windows = {}
+    for e in monitors.estimates:
+        windows[e.output] = window(e.output, *e.truth.needs)
+    for iv in monitors.intervals:
+        windows[iv.signal] = window(iv.lower, iv.upper, *iv.truth.needs)
+    for r in monitors.residuals:
+        windows[r.name] = window(r.name, *((r.lower, r.upper) if r.lower else ()))
+    if monitors.rule is not None:
+        rule = monitors.rule
+        windows["alarm"] = window(*(rule.residuals + rule.lower_names + rule.upper_names))
+    values = {f.name: np.empty(R, dtype=np.float64) for f in monitors.fields}
+    # blocks of rows small enough for the cache: no large temporaries, and every row is
+    # reduced on its own whatever the block (the result does not depend on R)
+    row_bytes = max([8 * N] + [abs(v.strides[0]) for v in arrays.values()])
+    B = max(1, (8 * _BLOCK_ELEMENTS) // row_bytes)   # strided views: the parent's rows count
+    with np.errstate(all="ignore"):
+        for a in range(0, R, B):
+            b = min(a + B, R)
+            _summarise_block(monitors, {k: _c(v[a:b]) for k, v in arrays.items()}, t, N, windows,
+                             {k: v[a:b] for k, v in values.items()})
+    return RunSummaries(fields=monitors.fields, values=values)
+
+
+#: rows × samples per block of :func:`summarise`: 1 MB of float64 per temporary (of the
+#: parent array's rows for strided views such as ``S[:, :, j]``, so that a block stays in
+#: the cache while each of its columns is copied): measured fastest of 8,192 … 10⁹ on the
+#: three-tank interval observer, N = 2,001)
+_BLOCK_ELEMENTS = 131072
+
+
+def _summarise_block(monitors: Monitors, arrays: dict, t: np.ndarray, N: int, windows: dict,
+                     out: dict) -> None:
+    """The summaries of a block of rows, written into ``out`` (views of the result)."""
+    delays = monitors.delays
     # finiteness over the whole run (the NaN tail of delayed outputs is not available)
+    R = next(iter(out.values())).shape[0]
     finite = np.ones(R, dtype=bool)
     first_bad = np.full(R, N, dtype=np.int64)
     for name in monitors.checked:
@@ -535,57 +571,62 @@ def summarise(monitors: Monitors, columns, t) -> RunSummaries:
             first_bad[bad] = np.minimum(first_bad[bad], idx)
             finite &= ok
     broken = ~finite
-    values = {}
-    with np.errstate(all="ignore"):
-        for e in monitors.estimates:
-            sl = window(e.output, *e.truth.needs)
-            est = arrays[e.output][:, sl]
-            err = _c(np.abs(est - e.truth.evaluate(arrays, sl, est.shape)))
-            n = err.shape[1]
-            values[f"{e.prefix}.max_error"] = np.max(err, axis=1)
-            values[f"{e.prefix}.rms_error"] = np.sqrt(np.sum(_c(err * err), axis=1) / n)
-            values[f"{e.prefix}.final_error"] = err[:, -1].copy()
+    anybroken = bool(broken.any())
+    for e in monitors.estimates:
+        sl = windows[e.output]
+        est = arrays[e.output][:, sl]
+        err = _c(est - e.truth.evaluate(arrays, sl, est.shape))
+        np.abs(err, out=err)
+        n = err.shape[1]
+        p = e.prefix
+        np.max(err, axis=1, out=out[f"{p}.max_error"])
+        out[f"{p}.final_error"][:] = err[:, -1]
+        np.multiply(err, err, out=err)
+        out[f"{p}.rms_error"][:] = np.sqrt(np.sum(err, axis=1) / n)
+        if anybroken:
             for k in ("max_error", "rms_error", "final_error"):
-                values[f"{e.prefix}.{k}"][broken] = np.inf
-        for iv in monitors.intervals:
-            sl = window(iv.lower, iv.upper, *iv.truth.needs)
-            lo, hi = arrays[iv.lower][:, sl], arrays[iv.upper][:, sl]
-            s = iv.truth.evaluate(arrays, sl, lo.shape)
-            tol = monitors.tolerance
-            inside = (s >= lo - tol) & (s <= hi + tol) if tol else (s >= lo) & (s <= hi)
-            viol = ~inside
-            slack = np.minimum(s - lo, hi - s)
-            width = hi - lo
-            values[f"{iv.signal}.violations"] = np.count_nonzero(viol, axis=1).astype(np.float64)
-            values[f"{iv.signal}.min_slack"] = np.min(slack, axis=1)
-            values[f"{iv.signal}.max_width"] = np.max(width, axis=1)
-            values[f"{iv.signal}.first_violation"] = _first_time(viol, t, sl.start)
-            values[f"{iv.signal}.min_slack"][broken] = -np.inf
-            values[f"{iv.signal}.max_width"][broken] = np.inf
-        for r in monitors.residuals:
-            names = (r.name,) + ((r.lower, r.upper) if r.lower else ())
-            sl = window(*names)
-            rv = arrays[r.name][:, sl]
-            values[f"{r.name}.max_abs"] = np.max(np.abs(rv), axis=1)
-            values[f"{r.name}.max_abs"][broken] = np.inf
-            if r.lower:
-                out = (rv < arrays[r.lower][:, sl]) | (rv > arrays[r.upper][:, sl])
-                values[f"{r.name}.exceedances"] = np.count_nonzero(out, axis=1).astype(np.float64)
-                values[f"{r.name}.first_exceedance"] = _first_time(out, t, sl.start)
-        if monitors.rule is not None:
-            rule = monitors.rule
-            dec = decide(rule, {n: arrays[n] for n in
-                                rule.residuals + rule.lower_names + rule.upper_names})
-            sl = window(*(rule.residuals + rule.lower_names + rule.upper_names))
-            alarm = dec.alarm[:, sl]
-            values["alarm.first"] = _first_time(alarm, t, sl.start)
-            values["alarm.samples"] = np.count_nonzero(alarm, axis=1).astype(np.float64)
-            values["diagnosis.code"] = dec.code[:, sl.stop - 1].astype(np.float64)
-    values["finite"] = finite.astype(np.float64)
+                out[f"{p}.{k}"][broken] = np.inf
+    tol = monitors.tolerance
+    for iv in monitors.intervals:
+        sl = windows[iv.signal]
+        lo, hi = arrays[iv.lower][:, sl], arrays[iv.upper][:, sl]
+        s = iv.truth.evaluate(arrays, sl, lo.shape)
+        slack = np.subtract(s, lo)
+        np.minimum(slack, hi - s, out=slack)             # min(s − lower, upper − s)
+        viol = slack >= -tol
+        np.logical_not(viol, out=viol)                  # slack < −tol, or NaN
+        p = iv.signal
+        out[f"{p}.violations"][:] = np.count_nonzero(viol, axis=1)
+        np.min(slack, axis=1, out=out[f"{p}.min_slack"])
+        np.subtract(hi, lo, out=slack)
+        np.max(slack, axis=1, out=out[f"{p}.max_width"])
+        out[f"{p}.first_violation"][:] = _first_time(viol, t, sl.start)
+        if anybroken:
+            out[f"{p}.min_slack"][broken] = -np.inf
+            out[f"{p}.max_width"][broken] = np.inf
+    for r in monitors.residuals:
+        sl = windows[r.name]
+        rv = arrays[r.name][:, sl]
+        np.max(np.abs(rv), axis=1, out=out[f"{r.name}.max_abs"])
+        if anybroken:
+            out[f"{r.name}.max_abs"][broken] = np.inf
+        if r.lower:
+            o = (rv < arrays[r.lower][:, sl]) | (rv > arrays[r.upper][:, sl])
+            out[f"{r.name}.exceedances"][:] = np.count_nonzero(o, axis=1)
+            out[f"{r.name}.first_exceedance"][:] = _first_time(o, t, sl.start)
+    if monitors.rule is not None:
+        rule = monitors.rule
+        dec = decide(rule, {n: arrays[n] for n in
+                            rule.residuals + rule.lower_names + rule.upper_names})
+        sl = windows["alarm"]
+        alarm = dec.alarm[:, sl]
+        out["alarm.first"][:] = _first_time(alarm, t, sl.start)
+        out["alarm.samples"][:] = np.count_nonzero(alarm, axis=1)
+        out["diagnosis.code"][:] = dec.code[:, sl.stop - 1]
+    out["finite"][:] = finite
     nf = np.full(R, np.nan)
     nf[broken] = t[first_bad[broken]]
-    values["nonfinite.first"] = nf
-    return RunSummaries(fields=monitors.fields, values={f.name: values[f.name] for f in monitors.fields})
+    out["nonfinite.first"][:] = nf
 
 
 # ---------------------------------------------------------------- ensemble statistics
@@ -826,6 +867,12 @@ class EnsembleStatistics:
 
     def __len__(self) -> int:
         return len(self._seen)
+
+    @property
+    def nbytes(self) -> int:
+        """The bytes of the stored per-run values, run indices and case indices (the set
+        of seen run indices, used to refuse a run added twice, comes on top)."""
+        return sum(a.nbytes for part in (self._runs, self._cases, self._values) for a in part)
 
     def _table(self):
         """(runs, case names, case index per run, values (n, F)), sorted by run; case
