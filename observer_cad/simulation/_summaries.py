@@ -824,7 +824,8 @@ class EnsembleStatistics:
         self._cases: list = []       # case index per chunk
         self._values: list = []
         self._case_names: list = []
-        self._seen: set = set()
+        self._seen = np.zeros(0, dtype=bool)   # which run indices were added
+        self._count = 0
         self._cache = None
 
     def add(self, runs, case: str, summaries) -> None:
@@ -854,10 +855,17 @@ class EnsembleStatistics:
             M[:, j] = v
         if np.unique(r).size != r.size:
             raise UsageError("EnsembleStatistics.add: a run index appears twice in one chunk")
-        again = self._seen.intersection(r.tolist())
-        if again:
-            raise UsageError(f"EnsembleStatistics.add: run {min(again)} was added before")
-        self._seen.update(r.tolist())
+        if r.size:
+            top = int(r.max()) + 1
+            if top > self._seen.size:      # one byte per run index, grown geometrically
+                grown = np.zeros(max(top, 2 * self._seen.size), dtype=bool)
+                grown[:self._seen.size] = self._seen
+                self._seen = grown
+            again = r[self._seen[r]]
+            if again.size:
+                raise UsageError(f"EnsembleStatistics.add: run {int(again.min())} was added before")
+            self._seen[r] = True
+        self._count += int(r.size)
         if case not in self._case_names:
             self._case_names.append(case)
         self._runs.append(r)
@@ -866,13 +874,14 @@ class EnsembleStatistics:
         self._cache = None
 
     def __len__(self) -> int:
-        return len(self._seen)
+        return self._count
 
     @property
     def nbytes(self) -> int:
-        """The bytes of the stored per-run values, run indices and case indices (the set
-        of seen run indices, used to refuse a run added twice, comes on top)."""
-        return sum(a.nbytes for part in (self._runs, self._cases, self._values) for a in part)
+        """The bytes stored: per-run values, run indices, case indices, and one byte per
+        run index up to the largest added (to refuse a run added twice)."""
+        return self._seen.nbytes + sum(a.nbytes for part in (self._runs, self._cases,
+                                                              self._values) for a in part)
 
     def _table(self):
         """(runs, case names, case index per run, values (n, F)), sorted by run; case
