@@ -183,8 +183,8 @@ def run(args) -> str:
               f" — target ≤ {TARGET_RESULT_S:g} s: {st['result'] / TARGET_RESULT_S:.2f}"
               f" ({'met' if ok else '**MISSED**'}) |",
               f"| `worst(field, k=10)` | {st['worst'] * 1e3:.3g} ms |",
-              f"| stored per run | {st['bytes_per_run']:.3g} bytes (8 per field + run index"
-              " + case) |",
+              f"| stored per run | {st['bytes_per_run']:.3g} bytes (8 per field, 8 for the"
+              " run index, 4 for the case, 1 to refuse a run added twice) |",
               "", f"Reproduce: `python3 benchmarks/bench_summaries.py --runs {args.runs}"
               f" --stat-runs {args.stat_runs} --write`."]
     return "\n".join(lines)
