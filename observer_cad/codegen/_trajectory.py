@@ -10,19 +10,23 @@ buffers::
                   double *S, double *Y, double *O);
     int NAME_batch(casadi_int R, casadi_int N, const double *t,
                    const double *BASE, const double *SU, const double *SN, const int *KIND,
-                   const uint64_t *KEYS, const double *P,
+                   const uint64_t *KEYS, const double *P, const double *S0,
                    double *S, double *Y, double *O, double *V);
 
 ``t`` (N) time grid (``h = t[i+1] - t[i]``, exactly as the reference simulator computes
 it), ``V`` (N, nv) the held signals (inputs, faults, disturbances, noise; C order), ``S``
 (N, ns) joint states — row 0 holds the initial state on entry — ``Y`` (N, ny) plant
 outputs, ``O`` (N, no) observer outputs.  ``NAME_batch`` runs R runs one after the other
-(arrays (R, N, ·)), generating each run's signals on the fly from the scenario's
+from their initial joint states ``S0`` (R, ns), with their parameters ``P`` (R, np), and
+writes one contiguous time series per run and column — ``S`` (R, ns, N), ``Y`` (R, ny,
+N), ``O`` (R, no, N), ``V`` (R, nv, N): what the per-run summaries read row by row —
+generating each run's signals on the fly from the scenario's
 :class:`~observer_cad.simulation.SignalProgram` — ``v = BASE + SU·U + SN·Z`` with the
 counter-based generator keyed by ``KEYS`` (R, 2·nv), the same bits as the numpy
 reference (:mod:`observer_cad.simulation` ``_random``) — and writes them into ``V``.
-Every step reads row i and writes row i + 1 of ``S`` directly: no copies, no casadi
-``DM`` round trips.  The loops are called through ctypes, which releases the GIL, so runs
+``NAME_traj`` reads row i and writes row i + 1 of ``S`` directly; ``NAME_batch`` steps on
+two small state buffers and scatters each step into the columns: no casadi ``DM`` round
+trips either way.  The loops are called through ctypes, which releases the GIL, so runs
 proceed on several threads at once (:meth:`CompiledSimulator.simulate` with ``runs=R``).
 
 :meth:`CompiledSimulator.simulate` returns the same
@@ -99,13 +103,14 @@ CASADI_SYMBOL_EXPORT int {name}_traj(casadi_int N, const casadi_real* t, const c
 
 CASADI_SYMBOL_EXPORT int {name}_batch(casadi_int R, casadi_int N, const casadi_real* t,
     const casadi_real* BASE, const casadi_real* SU, const casadi_real* SN, const int* KIND,
-    const uint64_t* KEYS, const casadi_real* P,
+    const uint64_t* KEYS, const casadi_real* P, const casadi_real* S0,
     casadi_real* S, casadi_real* Y, casadi_real* O, casadi_real* V) {{
   const casadi_real* arg[{sz_arg}];
   casadi_real* res[{sz_res}];
   casadi_int iw[{sz_iw}];
   casadi_real w[{sz_w}];
-  casadi_real last[{max(ns, 1)}];
+  casadi_real sa[{max(ns, 1)}], sb[{max(ns, 1)}], yb[{max(ny, 1)}], ob[{max(no, 1)}], v[{max(nv, 1)}];
+  casadi_real *cur, *nxt, *tmp;
   int rj[{max(nv, 1)}], nr = 0, q;
   casadi_real h;
   casadi_int r, i, j;
@@ -113,17 +118,20 @@ CASADI_SYMBOL_EXPORT int {name}_batch(casadi_int R, casadi_int N, const casadi_r
   for (i = 0; i < {sz_res}; ++i) res[i] = 0;
   for (j = 0; j < {nv}; ++j) if (KIND[j]) rj[nr++] = (int)j;
   for (r = 0; r < R; ++r) {{
+    /* run r: arrays (R, k, N), one contiguous time series per column */
     const uint64_t* key = KEYS + r * {2 * nv};
     casadi_real* Sr = S + r * N * {ns};
     casadi_real* Yr = Y + r * N * {ny};
     casadi_real* Or = O + r * N * {no};
     casadi_real* Vr = V + r * N * {nv};
+    cur = sa;
+    nxt = sb;
+    for (j = 0; j < {ns}; ++j) cur[j] = S0[r * {ns} + j];
     arg[2] = P + r * {npar};
     for (i = 0; i < N; ++i) {{
       /* this step's signals: the deterministic part, then the random ones (same
          arithmetic and order as SignalProgram.values) */
       const casadi_real* b = BASE + i * {nv};
-      casadi_real* v = Vr + i * {nv};
       for (j = 0; j < {nv}; ++j) v[j] = b[j];
       for (q = 0; q < nr; ++q) {{
         j = rj[q];
@@ -137,13 +145,18 @@ CASADI_SYMBOL_EXPORT int {name}_batch(casadi_int R, casadi_int N, const casadi_r
         }}
       }}
       h = (i + 1 < N) ? t[i + 1] - t[i] : 0.0;
-      arg[0] = Sr + i * {ns};
+      arg[0] = cur;
       arg[1] = v;
       arg[3] = &h;
-      res[0] = (i + 1 < N) ? Sr + (i + 1) * {ns} : last;
-      res[1] = Yr + i * {ny};
-      res[2] = Or + i * {no};
+      res[0] = nxt;
+      res[1] = yb;
+      res[2] = ob;
       if ({name}(arg, res, iw, w, 0)) return (int)(1 + r * N + i);
+      for (j = 0; j < {nv}; ++j) Vr[j * N + i] = v[j];
+      for (j = 0; j < {ns}; ++j) Sr[j * N + i] = cur[j];
+      for (j = 0; j < {ny}; ++j) Yr[j * N + i] = yb[j];
+      for (j = 0; j < {no}; ++j) Or[j * N + i] = ob[j];
+      tmp = cur; cur = nxt; nxt = tmp;
     }}
   }}
   return 0;
@@ -186,7 +199,7 @@ class TrajectoryEngine:
             except AttributeError:
                 raise CodegenError(f"{self.fname}_batch is missing from the library") from None
             fn.restype = ctypes.c_int
-            fn.argtypes = [ctypes.c_longlong, ctypes.c_longlong] + [_P] * 11
+            fn.argtypes = [ctypes.c_longlong, ctypes.c_longlong] + [_P] * 12
             self._batch = fn
         return self._batch
 
@@ -194,8 +207,9 @@ class TrajectoryEngine:
         """Runs of a scenario in one compiled call: ``program`` the
         :class:`~observer_cad.simulation.SignalProgram` on the grid ``t``, ``samples`` (R,)
         the sample indices (their random signals come from (seed, sample)), ``P`` (R, np)
-        run-time parameters, ``S0`` (R, ns) initial joint states.  Outputs (R, N, ·)
-        C-contiguous (created when None).  Returns ``(S, Y, O, V)``."""
+        run-time parameters, ``S0`` (R, ns) initial joint states.  Outputs ``S`` (R, ns, N),
+        ``Y`` (R, ny, N), ``O`` (R, no, N), ``V`` (R, nv, N) — one contiguous time series
+        per run and column — C-contiguous (created when None).  Returns ``(S, Y, O, V)``."""
         t = np.ascontiguousarray(t, dtype=np.float64)
         N = t.size
         samples = np.atleast_1d(np.asarray(samples, dtype=np.int64))
@@ -203,23 +217,23 @@ class TrajectoryEngine:
         if program.base.shape != (N, self.nv) or tuple(program.names) != self.inputs:
             raise UsageError("the signal program does not match this simulator's grid and signals")
         P = np.ascontiguousarray(P, dtype=np.float64).reshape(R, self.np)
-        S = np.empty((R, N, self.ns)) if S is None else S
-        Y = np.empty((R, N, self.ny)) if Y is None else Y
-        O = np.empty((R, N, self.no)) if O is None else O
-        V = np.empty((R, N, self.nv)) if V is None else V
+        S0 = np.ascontiguousarray(S0, dtype=np.float64).reshape(R, self.ns)
+        S = np.empty((R, self.ns, N)) if S is None else S
+        Y = np.empty((R, self.ny, N)) if Y is None else Y
+        O = np.empty((R, self.no, N)) if O is None else O
+        V = np.empty((R, self.nv, N)) if V is None else V
         for a, k, what in ((S, self.ns, "S"), (Y, self.ny, "Y"), (O, self.no, "O"), (V, self.nv, "V")):
-            if a.shape != (R, N, k) or a.dtype != np.float64 or not a.flags.c_contiguous \
+            if a.shape != (R, k, N) or a.dtype != np.float64 or not a.flags.c_contiguous \
                     or not a.flags.writeable:
-                raise UsageError(f"{what} must be a writeable C-contiguous float64 ({R}, {N}, {k}) array")
+                raise UsageError(f"{what} must be a writeable C-contiguous float64 ({R}, {k}, {N}) array")
         if N == 0 or R == 0:
             return S, Y, O, V
-        S[:, 0, :] = S0
         keys = stream_keys(seed, samples, np.arange(2 * self.nv))
         kind = np.array([(1 if program.random[j] else 0) | (2 if program.normal[j] else 0)
                          for j in range(self.nv)], dtype=np.intc)
         rc = self._function()(R, N, _buf(t), _buf(program.base), _buf(program.su),
-                              _buf(program.sn), _buf(kind), _buf(keys), _buf(P), _buf(S),
-                              _buf(Y), _buf(O), _buf(V))
+                              _buf(program.sn), _buf(kind), _buf(keys), _buf(P), _buf(S0),
+                              _buf(S), _buf(Y), _buf(O), _buf(V))
         if rc:
             r, i = divmod(rc - 1, N)
             raise CodegenError(f"{self.fname} failed at step {i} of run {int(samples[r])}")
@@ -324,7 +338,7 @@ class CompiledSimulator:
         fn.restype = ctypes.c_int
         fn.argtypes = [ctypes.c_longlong, _P, _P, _P, _P, _P, _P]
         batch.restype = ctypes.c_int
-        batch.argtypes = [ctypes.c_longlong, ctypes.c_longlong] + [_P] * 11
+        batch.argtypes = [ctypes.c_longlong, ctypes.c_longlong] + [_P] * 12
         self._lib, self._fn, self._batch, self._fname = lib, fn, batch, fname
 
     @property
@@ -468,10 +482,10 @@ class CompiledSimulator:
         N = t.size
         d = self.draws(scenario, R, first_run=first_run, samples=samples)
         S0 = np.concatenate([d.x0, d.xi0], axis=1)
-        S = np.empty((R, N, self.ns))
-        Y = np.empty((R, N, self.ny))
-        O = np.empty((R, N, self.no))
-        V = np.empty((R, N, self.nv))
+        S = np.empty((R, self.ns, N))
+        Y = np.empty((R, self.ny, N))
+        O = np.empty((R, self.no, N))
+        V = np.empty((R, self.nv, N))
         ks = d.samples
 
         def block(a, b):
@@ -495,22 +509,23 @@ class CompiledSimulator:
         return res
 
     def _result(self, t, R, N, V, S, Y, O, runs, keep_nonfinite=False, where=None, finite=None):
+        """The SimulationResult of arrays (R, k, N) (columns are views)."""
         m, observer = self.model, self.observer
         cols = {"t": np.broadcast_to(t, (R, N)).copy()}
         for j, s in enumerate(m.states):
-            cols[s.name] = S[:, :, j]
+            cols[s.name] = S[:, j, :]
         ys = output_symbols(len(m.outputs))
         for j, y in enumerate(ys):
-            cols[str(y)] = Y[:, :, j]
+            cols[str(y)] = Y[:, j, :]
         for j, s in enumerate(self.inputs):
-            cols[s.name] = V[:, :, j]
+            cols[s.name] = V[:, j, :]
         order = ["t"] + [s.name for s in m.states] + [str(y) for y in ys] + \
             [s.name for s in self.inputs if s not in m.noise]
         delays = {}
         if observer is not None:
             for j, (name, _) in enumerate(observer.outputs):
                 delays[name] = int(observer.delays.get(name, 0))
-                cols[name] = align_delay(O[:, :, j], delays[name])
+                cols[name] = align_delay(O[:, j, :], delays[name])
                 order.append(name)
         if self._units is None:  # the units depend on the names only
             self._units = column_units(m, observer, cols)
