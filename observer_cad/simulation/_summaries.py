@@ -460,8 +460,12 @@ def _first_time(mask: np.ndarray, t: np.ndarray, offset: int) -> np.ndarray:
 
 
 def _c(a: np.ndarray) -> np.ndarray:
-    """A C-contiguous float64 (R, n) array: reductions along axis 1 then sum each row in
-    the same order whatever R is (bit-identical per row)."""
+    """A float64 (R, n) array whose rows are contiguous (C-contiguous, or a view of
+    contiguous rows such as ``S[:, j, :]`` of the compiled batch's (R, k, N) arrays, used
+    as is): reductions along axis 1 then sum each row in the same order whatever R is
+    (bit-identical per row; tested)."""
+    if a.dtype == np.float64 and a.ndim == 2 and (a.shape[1] <= 1 or a.strides[1] == 8):
+        return a
     return np.ascontiguousarray(a, dtype=np.float64)
 
 

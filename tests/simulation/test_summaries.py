@@ -283,6 +283,10 @@ def test_a_rows_summary_does_not_depend_on_its_batch(R, seed, data):
     single = np.concatenate([summarise(mon, {n: cols[n][i] for n in names}, t).matrix()
                              for i in range(R)])
     fortran = summarise(mon, {n: np.asfortranarray(cols[n]) for n in names}, t).matrix()
+    # the compiled batch's layout (R, C, N): views of contiguous rows, used without a copy
+    K = np.ascontiguousarray(np.stack([cols[n] for n in names], axis=1))
+    rowviews = summarise(mon, {n: K[:, j, :] for j, n in enumerate(names)}, t).matrix()
+    assert whole.view(np.uint64).tolist() == rowviews.view(np.uint64).tolist()
     assert whole.view(np.uint64).tolist() == split.view(np.uint64).tolist()
     assert whole.view(np.uint64).tolist() == single.view(np.uint64).tolist()
     assert whole.view(np.uint64).tolist() == fortran.view(np.uint64).tolist()
