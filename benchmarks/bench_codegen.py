@@ -73,7 +73,7 @@ import scipy  # noqa: E402
 import scipy.signal  # noqa: E402
 import sympy as sp  # noqa: E402
 
-from observer_cad.codegen import CompiledSimulator, compile_function
+from observer_cad.codegen import CompiledSimulator, compile_function, joint_step
 from observer_cad.codegen import compile_source
 from observer_cad.model import load_model
 from observer_cad.observers import output_symbols
@@ -420,9 +420,12 @@ def bench_case(title, path, primary, fallback, scen, a):
     run.restype = ctypes.c_int
     run.argtypes = [ctypes.c_longlong] + [ctypes.c_void_p] * 5
     K = a.k
-    Fm = compile_function(cs.step.mapaccum(K), cache=cache).function
-    step_c = compile_function(cs.step, cache=cache).function
-    step_i = cs.step
+    # the per-step routes use the joint step with the parameters substituted (s, v, h),
+    # as before issue 16 (the trajectory library takes them at run time: s, v, p, h)
+    js = joint_step(m, o)
+    Fm = compile_function(js.mapaccum(K), cache=cache).function
+    step_c = compile_function(js, cache=cache).function
+    step_i = js
 
     # ---- inputs: N grid points, signals as the reference simulator builds them
     N = a.n
