@@ -4,8 +4,8 @@
 
 (runs bench_synthesis.py --write, bench_analyze.py --write, bench_exact.py --write,
 bench_codegen.py --write, bench_poles.py --write, bench_scale.py --write,
-bench_decisions.py --write, bench_latency.py --write, then
-bench_jordan_minimality.py --write; each rewrites its own section atomically).
+bench_decisions.py --write, bench_latency.py --write, bench_jordan_minimality.py --write,
+then bench_backends.py --write; each rewrites its own section atomically).
 """
 import subprocess
 import sys
@@ -16,7 +16,7 @@ HERE = Path(__file__).resolve().parent
 if __name__ == "__main__":
     for script in ("bench_synthesis.py", "bench_analyze.py", "bench_exact.py", "bench_codegen.py",
                    "bench_poles.py", "bench_scale.py", "bench_decisions.py",
-                   "bench_latency.py", "bench_jordan_minimality.py"):
+                   "bench_latency.py", "bench_jordan_minimality.py", "bench_backends.py"):
         print(f"== {script}", flush=True)
         rc = subprocess.call([sys.executable, str(HERE / script), "--write"] + sys.argv[1:])
         if rc:

@@ -38,6 +38,7 @@ import importlib.util
 import logging
 import os
 import pickle
+import signal
 import sys
 import threading
 from typing import Any, Callable, Iterator, Sequence
@@ -144,29 +145,102 @@ def map_chunks(task: Callable[[Any, Any], Any], payload: Any, chunks: Sequence, 
     if not isinstance(backend, Backend):
         raise UsageError(f"backend must be a Backend, got {type(backend).__name__}")
     chunks = list(chunks)
+    guard = _SigintGuard()
     if backend.kind == "serial":
-        return _serial(task, payload, chunks, progress)
+        return _guarded(_serial(task, payload, chunks, progress, guard), guard)
     if backend.kind == "dask":
-        return _dask(task, payload, chunks, backend, progress)
-    return _pool(task, payload, chunks, backend, progress)
+        return _guarded(_dask(task, payload, chunks, backend, progress, guard), guard)
+    return _guarded(_pool(task, payload, chunks, backend, progress, guard), guard)
 
 
-def _serial(task, payload, chunks, progress):
-    for n, chunk in enumerate(chunks, 1):
-        try:
-            result = task(payload, chunk)
-        except KeyboardInterrupt:
-            raise Interrupted(()) from None
-        if progress is not None:
-            progress(n)
-        yield chunk, result
+#: how often a waiting map looks for a held Ctrl-C (seconds)
+POLL = 0.05
+
+
+class _SigintGuard:
+    """Ctrl-C while a map runs (main thread, default SIGINT handler only).
+
+    A KeyboardInterrupt raised asynchronously inside ``concurrent.futures`` or loky
+    can leave a future's lock held (``wait`` acquires the locks of every future one by
+    one) and deadlock the shutdown that follows — seen here, 1 run in ~20.  So the
+    handler only *holds* the request; the map raises KeyboardInterrupt itself at a safe
+    point (:meth:`poll`, between timed waits, or when the caller asks for the next
+    pair).  Exceptions: while the task itself runs in the calling thread (the serial
+    backend, ``immediate``) and on a second Ctrl-C, it raises at once."""
+
+    def __init__(self):
+        self.immediate = False
+        self.requested = False
+        self.old = None
+
+    def __enter__(self):
+        if threading.current_thread() is threading.main_thread() and \
+                signal.getsignal(signal.SIGINT) is signal.default_int_handler:
+            self.old = signal.signal(signal.SIGINT, self._handler)
+        return self
+
+    def _handler(self, signum, frame):
+        if self.immediate or self.requested:
+            raise KeyboardInterrupt
+        self.requested = True
+
+    def poll(self) -> None:
+        """Raise KeyboardInterrupt here when a Ctrl-C is held."""
+        if self.requested:
+            raise KeyboardInterrupt
+
+    def __exit__(self, *exc):
+        if self.old is not None:
+            signal.signal(signal.SIGINT, self.old)
+            self.old = None
+        return False
+
+
+def _guarded(inner, guard):
+    """``inner`` (a map generator) with Ctrl-C delivered as :class:`Interrupted` from
+    inside it, whenever it arrives (see :class:`_SigintGuard`)."""
+    with guard, contextlib.closing(inner):
+        while True:
+            try:
+                try:
+                    guard.poll()
+                    item = next(inner)
+                except Interrupted:
+                    raise
+                except KeyboardInterrupt:  # held while the caller had the last pair
+                    item = inner.throw(KeyboardInterrupt())
+            except StopIteration:
+                return
+            except KeyboardInterrupt as exc:
+                if isinstance(exc, Interrupted):
+                    raise
+                raise Interrupted(()) from None
+            yield item
+
+
+def _serial(task, payload, chunks, progress, guard):
+    done = []
+    try:
+        for n, chunk in enumerate(chunks, 1):
+            guard.immediate = True  # the task runs here: Ctrl-C stops it at once
+            try:
+                result = task(payload, chunk)
+            finally:
+                guard.immediate = False
+            done.append((chunk, result))
+            if progress is not None:
+                progress(n)
+            done.pop()
+            yield chunk, result
+    except KeyboardInterrupt:
+        raise Interrupted(done) from None
 
 
 def _token(blob: bytes) -> str:
     return hashlib.sha256(blob).hexdigest()
 
 
-def _pool(task, payload, chunks, backend, progress):
+def _pool(task, payload, chunks, backend, progress, guard):
     """threads and loky processes: concurrent.futures executors."""
     if backend.kind == "threads":
         executor = cf.ThreadPoolExecutor(max_workers=backend.workers,
@@ -190,12 +264,15 @@ def _pool(task, payload, chunks, backend, progress):
             return executor.submit(_call_installed, token, task, chunk)
 
         def stop(interrupted):
-            if interrupted:  # kill the workers now; the next map starts fresh ones
-                executor.shutdown(wait=False, kill_workers=True)
+            if interrupted:  # kill the workers now (and wait for that: no orphans); the
+                # next map starts fresh ones
+                _kill_loky(executor)
             # otherwise the reusable pool stays warm for the next map (loky stops idle
             # workers after its timeout, 300 s)
 
     def cancel(fs):
+        if backend.kind == "processes":
+            return  # stop() kills the workers, loky fails what was pending
         for f in fs:
             f.cancel()  # only chunks not started yet can be cancelled
         if backend.kind == "threads":
@@ -205,15 +282,58 @@ def _pool(task, payload, chunks, backend, progress):
             with contextlib.suppress(KeyboardInterrupt):
                 cf.wait(fs)
 
-    yield from _drive(chunks, backend.workers, submit, stop, progress,
-                      wait=lambda fs: cf.wait(fs, return_when=cf.FIRST_COMPLETED)[0],
-                      cancel=cancel)
+    def drop(fs):
+        if backend.kind == "threads":
+            for f in fs:
+                f.cancel()
+
+    def wait(fs):
+        while True:
+            done = cf.wait(fs, timeout=POLL, return_when=cf.FIRST_COMPLETED)[0]
+            if done:
+                return done
+            guard.poll()
+
+    yield from _drive(chunks, backend.workers, submit, stop, progress, guard,
+                      wait=wait, cancel=cancel, drop=drop)
 
 
-def _drive(chunks, workers, submit, stop, progress, *, wait, cancel):
+def _kill_loky(executor) -> None:
+    """Shut a loky executor down killing its workers, waiting until they are gone.
+
+    Works around two races in loky's manager thread (joblib 1.5/1.6) that otherwise
+    kill that thread with a traceback on stderr — and in the first case leave the
+    workers running for ~40 s: a future cancelled by the caller makes its
+    ``flag_executor_shutting_down`` raise InvalidStateError, so pending futures are
+    not cancelled (the shutdown fails them itself); a work id still queued when the
+    pending items are dropped makes ``add_call_item_to_queue`` raise KeyError, so the
+    queue of work ids (not yet handed to a worker) is emptied first."""
+    ids = getattr(executor, "_work_ids", None)
+    if ids is not None:
+        with contextlib.suppress(Exception):
+            while True:
+                ids.get_nowait()
+    hook = threading.excepthook
+
+    def quiet(args):  # anything else is reported as usual
+        if not (args.thread is not None and args.thread.name == "ExecutorManagerThread"
+                and args.exc_type in (KeyError, cf.InvalidStateError)):
+            hook(args)
+
+    threading.excepthook = quiet
+    try:
+        executor.shutdown(wait=True, kill_workers=True)
+    finally:
+        threading.excepthook = hook
+
+
+def _drive(chunks, workers, submit, stop, progress, guard, *, wait, cancel, drop=None):
     """The bounded submit / wait / yield loop shared by every concurrent backend.
     ``submit(chunk) -> future``; ``wait(pending) -> futures completed`` (blocking until
-    at least one is); ``stop(interrupted)`` shuts the pool down."""
+    at least one is); ``cancel(pending)`` on Ctrl-C (may wait for running chunks),
+    ``drop(pending)`` on any other exit with work pending (default ``cancel``);
+    ``stop(interrupted)`` shuts the pool down."""
+    drop = drop or cancel
     limit = max(1, IN_FLIGHT_PER_WORKER * workers)
     todo = iter(chunks)
     pending: dict = {}
@@ -227,6 +347,7 @@ def _drive(chunks, workers, submit, stop, progress, *, wait, cancel):
                 if len(pending) >= limit:
                     break
             while pending:
+                guard.poll()
                 for f in wait(list(pending)):
                     ready.append((pending.pop(f), f))
                 while ready:
@@ -253,8 +374,7 @@ def _drive(chunks, workers, submit, stop, progress, *, wait, cancel):
             raise Interrupted(done) from None
         except BaseException:
             interrupted = True  # a failing task or a closed iterator: drop the rest now
-            for f in pending:
-                f.cancel()
+            drop(list(pending))
             raise
     finally:
         stop(interrupted)
@@ -263,7 +383,7 @@ def _drive(chunks, workers, submit, stop, progress, *, wait, cancel):
 _END = object()
 
 
-def _dask(task, payload, chunks, backend, progress):
+def _dask(task, payload, chunks, backend, progress, guard):
     try:
         import distributed
     except ImportError:
@@ -282,24 +402,29 @@ def _dask(task, payload, chunks, backend, progress):
                 raise UsageError(f"cannot connect to the Dask scheduler at"
                                  f" {backend.address}: {exc}") from None
         remote = client.scatter(payload, broadcast=True)
-        ac = distributed.as_completed()
         # a cluster of W workers (an existing one may have more than backend.workers)
         workers = max(1, len(client.scheduler_info().get("workers", {})) or backend.workers)
 
         def submit(chunk):
-            f = client.submit(_call_with, task, remote, chunk, pure=False)
-            ac.add(f)
-            return f
+            return client.submit(_call_with, task, remote, chunk, pure=False)
 
         def wait(pending):
-            return [next(ac)]
+            while True:
+                try:
+                    done = distributed.wait(pending, timeout=POLL,
+                                            return_when="FIRST_COMPLETED").done
+                except TimeoutError:
+                    done = ()
+                if done:
+                    return done
+                guard.poll()
 
         def cancel(fs):
             if fs:
                 client.cancel(fs)
 
         yield from _drive(chunks, workers, submit, lambda interrupted: None, progress,
-                          wait=wait, cancel=cancel)
+                          guard, wait=wait, cancel=cancel)
 
 
 # --- progress bar ------------------------------------------------------------------------

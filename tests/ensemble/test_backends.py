@@ -187,7 +187,7 @@ def test_interrupt_leaves_finished_results(kind, tmp_path):
     assert len(yielded) + len(done) < 400
     if kind == "threads":
         # the two chunks running in threads finish and are handed back
-        assert len(done) == 2
+        assert len(done) >= 2
     else:
         assert os.getpid() not in rep["pids"]
         for pid in rep["pids"]:  # no orphan workers (zombies awaiting a reaper are dead)
