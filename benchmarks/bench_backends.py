@@ -76,17 +76,15 @@ void bench_runs(long first, long count, long steps, double* out) {
 }
 """
 
-_FN: dict = {}
-
-
 def _function(spec):
-    fn = _FN.get(spec.key)
-    if fn is None:
-        fn = load_library(spec).bench_runs
+    """The loop, from this process's load_library memo (its argtypes set once: ctypes
+    keeps the function object on the library).  No module-level memo: the task is
+    pickled by value from __main__, with the globals it uses."""
+    fn = load_library(spec).bench_runs
+    if fn.argtypes is None:
         fn.restype = None
         fn.argtypes = [ctypes.c_long, ctypes.c_long, ctypes.c_long,
                        np.ctypeslib.ndpointer(np.float64, flags="C_CONTIGUOUS")]
-        _FN[spec.key] = fn
     return fn
 
 

@@ -327,13 +327,15 @@ def _kill_loky(executor) -> None:
         threading.excepthook = hook
 
 
-def _drive(chunks, workers, submit, stop, progress, guard, *, wait, cancel, drop=None):
+def _drive(chunks, workers, submit, stop, progress, guard, *, wait, cancel, drop=None,
+           result=None):
     """The bounded submit / wait / yield loop shared by every concurrent backend.
     ``submit(chunk) -> future``; ``wait(pending) -> futures completed`` (blocking until
     at least one is); ``cancel(pending)`` on Ctrl-C (may wait for running chunks),
     ``drop(pending)`` on any other exit with work pending (default ``cancel``);
     ``stop(interrupted)`` shuts the pool down."""
     drop = drop or cancel
+    result_of = result or (lambda f: f.result())
     limit = max(1, IN_FLIGHT_PER_WORKER * workers)
     todo = iter(chunks)
     pending: dict = {}
@@ -352,7 +354,7 @@ def _drive(chunks, workers, submit, stop, progress, guard, *, wait, cancel, drop
                     ready.append((pending.pop(f), f))
                 while ready:
                     chunk, f = ready[0]
-                    result = f.result()  # a task's exception propagates here
+                    result = result_of(f)  # a task's exception propagates here
                     ready.pop(0)
                     completed += 1
                     nxt = next(todo, _END)
@@ -368,7 +370,7 @@ def _drive(chunks, workers, submit, stop, progress, guard, *, wait, cancel, drop
             for chunk, f in ready + [(c, f) for f, c in pending.items()]:
                 if f.done() and not f.cancelled():
                     try:
-                        done.append((chunk, f.result()))
+                        done.append((chunk, result_of(f)))
                     except BaseException:  # noqa: BLE001 - a failed chunk is not finished
                         pass
             raise Interrupted(done) from None
@@ -405,18 +407,26 @@ def _dask(task, payload, chunks, backend, progress, guard):
         # a cluster of W workers (an existing one may have more than backend.workers)
         workers = max(1, len(client.scheduler_info().get("workers", {})) or backend.workers)
 
+        # results are pushed to this process as they complete (one message per
+        # chunk, no round trip per result)
+        ac = distributed.as_completed(with_results=True)
+        got: dict = {}
+
         def submit(chunk):
-            return client.submit(_call_with, task, remote, chunk, pure=False)
+            f = client.submit(_call_with, task, remote, chunk, pure=False)
+            ac.add(f)
+            return f
 
         def wait(pending):
             while True:
-                try:
-                    done = distributed.wait(pending, timeout=POLL,
-                                            return_when="FIRST_COMPLETED").done
-                except TimeoutError:
-                    done = ()
-                if done:
-                    return done
+                with ac.thread_condition:
+                    if not ac.has_ready():
+                        ac.thread_condition.wait(timeout=POLL)
+                if ac.has_ready():
+                    batch = ac.next_batch(block=False)  # a failed task raises here
+                    for f, r in batch:
+                        got[f.key] = r
+                    return [f for f, _ in batch]
                 guard.poll()
 
         def cancel(fs):
@@ -424,7 +434,7 @@ def _dask(task, payload, chunks, backend, progress, guard):
                 client.cancel(fs)
 
         yield from _drive(chunks, workers, submit, lambda interrupted: None, progress,
-                          guard, wait=wait, cancel=cancel)
+                          guard, wait=wait, cancel=cancel, result=lambda f: got.pop(f.key))
 
 
 # --- progress bar ------------------------------------------------------------------------
