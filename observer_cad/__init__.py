@@ -2,7 +2,8 @@
 
 The package reads as the pipeline, each stage importing only from earlier ones::
 
-    model → numerics → synthesis → observers → simulation → codegen → reporting → cli
+    model → numerics → synthesis → observers → simulation → codegen → ensemble
+    → reporting → cli
 
 The everyday API is re-exported here::
 

@@ -50,6 +50,7 @@ from ..model import PlantModel
 from ..observers import Observer, output_symbols
 from ..simulation import (RANDOM_C, Scenario, SimulationResult, align_delay, check_memory, column_units,
                           draw_plan, finish_result, parameter_layout, signal_program, stream_keys)
+from ._library import LibrarySpec, load_library
 from ._compile import CACHE_LOCK, FLAGS, STATS, CodegenError, compile_source, fingerprint, forget_fingerprint, generate_c, lookup_fingerprint, record_fingerprint, size_aware_flags
 from ._translate import describe, joint_identity, joint_step, joint_step_name
 
@@ -410,13 +411,18 @@ class CompiledSimulator:
     def _dims(self) -> tuple:
         return (self.ns, self.ny, self.no, self.nv, self.np)
 
-    def run_batch(self, t, program, seed: int, samples, P, S0, **out):
-        """:meth:`TrajectoryEngine.run_batch` on this simulator's library."""
+    def local_engine(self) -> TrajectoryEngine:
+        """The compiled loops as a :class:`TrajectoryEngine` for this process only (no
+        library spec: not for other processes; threads share it)."""
         if self._local is None:
             eng = TrajectoryEngine(None, self._fname, self._dims(), tuple(s.name for s in self.inputs))
             eng._batch = self._batch
             self._local = eng
-        return self._local.run_batch(t, program, seed, samples, P, S0, **out)
+        return self._local
+
+    def run_batch(self, t, program, seed: int, samples, P, S0, **out):
+        """:meth:`TrajectoryEngine.run_batch` on this simulator's library."""
+        return self.local_engine().run_batch(t, program, seed, samples, P, S0, **out)
 
     # ------------------------------------------------------------------ scenarios
     def program(self, scenario: Scenario, case: str | None = None):

@@ -28,8 +28,8 @@ import numpy as np
 from ..errors import ObserverCadError, UsageError
 from ..model import PlantModel
 from ..observers import DecisionRule, Observer, output_symbols
-from ..simulation import (EnsembleStatistics, Monitors, RunSummaries, Scenario, SignalProgram,
-                          align_delay, draw_runs, monitors, signal_program, simulate, summarise)
+from ..simulation import (DrawPlan, EnsembleStatistics, Monitors, RunSummaries, Scenario,
+                          align_delay, monitors, signal_program, simulate, summarise)
 from ._backends import Backend, Interrupted, map_chunks
 
 __all__ = ["Chunk", "EnsembleResult", "run_ensemble", "replay", "ReplayError", "ENGINES",
@@ -46,15 +46,13 @@ class ReplayError(ObserverCadError):
 
 @dataclasses.dataclass(frozen=True)
 class Chunk:
-    """Samples ``first … first + count − 1`` of case ``case`` (an index into the cases);
-    ``P`` (count, np) and ``S0`` (count, ns): their run-time parameters and initial joint
-    states, drawn by the main process."""
+    """Samples ``first … first + count − 1`` of case ``case`` (an index into the cases).
+    The worker draws their parameters and initial states itself (from (seed, sample):
+    the same values wherever it runs)."""
 
     case: int
     first: int
     count: int
-    P: np.ndarray
-    S0: np.ndarray
 
     def samples(self) -> np.ndarray:
         return np.arange(self.first, self.first + self.count)
@@ -82,16 +80,17 @@ def _layout(model: PlantModel, observer: Observer | None) -> _Layout:
 
 
 def _columns(layout: _Layout, S, Y, O, V) -> dict:
-    """The columns of a chunk as views of the joint arrays (delayed outputs shifted)."""
+    """The columns of a chunk, (R, N) views of the batch's (R, k, N) arrays (contiguous
+    rows; delayed outputs shifted)."""
     cols = {}
     for j, name in enumerate(layout.states):
-        cols[name] = S[:, :, j]
+        cols[name] = S[:, j, :]
     for j, name in enumerate(layout.outputs):
-        cols[name] = Y[:, :, j]
+        cols[name] = Y[:, j, :]
     for j, name in enumerate(layout.inputs):
-        cols[name] = V[:, :, j]
+        cols[name] = V[:, j, :]
     for j, (name, k) in enumerate(zip(layout.observer, layout.delays)):
-        cols[name] = align_delay(O[:, :, j], k)
+        cols[name] = align_delay(O[:, j, :], k)
     return cols
 
 
@@ -102,6 +101,8 @@ class _Payload:
     engine: object
     t: np.ndarray
     programs: tuple
+    plan: DrawPlan
+    runs: int
     seed: int
     monitors: Monitors
     layout: _Layout
@@ -111,23 +112,25 @@ _BUFFERS = threading.local()
 
 
 def _buffers(R, N, engine):
-    """Per-thread trajectory buffers, reused from chunk to chunk (allocating and
-    page-faulting megabytes per chunk costs as much as simulating it)."""
+    """Per-thread trajectory buffers (R, k, N), reused from chunk to chunk (allocating
+    and page-faulting megabytes per chunk costs as much as simulating it)."""
     shape = (R, N, engine.ns, engine.ny, engine.no, engine.nv)
     got = getattr(_BUFFERS, "arrays", None)
     if got is None or got[0] != shape:
-        got = (shape, np.empty((R, N, engine.ns)), np.empty((R, N, engine.ny)),
-               np.empty((R, N, engine.no)), np.empty((R, N, engine.nv)))
+        got = (shape, np.empty((R, engine.ns, N)), np.empty((R, engine.ny, N)),
+               np.empty((R, engine.no, N)), np.empty((R, engine.nv, N)))
         _BUFFERS.arrays = got
     return got[1:]
 
 
 def _compiled_chunk(payload: _Payload, chunk: Chunk) -> RunSummaries:
-    """One chunk on the compiled engine: simulate, then reduce to per-run summaries."""
+    """One chunk on the compiled engine: draw, simulate, reduce to per-run summaries."""
     N = payload.t.size
+    d = payload.plan.draw(chunk.samples(), total=payload.runs)
+    S0 = np.concatenate([d.x0, d.xi0], axis=1)
     S, Y, O, V = _buffers(chunk.count, N, payload.engine)
     payload.engine.run_batch(payload.t, payload.programs[chunk.case], payload.seed,
-                             chunk.samples(), chunk.P, chunk.S0, S=S, Y=Y, O=O, V=V)
+                             d.samples, d.P, S0, S=S, Y=Y, O=O, V=V)
     return summarise(payload.monitors, _columns(payload.layout, S, Y, O, V), payload.t)
 
 
@@ -216,7 +219,8 @@ def run_ensemble(model: PlantModel, observer: Observer, scenario: Scenario, *, r
     ignore samples before this time. ``rule``: a decision rule for alarm summaries
     (thresholds must be columns). ``keep``: replay the ``keep`` worst runs by
     ``worst_by`` (default the first summary field) and keep their trajectories.
-    ``progress(n)``: called with the number of runs of every finished chunk.
+    ``progress(n)``: called with the number of runs of every finished chunk (in this
+    thread).
     ``simulator``: a :class:`~observer_cad.codegen.CompiledSimulator` already built.
 
     A Ctrl-C stops the ensemble: the result then holds the finished runs
@@ -239,8 +243,9 @@ def run_ensemble(model: PlantModel, observer: Observer, scenario: Scenario, *, r
         from ..codegen import CompiledSimulator
         sim = simulator if simulator is not None else CompiledSimulator(model, observer)
         programs = tuple(signal_program(model, scenario, t, case=c) for c in cases)
-        payload = _Payload(sim.engine(), t, programs, int(scenario.seed), mon,
-                           _layout(model, observer))
+        payload = _Payload(sim.engine() if backend.kind in ("processes", "dask") else
+                           sim.local_engine(), t, programs, sim.plan(scenario), runs,
+                           int(scenario.seed), mon, _layout(model, observer))
         task = _compiled_chunk
         desc = "compiled C" + (" (cache hit)" if sim.cached else "")
     else:
@@ -252,45 +257,35 @@ def run_ensemble(model: PlantModel, observer: Observer, scenario: Scenario, *, r
         payload = _ReferencePayload(model, observer, scenario, cases, runs, mon)
         task = _reference_chunk
         desc = "reference simulator (numpy)"
-    acc = None
+    acc = EnsembleStatistics(mon)
     done = 0
     interrupted = False
-
-    def chunks():
-        for c in range(len(cases)):
-            for first in range(0, runs, chunk):
-                n = min(chunk, runs - first)
-                d = draw_runs(model, observer, scenario, np.arange(first, first + n), total=runs)
-                yield Chunk(c, first, n, d.P, np.concatenate([d.x0, d.xi0], axis=1))
+    chunks = [Chunk(c, first, min(chunk, runs - first))
+              for c in range(len(cases)) for first in range(0, runs, chunk)]
 
     def take(ch: Chunk, summaries: RunSummaries):
-        nonlocal acc, done
-        if acc is None:
-            acc = EnsembleStatistics(summaries.fields)
+        nonlocal done
         acc.add(ch.case * runs + ch.samples(), cases[ch.case], summaries)
         done += ch.count
+        if progress is not None:
+            progress(ch.count)
 
     t0 = time.perf_counter()
     try:
-        for ch, summaries in map_chunks(task, payload, chunks(), backend=backend,
-                                        progress=progress):
+        for ch, summaries in map_chunks(task, payload, chunks, backend=backend):
             take(ch, summaries)
     except Interrupted as exc:
         interrupted = True
         for ch, summaries in exc.done:
-            if ch.case * runs + ch.first not in _taken(acc):
-                take(ch, summaries)
+            take(ch, summaries)
     seconds = time.perf_counter() - t0
-    if acc is None:
-        acc = EnsembleStatistics(summarise(mon, {}, t[:0]).fields) if False else None
-    if acc is None:
-        raise Interrupted(done=[]) if interrupted else UsageError("ensemble: no run finished")
     result = EnsembleResult(acc.result(), acc, runs, cases, done, interrupted, seconds, desc,
                             backend, chunk, int(scenario.seed), scenario.sampling)
-    if keep and not interrupted:
-        field = worst_by or acc.fields[0].name
+    if keep and not interrupted and done:
+        field = worst_by or mon.fields[0].name
+        mon.field(field)  # a clear error for an unknown field
         kept = []
-        for run in acc.worst(field, keep):
+        for run in acc.worst(field, min(keep, done)):
             case, k = result.locate(run)
             res = replay(model, observer, scenario, run, runs=runs, engine=engine,
                          simulator=sim if engine == "compiled" else None, monitors_=mon,
@@ -298,10 +293,6 @@ def run_ensemble(model: PlantModel, observer: Observer, scenario: Scenario, *, r
             kept.append((int(run), case, k, res))
         result = dataclasses.replace(result, kept=tuple(kept))
     return result
-
-
-def _taken(acc) -> set:
-    return set() if acc is None else set(acc.first_runs()) if hasattr(acc, "first_runs") else set()
 
 
 def replay(model: PlantModel, observer: Observer, scenario: Scenario, run: int, *, runs: int,
@@ -326,9 +317,12 @@ def replay(model: PlantModel, observer: Observer, scenario: Scenario, run: int, 
     if expect is not None:
         mon = monitors_ or monitors(model, observer, settle=settle, rule=rule)
         got = summarise(mon, res.columns, np.asarray(res["t"])[0])
-        want = expect.values_of(int(run))
+        cols = expect.columns()
+        at = np.flatnonzero(cols["run"] == int(run))
+        if not at.size:
+            raise UsageError(f"replay: run {run} is not in the ensemble's summaries")
         for f in got.fields:
-            a, b = float(got.values[f.name][0]), float(want[f.name])
+            a, b = float(got.values[f.name][0]), float(cols[f.name][at[0]])
             if not (a == b or (math.isnan(a) and math.isnan(b))):
                 raise ReplayError(f"replay of run {run}: {f.name} = {a!r}, the ensemble recorded"
                                   f" {b!r}")

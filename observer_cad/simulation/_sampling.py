@@ -316,9 +316,10 @@ def _uniforms(method, seed, samples, d, total):
 @dataclasses.dataclass(frozen=True, eq=False)
 class DrawPlan:
     """How a scenario's per-run quantities are drawn (validated once; :meth:`draw` is
-    cheap and needs no sympy): ``quantities`` (kind, index, Distribution) in the fixed
-    order of the module docstring; ``defaults`` the observer states initialised by the
-    observer's own map of x(0) (index, vectorised function)."""
+    cheap; picklable, so workers draw their own chunks): ``quantities`` (kind, index,
+    Distribution) in the fixed order of the module docstring; ``defaults`` the observer
+    states initialised by the observer's own map of x(0) (index, expression, states; the
+    expression is lambdified once per process)."""
 
     quantities: tuple
     defaults: tuple
@@ -353,8 +354,8 @@ class DrawPlan:
                 x0[:, j] = v
             else:
                 xi0[:, j] = v
-        for j, f in self.defaults:  # the observer's initial map of x(0)
-            xi0[:, j] = f(*(x0[:, i] for i in range(self.nx)))
+        for j, e, xs in self.defaults:  # the observer's initial map of x(0)
+            xi0[:, j] = _initial_function(e, xs)(*(x0[:, i] for i in range(self.nx)))
         plant = {name: P[:, j] for name, j in self.sampled}
         return RunDraws(samples, P, x0, xi0, plant)
 
@@ -402,8 +403,8 @@ def draw_plan(model: PlantModel, observer, scenario) -> DrawPlan:
         d = Distribution.of(opar[str(p)]) if str(p) in opar else \
             Distribution("fixed", float(observer.parameters[p]))
         quantities.append(("op", j, d))
-    defaults = tuple((j, _initial_map(observer, s, tuple(xs))) for j, s in enumerate(obs_states)
-                     if str(s) not in oinit)
+    defaults = tuple((j, sp.sympify(observer.initial.get(s, 0)), tuple(xs))
+                     for j, s in enumerate(obs_states) if str(s) not in oinit)
     sampled = tuple((p.name, layout.plant.index(p)) for p in layout.plant
                     if p.name in (scenario.parameters or {}))
     return DrawPlan(tuple(quantities), defaults, scenario.sampling, int(scenario.seed), len(xs),
@@ -415,10 +416,6 @@ def draw_runs(model: PlantModel, observer, scenario, samples, *, total: int | No
     """The per-run quantities of the sample indices ``samples`` (see the module
     docstring). ``total``: the number of samples of the ensemble (``"lhs"`` only)."""
     return draw_plan(model, observer, scenario).draw(samples, total=total)
-
-
-def _initial_map(observer, s, xs):
-    return _initial_function(sp.sympify(observer.initial.get(s, 0)), xs)
 
 
 @functools.lru_cache(maxsize=256)
