@@ -27,7 +27,7 @@ import threading
 import time
 from typing import Callable, TextIO
 
-__all__ = ["report", "reporting", "Reporter", "PROGRESS_ENV"]
+__all__ = ["report", "reporting", "Reporter", "PROGRESS_ENV", "silenced"]
 
 #: Set to 1 to print progress on a stream that is not a terminal.
 PROGRESS_ENV = "OBSERVER_CAD_PROGRESS"
@@ -123,3 +123,20 @@ def reporting(reporter: Reporter | None = None, **options):
         if beater is not None:
             beater.join(timeout=1.0)
         _current.reset(token)
+
+
+@contextlib.contextmanager
+def silenced():
+    """No progress line from the active reporter in the block (while a progress bar
+    draws on the same stream)."""
+    rep = _current.get()
+    if rep is None:
+        yield
+        return
+    with rep._lock:
+        was, rep.enabled = rep.enabled, False
+    try:
+        yield
+    finally:
+        with rep._lock:
+            rep.enabled = was

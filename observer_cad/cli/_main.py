@@ -679,7 +679,8 @@ def _cmd_ensemble(args) -> int:
     kind = args.backend or ("dask" if args.dask else "threads")
     if args.dask and kind != "dask":
         raise UsageError(f"--dask ADDRESS runs on Dask: drop --backend {kind}")
-    backend = Backend(kind, workers=args.workers, address=args.dask)
+    backend = Backend(kind, address=args.dask) if args.workers is None else \
+        Backend(kind, workers=args.workers, address=args.dask)
     model, result = _design_from_args(args)
     report("building the observer", stage=True)
     observer = build_observer(model, result, **_observer_options(args, result))
@@ -719,10 +720,11 @@ def _cmd_ensemble(args) -> int:
     total = args.runs * len(scenario.case_names)
     from ..ensemble import progress_bar
     t0 = _time.perf_counter()
-    with progress_bar(total, desc="runs") as bar:
+    from ..progress import silenced
+    with silenced(), progress_bar(total, desc="runs") as bar:
         res = run_ensemble(model, observer, scenario, runs=args.runs, engine=args.engine,
                            backend=backend, chunk=args.chunk, settle=args.settle, rule=rule,
-                           keep=args.keep, worst_by=args.worst_by, progress=bar,
+                           keep=args.keep, worst_by=args.worst_by, progress=bar.update,
                            simulator=sim)
     wall = _time.perf_counter() - t0
     from ..version import package_version

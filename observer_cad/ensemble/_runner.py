@@ -33,7 +33,7 @@ from ..simulation import (DrawPlan, EnsembleStatistics, Monitors, RunSummaries, 
 from ._backends import Backend, Interrupted, map_chunks
 
 __all__ = ["Chunk", "EnsembleResult", "run_ensemble", "replay", "ReplayError", "ENGINES",
-           "default_chunk", "CHUNK_BYTES"]
+           "default_chunk", "CHUNK_BYTES", "default_worst_field"]
 
 ENGINES = ("compiled", "reference")
 #: the default chunk keeps a worker's trajectory buffers near this size (they are reused)
@@ -197,6 +197,18 @@ def default_chunk(model: PlantModel, observer: Observer | None, scenario: Scenar
     return int(max(1, min(256, CHUNK_BYTES // max(1, n * cols * 8))))
 
 
+def default_worst_field(mon: Monitors) -> str:
+    """The field that ranks runs by default: an interval's smallest slack, else an
+    estimate's largest error, else a residual's samples out of its band (or its largest
+    magnitude), else the first field."""
+    names = [f.name for f in mon.fields]
+    for suffix in (".min_slack", ".max_error", ".exceedances", "alarm.samples", ".max_abs"):
+        for n in names:
+            if n.endswith(suffix):
+                return n
+    return names[0]
+
+
 def _whole(what, v, low):
     if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < low:
         raise UsageError(f"ensemble: {what} must be a whole number ≥ {low}, got {v!r}")
@@ -218,7 +230,7 @@ def run_ensemble(model: PlantModel, observer: Observer, scenario: Scenario, *, r
     ``chunk``: runs per chunk (default :func:`default_chunk`). ``settle``: summaries
     ignore samples before this time. ``rule``: a decision rule for alarm summaries
     (thresholds must be columns). ``keep``: replay the ``keep`` worst runs by
-    ``worst_by`` (default the first summary field) and keep their trajectories.
+    ``worst_by`` (default :func:`default_worst_field`) and keep their trajectories.
     ``progress(n)``: called with the number of runs of every finished chunk (in this
     thread).
     ``simulator``: a :class:`~observer_cad.codegen.CompiledSimulator` already built.
@@ -282,7 +294,7 @@ def run_ensemble(model: PlantModel, observer: Observer, scenario: Scenario, *, r
     result = EnsembleResult(acc.result(), acc, runs, cases, done, interrupted, seconds, desc,
                             backend, chunk, int(scenario.seed), scenario.sampling)
     if keep and not interrupted and done:
-        field = worst_by or mon.fields[0].name
+        field = worst_by or default_worst_field(mon)
         mon.field(field)  # a clear error for an unknown field
         kept = []
         for run in acc.worst(field, min(keep, done)):
@@ -300,14 +312,14 @@ def replay(model: PlantModel, observer: Observer, scenario: Scenario, run: int, 
            expect: EnsembleStatistics | None = None, settle: float = 0.0,
            rule: DecisionRule | None = None):
     """The full trajectories of run ``run`` of an ensemble of ``runs`` samples per case
-    (a :class:`~observer_cad.simulation.SimulationResult` with one run). With ``expect``
+    (a :class:`~observer_cad.simulation.SimulationResult` of one run: (N,) columns). With ``expect``
     (the ensemble's accumulator), the replayed run's summary must equal the recorded one
     bit for bit — :class:`ReplayError` otherwise."""
     cases = scenario.case_names
     c, k = divmod(_whole("run", run, 0), runs)
     if c >= len(cases):
         raise UsageError(f"ensemble: run {run} does not exist ({runs} runs × {len(cases)} cases)")
-    kw = dict(runs=1, first_run=k, case=cases[c], samples=runs, keep_nonfinite=True)
+    kw = dict(first_run=k, case=cases[c], samples=runs, keep_nonfinite=True)
     if engine == "compiled":
         from ..codegen import CompiledSimulator
         sim = simulator if simulator is not None else CompiledSimulator(model, observer)
@@ -316,7 +328,7 @@ def replay(model: PlantModel, observer: Observer, scenario: Scenario, run: int, 
         res = simulate(model, observer, scenario, **kw)
     if expect is not None:
         mon = monitors_ or monitors(model, observer, settle=settle, rule=rule)
-        got = summarise(mon, res.columns, np.asarray(res["t"])[0])
+        got = summarise(mon, res.columns, np.asarray(res["t"]))
         cols = expect.columns()
         at = np.flatnonzero(cols["run"] == int(run))
         if not at.size:
