@@ -119,7 +119,7 @@ def build_parser() -> argparse.ArgumentParser:
                     help="run on the Dask scheduler at ADDRESS (e.g. tcp://host:8786); workers load"
                          " the compiled library from their own cache (compiling it once if missing)")
     en.add_argument("--chunk", metavar="R", type=_positive_int("--chunk"), default=None,
-                    help="runs per chunk (default: trajectory buffers of about 8 MiB)")
+                    help="runs per chunk (default: trajectory buffers of about 32 MiB per worker)")
     en.add_argument("--engine", choices=["compiled", "reference"], default="compiled",
                     help="compiled (default) or the numpy reference simulator (validation; slow)")
     en.add_argument("--settle", metavar="T", type=_nonnegative_float("--settle"), default=0.0,

@@ -105,13 +105,16 @@ CASADI_SYMBOL_EXPORT int {name}_traj(casadi_int N, const casadi_real* t, const c
 CASADI_SYMBOL_EXPORT int {name}_batch(casadi_int R, casadi_int N, const casadi_real* t,
     const casadi_real* BASE, const casadi_real* SU, const casadi_real* SN, const int* KIND,
     const uint64_t* KEYS, const casadi_real* P, const casadi_real* S0,
-    casadi_real* S, casadi_real* Y, casadi_real* O, casadi_real* V) {{
+    casadi_real* S, casadi_real* Y, casadi_real* O, casadi_real* V, int* FIN) {{
   const casadi_real* arg[{sz_arg}];
   casadi_real* res[{sz_res}];
   casadi_int iw[{sz_iw}];
   casadi_real w[{sz_w}];
   casadi_real sa[{max(ns, 1)}], sb[{max(ns, 1)}], yb[{max(ny, 1)}], ob[{max(no, 1)}], v[{max(nv, 1)}];
   casadi_real *cur, *nxt, *tmp;
+  /* finiteness of the run: x - x is 0 for a finite x, NaN for NaN and ±inf (the
+     signals are finite whenever the program is: the caller checks it once) */
+  int bad;
   int rj[{max(nv, 1)}], nr = 0, q;
   casadi_real h;
   casadi_int r, i, j;
@@ -128,23 +131,30 @@ CASADI_SYMBOL_EXPORT int {name}_batch(casadi_int R, casadi_int N, const casadi_r
     cur = sa;
     nxt = sb;
     for (j = 0; j < {ns}; ++j) cur[j] = S0[r * {ns} + j];
+    bad = 0;
     arg[2] = P + r * {npar};
-    for (i = 0; i < N; ++i) {{
-      /* this step's signals: the deterministic part, then the random ones (same
-         arithmetic and order as SignalProgram.values) */
-      const casadi_real* b = BASE + i * {nv};
-      for (j = 0; j < {nv}; ++j) v[j] = b[j];
-      for (q = 0; q < nr; ++q) {{
-        j = rj[q];
-        if (KIND[j] & 1) {{
-          casadi_real su = SU[i * {nv} + j];
-          if (su != 0) v[j] += su * oc_uniform(key[2 * j], (long long)i);
-        }}
-        if (KIND[j] & 2) {{
-          casadi_real sn = SN[i * {nv} + j];
-          if (sn != 0) v[j] += sn * oc_normal(key[2 * j], key[2 * j + 1], (long long)i);
-        }}
+    /* the run's signals, column by column (BASE, SU, SN are (nv, N)): the deterministic
+       part, then the random ones — the arithmetic and order of SignalProgram.values */
+    for (j = 0; j < {nv}; ++j) {{
+      casadi_real* col = Vr + j * N;
+      const casadi_real* b = BASE + j * N;
+      for (i = 0; i < N; ++i) col[i] = b[i];
+    }}
+    for (q = 0; q < nr; ++q) {{
+      const uint64_t k1 = key[2 * rj[q]], k2 = key[2 * rj[q] + 1];
+      casadi_real* col = Vr + rj[q] * N;
+      if (KIND[rj[q]] & 1) {{
+        const casadi_real* su = SU + rj[q] * N;
+        for (i = 0; i < N; ++i) if (su[i] != 0) col[i] += su[i] * oc_uniform(k1, (long long)i);
       }}
+      if (KIND[rj[q]] & 2) {{
+        const casadi_real* sn = SN + rj[q] * N;
+        for (i = 0; i < N; ++i)
+          if (sn[i] != 0) col[i] += sn[i] * oc_normal(k1, k2, (long long)i);
+      }}
+    }}
+    for (i = 0; i < N; ++i) {{
+      for (j = 0; j < {nv}; ++j) v[j] = Vr[j * N + i];
       h = (i + 1 < N) ? t[i + 1] - t[i] : 0.0;
       arg[0] = cur;
       arg[1] = v;
@@ -153,12 +163,12 @@ CASADI_SYMBOL_EXPORT int {name}_batch(casadi_int R, casadi_int N, const casadi_r
       res[1] = yb;
       res[2] = ob;
       if ({name}(arg, res, iw, w, 0)) return (int)(1 + r * N + i);
-      for (j = 0; j < {nv}; ++j) Vr[j * N + i] = v[j];
-      for (j = 0; j < {ns}; ++j) Sr[j * N + i] = cur[j];
-      for (j = 0; j < {ny}; ++j) Yr[j * N + i] = yb[j];
-      for (j = 0; j < {no}; ++j) Or[j * N + i] = ob[j];
+      for (j = 0; j < {ns}; ++j) {{ Sr[j * N + i] = cur[j]; bad |= !(cur[j] - cur[j] == 0); }}
+      for (j = 0; j < {ny}; ++j) {{ Yr[j * N + i] = yb[j]; bad |= !(yb[j] - yb[j] == 0); }}
+      for (j = 0; j < {no}; ++j) {{ Or[j * N + i] = ob[j]; bad |= !(ob[j] - ob[j] == 0); }}
       tmp = cur; cur = nxt; nxt = tmp;
     }}
+    FIN[r] = !bad;
   }}
   return 0;
 }}
@@ -200,17 +210,20 @@ class TrajectoryEngine:
             except AttributeError:
                 raise CodegenError(f"{self.fname}_batch is missing from the library") from None
             fn.restype = ctypes.c_int
-            fn.argtypes = [ctypes.c_longlong, ctypes.c_longlong] + [_P] * 12
+            fn.argtypes = [ctypes.c_longlong, ctypes.c_longlong] + [_P] * 13
             self._batch = fn
         return self._batch
 
-    def run_batch(self, t, program, seed: int, samples, P, S0, *, S=None, Y=None, O=None, V=None):
+    def run_batch(self, t, program, seed: int, samples, P, S0, *, S=None, Y=None, O=None, V=None,
+                  finite=None):
         """Runs of a scenario in one compiled call: ``program`` the
         :class:`~observer_cad.simulation.SignalProgram` on the grid ``t``, ``samples`` (R,)
         the sample indices (their random signals come from (seed, sample)), ``P`` (R, np)
         run-time parameters, ``S0`` (R, ns) initial joint states.  Outputs ``S`` (R, ns, N),
         ``Y`` (R, ny, N), ``O`` (R, no, N), ``V`` (R, nv, N) — one contiguous time series
-        per run and column — C-contiguous (created when None).  Returns ``(S, Y, O, V)``."""
+        per run and column — C-contiguous (created when None); ``finite`` (R,) bool, set
+        True for the runs whose every value is finite (False: some value may not be —
+        check exactly).  Returns ``(S, Y, O, V)``."""
         t = np.ascontiguousarray(t, dtype=np.float64)
         N = t.size
         samples = np.atleast_1d(np.asarray(samples, dtype=np.int64))
@@ -232,9 +245,13 @@ class TrajectoryEngine:
         keys = stream_keys(seed, samples, np.arange(2 * self.nv))
         kind = np.array([(1 if program.random[j] else 0) | (2 if program.normal[j] else 0)
                          for j in range(self.nv)], dtype=np.intc)
-        rc = self._function()(R, N, _buf(t), _buf(program.base), _buf(program.su),
-                              _buf(program.sn), _buf(kind), _buf(keys), _buf(P), _buf(S0),
-                              _buf(S), _buf(Y), _buf(O), _buf(V))
+        fin = np.empty(R, dtype=np.intc)
+        base, su, sn = program.columns
+        rc = self._function()(R, N, _buf(t), _buf(base), _buf(su), _buf(sn),
+                              _buf(kind), _buf(keys), _buf(P), _buf(S0),
+                              _buf(S), _buf(Y), _buf(O), _buf(V), _buf(fin))
+        if finite is not None:
+            finite[:] = (fin != 0) & program.finite
         if rc:
             r, i = divmod(rc - 1, N)
             raise CodegenError(f"{self.fname} failed at step {i} of run {int(samples[r])}")
@@ -339,7 +356,7 @@ class CompiledSimulator:
         fn.restype = ctypes.c_int
         fn.argtypes = [ctypes.c_longlong, _P, _P, _P, _P, _P, _P]
         batch.restype = ctypes.c_int
-        batch.argtypes = [ctypes.c_longlong, ctypes.c_longlong] + [_P] * 12
+        batch.argtypes = [ctypes.c_longlong, ctypes.c_longlong] + [_P] * 13
         self._lib, self._fn, self._batch, self._fname = lib, fn, batch, fname
 
     @property
@@ -494,9 +511,11 @@ class CompiledSimulator:
         V = np.empty((R, self.nv, N))
         ks = d.samples
 
+        fin = np.zeros(R, dtype=bool)
+
         def block(a, b):
             self.run_batch(t, prog, scenario.seed, ks[a:b], d.P[a:b], S0[a:b],
-                           S=S[a:b], Y=Y[a:b], O=O[a:b], V=V[a:b])
+                           S=S[a:b], Y=Y[a:b], O=O[a:b], V=V[a:b], finite=fin[a:b])
 
         nthreads = min(R, threads or os.cpu_count() or 1)
         if nthreads > 1:
@@ -505,7 +524,7 @@ class CompiledSimulator:
                 list(ex.map(lambda ab: block(*ab), zip(edges[:-1], edges[1:])))
         else:
             block(0, R)
-        finite = all(np.isfinite(np.sum(a)) for a in (S, Y, O, V))  # raw arrays: one pass each
+        finite = bool(fin.all())  # the loop's column sums (else the exact search)
         res = self._result(t, R, N, V, S, Y, O, runs, keep_nonfinite, where=scenario.source,
                            finite=finite)
         if d.plant:

@@ -36,8 +36,10 @@ __all__ = ["Chunk", "EnsembleResult", "run_ensemble", "replay", "ReplayError", "
            "default_chunk", "CHUNK_BYTES", "default_worst_field"]
 
 ENGINES = ("compiled", "reference")
-#: the default chunk keeps a worker's trajectory buffers near this size (they are reused)
-CHUNK_BYTES = 8 * 1024 ** 2
+#: the default chunk keeps a worker's trajectory buffers near this size (they are reused;
+#: measured on the three-tank interval observer: chunks of 8, 29, 64, 128 runs gave 368,
+#: 308, 290, 284 µs per run and core — larger chunks amortise the per-chunk Python work)
+CHUNK_BYTES = 32 * 1024 ** 2
 
 
 class ReplayError(ObserverCadError):
@@ -129,9 +131,11 @@ def _compiled_chunk(payload: _Payload, chunk: Chunk) -> RunSummaries:
     d = payload.plan.draw(chunk.samples(), total=payload.runs)
     S0 = np.concatenate([d.x0, d.xi0], axis=1)
     S, Y, O, V = _buffers(chunk.count, N, payload.engine)
+    finite = np.zeros(chunk.count, dtype=bool)
     payload.engine.run_batch(payload.t, payload.programs[chunk.case], payload.seed,
-                             d.samples, d.P, S0, S=S, Y=Y, O=O, V=V)
-    return summarise(payload.monitors, _columns(payload.layout, S, Y, O, V), payload.t)
+                             d.samples, d.P, S0, S=S, Y=Y, O=O, V=V, finite=finite)
+    return summarise(payload.monitors, _columns(payload.layout, S, Y, O, V), payload.t,
+                     finite=finite)
 
 
 @dataclasses.dataclass(frozen=True, eq=False)

@@ -101,6 +101,18 @@ class SignalProgram:
     def nv(self) -> int:
         return len(self.names)
 
+    @functools.cached_property
+    def columns(self) -> tuple:
+        """(base, su, sn) as C-contiguous (nv, N) arrays: one time series per signal
+        (what the compiled loop reads)."""
+        return tuple(np.ascontiguousarray(a.T) for a in (self.base, self.su, self.sn))
+
+    @functools.cached_property
+    def finite(self) -> bool:
+        """Every coefficient is finite: then every signal sample is (U ∈ [0, 1), Z finite)."""
+        return bool(np.isfinite(self.base).all() and np.isfinite(self.su).all()
+                    and np.isfinite(self.sn).all())
+
     def values(self, seed: int, runs) -> np.ndarray:
         """The signals of ``runs`` (sample indices): array (R, N, nv)."""
         runs = np.atleast_1d(np.asarray(runs, dtype=np.int64))

@@ -469,7 +469,7 @@ def _c(a: np.ndarray) -> np.ndarray:
     return np.ascontiguousarray(a, dtype=np.float64)
 
 
-def summarise(monitors: Monitors, columns, t) -> RunSummaries:
+def summarise(monitors: Monitors, columns, t, *, finite=None) -> RunSummaries:
     """The per-run summaries of a chunk of runs.
 
     Parameters
@@ -481,6 +481,9 @@ def summarise(monitors: Monitors, columns, t) -> RunSummaries:
         fine); a single run's (N,) arrays count as R = 1.
     t : array (N,)
         The time grid (increasing).
+    finite : array (R,) of bool, optional
+        Runs already known to be finite in every value (the compiled loop's check): their
+        columns are not scanned again; the others are checked exactly.
 
     Returns
     -------
@@ -537,15 +540,24 @@ def summarise(monitors: Monitors, columns, t) -> RunSummaries:
         rule = monitors.rule
         windows["alarm"] = window(*(rule.residuals + rule.lower_names + rule.upper_names))
     values = {f.name: np.empty(R, dtype=np.float64) for f in monitors.fields}
+    known = None
+    if finite is not None:
+        known = np.asarray(finite, dtype=bool)
+        if known.shape != (R,):
+            raise UsageError(f"summarise: finite must have shape ({R},), got {known.shape}")
     # blocks of rows small enough for the cache: no large temporaries, and every row is
     # reduced on its own whatever the block (the result does not depend on R)
-    row_bytes = max([8 * N] + [abs(v.strides[0]) for v in arrays.values()])
+    # (a view of contiguous rows — the compiled batch's columns — is read in place: its
+    # rows count, not its parent's)
+    row_bytes = max([8 * N] + [abs(v.strides[0]) for v in arrays.values()
+                               if not (v.ndim == 2 and v.strides[1] == 8)])
     B = max(1, (8 * _BLOCK_ELEMENTS) // row_bytes)   # strided views: the parent's rows count
     with np.errstate(all="ignore"):
         for a in range(0, R, B):
             b = min(a + B, R)
             _summarise_block(monitors, {k: _c(v[a:b]) for k, v in arrays.items()}, t, N, windows,
-                             {k: v[a:b] for k, v in values.items()})
+                             {k: v[a:b] for k, v in values.items()},
+                             None if known is None else known[a:b])
     return RunSummaries(fields=monitors.fields, values=values)
 
 
@@ -557,23 +569,28 @@ _BLOCK_ELEMENTS = 131072
 
 
 def _summarise_block(monitors: Monitors, arrays: dict, t: np.ndarray, N: int, windows: dict,
-                     out: dict) -> None:
-    """The summaries of a block of rows, written into ``out`` (views of the result)."""
+                     out: dict, known=None) -> None:
+    """The summaries of a block of rows, written into ``out`` (views of the result);
+    ``known``: rows known to be finite (not scanned)."""
     delays = monitors.delays
     # finiteness over the whole run (the NaN tail of delayed outputs is not available)
     R = next(iter(out.values())).shape[0]
     finite = np.ones(R, dtype=bool)
     first_bad = np.full(R, N, dtype=np.int64)
-    for name in monitors.checked:
+    scan = np.arange(R) if known is None else np.flatnonzero(~known)
+    for name in monitors.checked if scan.size else ():
         if name not in arrays:
             continue
         v = arrays[name][:, :N - delays.get(name, 0)]
+        if scan.size < R:
+            v = v[scan]
         ok = np.isfinite(v).all(axis=1)
         if not ok.all():
             bad = ~ok
             idx = np.argmax(~np.isfinite(v[bad]), axis=1)
-            first_bad[bad] = np.minimum(first_bad[bad], idx)
-            finite &= ok
+            rows = scan[bad]
+            first_bad[rows] = np.minimum(first_bad[rows], idx)
+            finite[scan] &= ok
     broken = ~finite
     anybroken = bool(broken.any())
     for e in monitors.estimates:
