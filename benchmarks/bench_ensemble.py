@@ -12,7 +12,7 @@ precomputed signals (its signals and any reduction are not timed). Side by side 
 run: threads, a loky process pool, a Dask LocalCluster — same summaries bit for bit.
 
 (2) Peak memory: the maximum resident set of a fresh process running the ensemble with
---runs / 10 and --runs runs; the difference over the extra runs is the memory per run.
+--runs / 10 and 10 × --runs runs; the difference over the extra runs is the memory per run.
 
 (3) Scenario-in, result-out: ``CompiledSimulator.simulate(scenario)`` (signals, draws,
 compiled loop, finiteness check, result columns) against the raw compiled loop
@@ -200,9 +200,11 @@ def main():
         same = same and all(np.array_equal(same_d[k], same_t[k], equal_nan=True)
                             for k in same_t if k != "case")
     viol = res_t.statistics.overall.fields["x1.violations"]
-    b_small, a_small = memory(ROOT / "models" / "three_tank.py", TT_SCENARIO, a.runs // 10, W)
-    b_big, a_big = memory(ROOT / "models" / "three_tank.py", TT_SCENARIO, a.runs, W)
-    per_run = (a_big - a_small) * 1024 / max(1, a.runs - a.runs // 10)
+    small_n, big_n = a.runs // 10, a.runs * 10
+    b_small, a_small = memory(ROOT / "models" / "three_tank.py", TT_SCENARIO, small_n, W)
+    b_big, a_big = memory(ROOT / "models" / "three_tank.py", TT_SCENARIO, big_n, W)
+    per_run = (a_big - a_small) * 1024 / max(1, big_n - small_n)
+    stored = res_t.accumulator.nbytes / max(1, a.runs)
     lat = latency(cache, max(5, 3 * a.repeat))
     load1 = load()
 
@@ -239,9 +241,11 @@ def main():
         f" Inclusion: {viol.positive} of {viol.count:,} runs violate x1's interval"
         f" (x1.violations > 0).",
         "",
-        f"Peak memory (max RSS of a fresh process): {a.runs // 10:,} runs {a_small / 1024:.0f} MiB,"
-        f" {a.runs:,} runs {a_big / 1024:.0f} MiB: {per_run:,.0f} bytes per extra run (the"
-        f" per-run summaries; trajectories live only in the per-thread chunk buffers).",
+        f"Peak memory (max RSS of a fresh process, threads × {W}): {small_n:,} runs"
+        f" {a_small / 1024:.0f} MiB, {big_n:,} runs {a_big / 1024:.0f} MiB: {per_run:,.0f} bytes"
+        f" per extra run; the per-run summaries the accumulator stores: {stored:,.0f} bytes per"
+        f" run. Trajectories live only in the per-thread chunk buffers (reused), so memory is"
+        f" O(runs × summaries).",
         "",
         "Scenario-in, result-out (`CompiledSimulator.simulate(scenario)`, one thread) against"
         " the raw compiled loop (`run_arrays` on preallocated buffers, signals precomputed),"
