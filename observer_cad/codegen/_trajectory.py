@@ -288,6 +288,7 @@ class CompiledSimulator:
         self._engine = None
         self._local = None
         self._units = None
+        self._ys = None
         self._cc = cc
         self.translated = False
         self.inputs = list(m.inputs) + list(m.faults) + list(m.disturbances) + list(m.noise)
@@ -539,7 +540,9 @@ class CompiledSimulator:
         cols = {"t": np.broadcast_to(t, (R, N)).copy()}
         for j, s in enumerate(m.states):
             cols[s.name] = S[:, j, :]
-        ys = output_symbols(len(m.outputs))
+        if self._ys is None:
+            self._ys = output_symbols(len(m.outputs))
+        ys = self._ys
         for j, y in enumerate(ys):
             cols[str(y)] = Y[:, j, :]
         for j, s in enumerate(self.inputs):

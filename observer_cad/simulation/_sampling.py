@@ -343,6 +343,23 @@ class DrawPlan:
     nobs: int
     sampled: tuple  # (name, index in P) of the plant parameters the scenario sets
 
+    def _functions(self) -> tuple:
+        """The lambdified initial maps, kept on the plan once made in this process (not
+        pickled: a worker makes its own)."""
+        fns = self.__dict__.get("_fns")
+        if fns is None:
+            fns = tuple(_initial_function(e, xs) for _, e, xs in self.defaults)
+            self.__dict__["_fns"] = fns
+        return fns
+
+    def __getstate__(self):
+        state = dict(self.__dict__)
+        state.pop("_fns", None)
+        return state
+
+    def __setstate__(self, state):
+        self.__dict__.update(state)
+
     def draw(self, samples, *, total: int | None = None) -> RunDraws:
         samples = np.atleast_1d(np.asarray(samples, dtype=np.int64))
         R = samples.size
@@ -366,8 +383,10 @@ class DrawPlan:
                 x0[:, j] = v
             else:
                 xi0[:, j] = v
-        for j, e, xs in self.defaults:  # the observer's initial map of x(0)
-            xi0[:, j] = _initial_function(e, xs)(*(x0[:, i] for i in range(self.nx)))
+        if self.defaults:  # the observer's initial map of x(0)
+            fns = self._functions()
+            for (j, _, _), f in zip(self.defaults, fns):
+                xi0[:, j] = f(*(x0[:, i] for i in range(self.nx)))
         plant = {name: P[:, j] for name, j in self.sampled}
         return RunDraws(samples, P, x0, xi0, plant)
 
