@@ -2,6 +2,7 @@
 never half-written (a temporary file in the same folder, then ``os.replace``)."""
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 import tempfile
@@ -9,16 +10,25 @@ from pathlib import Path
 
 from .errors import UsageError
 
-__all__ = ["atomic_write_text", "read_json_file"]
+__all__ = ["atomic_write_text", "atomic_writer", "read_json_file"]
 
 
 def atomic_write_text(path: Path, text: str) -> None:
     """Write a file atomically: a temporary file in the same folder, then os.replace."""
+    with atomic_writer(path) as fh:
+        fh.write(text)
+
+
+@contextlib.contextmanager
+def atomic_writer(path: Path, *, encoding: str | None = None):
+    """A text stream to a temporary file in ``path``'s folder, renamed to ``path`` when
+    the block ends without an exception (removed otherwise): for files written
+    piecewise, e.g. streamed CSV."""
     path = Path(path)
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
     try:
-        with os.fdopen(fd, "w", newline="") as fh:
-            fh.write(text)
+        with os.fdopen(fd, "w", newline="", encoding=encoding) as fh:
+            yield fh
         os.replace(tmp, path)
     except BaseException:
         try:

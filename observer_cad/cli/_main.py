@@ -223,18 +223,6 @@ def _add_run_options(p) -> None:
                         " (replays a run of 'observer-cad ensemble'; default 0)")
 
 
-def _nonnegative_int(option):
-    def convert(text):
-        try:
-            v = int(text)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"{option} {text}: not a whole number") from None
-        if v < 0:
-            raise argparse.ArgumentTypeError(f"{option} {text}: must be ≥ 0")
-        return v
-    return convert
-
-
 def _nonnegative_float(option):
     def convert(text):
         import math
@@ -271,16 +259,26 @@ def _simulate_with_engine(args, model, observer, scenario):
     return simulate(model, observer, scenario, **kw), "reference simulator (numpy)"
 
 
-def _positive_int(option):
+def _whole(option, low: int):
+    """argparse type: a whole number ≥ ``low``."""
     def convert(text):
         try:
             v = int(text)
         except ValueError:
             raise argparse.ArgumentTypeError(f"{option} {text}: not a whole number") from None
-        if v < 1:
-            raise argparse.ArgumentTypeError(f"{option} {text}: must be at least 1")
+        if v < low:
+            raise argparse.ArgumentTypeError(f"{option} {text}: must be "
+                                             + ("at least 1" if low == 1 else f"≥ {low}"))
         return v
     return convert
+
+
+def _positive_int(option):
+    return _whole(option, 1)
+
+
+def _nonnegative_int(option):
+    return _whole(option, 0)
 
 
 def _threshold_from_args(args, model, observer, scenario=None):

@@ -16,13 +16,11 @@ from __future__ import annotations
 import csv
 import json
 import math
-import os
-import tempfile
 from pathlib import Path
 
 import numpy as np
 
-from ..files import atomic_write_text
+from ..files import atomic_write_text, atomic_writer
 from ._plots import save_figure
 
 __all__ = ["write_summary_csv", "write_statistics_json", "plot_ensemble_histograms",
@@ -49,24 +47,15 @@ def write_summary_csv(accumulator, out_dir, *, runs: int, seed: int) -> Path:
     path = out / SUMMARY_FILE
     cols = accumulator.columns()
     names = [f.name for f in accumulator.fields]
-    fd, tmp = tempfile.mkstemp(prefix=f".{SUMMARY_FILE}.", suffix=".tmp", dir=out)
-    try:
-        with os.fdopen(fd, "w", newline="", encoding="utf-8") as fh:
-            w = csv.writer(fh)
-            w.writerow(["run", "case", "sample", "seed"] + names)
-            run = cols["run"]
-            values = [cols[n] for n in names]
-            for i in range(run.size):
-                r = int(run[i])
-                w.writerow([r, cols["case"][i], r % runs, seed]
-                           + [_cell(float(v[i])) for v in values])
-        os.replace(tmp, path)
-    except BaseException:
-        try:
-            os.unlink(tmp)
-        except OSError:
-            pass
-        raise
+    with atomic_writer(path, encoding="utf-8") as fh:
+        w = csv.writer(fh)
+        w.writerow(["run", "case", "sample", "seed"] + names)
+        run = cols["run"]
+        values = [cols[n] for n in names]
+        for i in range(run.size):
+            r = int(run[i])
+            w.writerow([r, cols["case"][i], r % runs, seed]
+                       + [_cell(float(v[i])) for v in values])
     return path
 
 
