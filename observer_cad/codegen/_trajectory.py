@@ -145,7 +145,7 @@ CASADI_SYMBOL_EXPORT int {name}_batch(casadi_int R, casadi_int N, const casadi_r
       casadi_real* col = Vr + rj[q] * N;
       if (KIND[rj[q]] & 1) {{
         const casadi_real* su = SU + rj[q] * N;
-        for (i = 0; i < N; ++i) if (su[i] != 0) col[i] += su[i] * oc_uniform(k1, (long long)i);
+        for (i = 0; i < N; ++i) col[i] += su[i] * oc_uniform(k1, (long long)i);
       }}
       if (KIND[rj[q]] & 2) {{
         const casadi_real* sn = SN + rj[q] * N;

@@ -40,12 +40,15 @@ from ._random import PARAMETER_STREAMS, normal_samples, stream_keys, uniform_sam
 
 __all__ = ["Distribution", "SignalProgram", "signal_program", "RunDraws", "draw_runs",
            "parameter_layout", "ParameterLayout", "SAMPLING_METHODS", "NOMINAL_CASE",
-           "check_distribution", "DrawPlan", "draw_plan"]
+           "check_distribution", "DrawPlan", "draw_plan", "DECLARED"]
 
 #: how per-run quantities are drawn
 SAMPLING_METHODS = ("random", "sobol", "lhs")
 #: the case name of a scenario without ``"cases"``
 NOMINAL_CASE = "nominal"
+#: a parameter or signal drawn uniformly over the model's declared box
+#: (``uncertainty`` for a parameter, ``bounds`` for a disturbance or noise)
+DECLARED = "declared"
 _T = sp.Symbol("t")
 
 
@@ -134,10 +137,16 @@ def _is(spec, key) -> bool:
     return isinstance(spec, dict) and set(spec) == {key}
 
 
-def _coefficients(spec, t, where, name):
-    """(base, su, sn) arrays (N,) of one signal specification (already validated)."""
+def _coefficients(spec, t, where, name, bounds=None):
+    """(base, su, sn) arrays (N,) of one signal specification (already validated);
+    ``bounds`` the signal's declared (low, high) for ``"declared"``."""
     N = t.size
     zero = np.zeros(N)
+    if spec == DECLARED:
+        if bounds is None:
+            raise UsageError(f"{where}: signal '{name}' is \"declared\" but the model declares"
+                             " no bounds for it (bounds={...} in the model)")
+        spec = {"uniform": [float(bounds[0]), float(bounds[1])]}
     if _is(spec, "uniform"):
         lo, hi = (float(v) for v in spec["uniform"])
         return np.full(N, lo), np.full(N, hi - lo), zero
@@ -148,7 +157,7 @@ def _coefficients(spec, t, where, name):
         base, su, sn = np.zeros(N), np.zeros(N), np.zeros(N)
         taken = np.zeros(N, dtype=bool)
         for value, cond in spec["piecewise"]:
-            b, u, n = _coefficients(value, t, where, name)
+            b, u, n = _coefficients(value, t, where, name, bounds)
             if isinstance(cond, bool):
                 c = np.full(N, cond)
             else:
@@ -202,7 +211,8 @@ def signal_program(model: PlantModel, scenario, t: np.ndarray, *, case: str | No
             raise UsageError(f"{where}: signal '{key}' is not an input, fault, disturbance or"
                              f" noise of {model.name} (known: {', '.join(names) or 'none'})")
     t = np.asarray(t, dtype=float)
-    cols = [_coefficients(given.get(n, 0), t, where, n) for n in names]
+    declared = {s.name: b for s, b in (model.bounds or {}).items()}
+    cols = [_coefficients(given.get(n, 0), t, where, n, declared.get(n)) for n in names]
     N, nv = t.size, len(names)
 
     def stack(k):

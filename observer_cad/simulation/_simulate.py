@@ -42,7 +42,7 @@ from ..errors import NonFiniteError, UsageError
 from ..files import read_json_file
 from ..model import PlantModel, parse_expression
 from ..observers import Observer, output_symbols
-from ._sampling import (NOMINAL_CASE, SAMPLING_METHODS, check_distribution, draw_runs,
+from ._sampling import (DECLARED, NOMINAL_CASE, SAMPLING_METHODS, check_distribution, draw_runs,
                         parameter_layout, signal_program)
 
 __all__ = ["signal_arrays", "align_delay", "Scenario", "load_scenario", "scenario_from_dict",
@@ -95,6 +95,8 @@ def _whole(where, what, v):
 def _signal_spec(where, name, spec, depth=0):
     """Check one signal specification (and parse its expressions); nothing is evaluated."""
     what = f"signal '{name}'"
+    if spec == DECLARED:  # uniform over the model's declared bounds (checked with the model)
+        return
     if isinstance(spec, str):
         parse_expression(spec, {"t": T}, where=f"{where}: {what}")
         return

@@ -271,3 +271,16 @@ def test_ctrl_c_leaves_what_finished_readable(tmp_path, scen_file):
     done = stats["ensemble"]["completed"]
     rows = list(csv.DictReader(open(out / "summary.csv")))
     assert 0 < len(rows) == done < 400000
+
+
+def test_the_shipped_ensemble_scenario(tank):
+    """models/scenarios/three_tank_ensemble.json (the README's example): declared noise and
+    disturbances, two cases; no run leaves the interval."""
+    from observer_cad.simulation import load_scenario
+    m, o, sim, _ = tank
+    sc = load_scenario(MODELS / "scenarios" / "three_tank_ensemble.json")
+    res = run_ensemble(m, o, sc, runs=16, settle=5, backend=Backend("threads", workers=2),
+                       simulator=sim, keep=0)
+    assert res.cases == ("calm", "gusty") and res.completed == 32
+    assert res.statistics.overall.fields["x1.violations"].positive == 0
+    assert res.statistics.overall.fields["x1.min_slack"].min > 0

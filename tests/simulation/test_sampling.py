@@ -168,3 +168,18 @@ def test_reference_simulator_runs_are_batch_independent(drive):
     for c in whole.columns:
         np.testing.assert_array_equal(part[c], whole[c][3:5])
     np.testing.assert_array_equal(part.parameters["k5"], whole.parameters["k5"][3:5])
+
+
+def test_declared_signals_are_uniform_over_the_models_bounds():
+    m = load_model(MODELS / "three_tank.py")  # bounds: |rho| <= 0.5, |w| <= 0.01
+    sc = scenario_from_dict({"t_end": 1, "dt": 0.1, "signals": {
+        "rho1": "declared", "w1": {"piecewise": [["declared", "t < 0.5"], [0, True]]}}})
+    p = signal_program(m, sc, sc.grid(m.time))
+    j = {n: i for i, n in enumerate(p.names)}
+    assert np.all(p.base[:, j["rho1"]] == -0.5) and np.all(p.su[:, j["rho1"]] == 1.0)
+    assert np.all(p.su[:5, j["w1"]] == 0.02) and np.all(p.su[5:, j["w1"]] == 0)
+    v = p.values(1, np.arange(200))[:, :, j["rho1"]]
+    assert -0.5 <= v.min() and v.max() < 0.5 and v.std() > 0.25
+    bad = scenario_from_dict({"t_end": 1, "dt": 0.1, "signals": {"u1": "declared"}})
+    with pytest.raises(UsageError, match="signal 'u1' is \"declared\" but the model declares no bounds"):
+        signal_program(m, bad, bad.grid(m.time))
