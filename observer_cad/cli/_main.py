@@ -128,10 +128,12 @@ def build_parser() -> argparse.ArgumentParser:
                     help="replay the K worst runs (by --worst-by) and write their trajectories"
                          " to DIR/worst/run_<i>/ (default 1; 0: none)")
     en.add_argument("--worst-by", metavar="FIELD", default=None,
-                    help="the summary field that ranks runs (default: the first field)")
+                    help="the summary field that ranks runs (default: an interval's smallest"
+                         " slack, else an estimate's largest error, else a residual's samples"
+                         " out of its band, else the first field)")
     en.add_argument("--replay", metavar="RUN", type=_nonnegative_int("--replay"), default=None,
-                    help="only replay run RUN of this ensemble: write DIR/run_<RUN>/signals.csv,"
-                         " figures and its summary")
+                    help="only replay run RUN of this ensemble: write DIR/run_<RUN>/signals.csv"
+                         " and figures, and print its summary")
     _add_threshold_options(en, quantile=True)
 
     cg = sub.add_parser("codegen", help="export the observer as standalone C",
@@ -217,10 +219,13 @@ def _add_run_options(p) -> None:
                         " warning); reference: the numpy simulator (default compiled)")
     p.add_argument("--case", metavar="NAME", default=None,
                    help="the scenario's fault case to simulate (its \"cases\"; default the first)")
-    p.add_argument("--run", metavar="K", type=_nonnegative_int("--run"), default=0,
+    p.add_argument("--run", metavar="K", type=_nonnegative_int("--run"), default=None,
                    help="the sample to simulate: its random signals, parameters and initial"
                         " states are those of sample K of an ensemble with the same scenario"
                         " (replays a run of 'observer-cad ensemble'; default 0)")
+    p.add_argument("--samples", metavar="N", type=_positive_int("--samples"), default=None,
+                   help="with --run and \"sampling\": \"lhs\": the ensemble's --runs (a Latin"
+                        " hypercube's draws depend on its size)")
 
 
 def _nonnegative_float(option):
@@ -246,7 +251,14 @@ def _simulate_with_engine(args, model, observer, scenario):
     elif case is not None and case not in scenario.case_names:
         raise UsageError(f"{scenario.source}: no case '{case}' (cases:"
                          f" {', '.join(scenario.case_names)})")
-    kw = dict(keep_nonfinite=args.keep_nonfinite, first_run=args.run, case=case)
+    if scenario.sampling == "lhs" and args.run is not None and args.samples is None:
+        raise UsageError(f"{scenario.source}: with \"sampling\": \"lhs\" a run's draws depend on"
+                         " the ensemble's size: give --samples N (its --runs)")
+    if args.samples is not None and args.run is not None and args.run >= args.samples:
+        raise UsageError(f"--run {args.run} is not a sample of an ensemble of --samples"
+                         f" {args.samples}")
+    kw = dict(keep_nonfinite=args.keep_nonfinite, first_run=args.run or 0, case=case,
+              samples=args.samples)
     if args.engine == "compiled":
         from ..codegen import CodegenError, CompiledSimulator
         try:
@@ -281,7 +293,7 @@ def _nonnegative_int(option):
     return _whole(option, 0)
 
 
-def _threshold_from_args(args, model, observer, scenario=None):
+def _threshold_from_args(args, model, observer, scenario=None, *, seed=None):
     """The observer with the bands --threshold asks for (None: unchanged)."""
     if getattr(args, "threshold", None) is None:
         if getattr(args, "initial_error", "0") != "0":
@@ -298,7 +310,7 @@ def _threshold_from_args(args, model, observer, scenario=None):
         raise UsageError("--threshold quantile:RATE is estimated on a scenario: give --scenario FILE")
     report(f"computing the {spec.kind} threshold", stage=True)
     return apply_threshold(model, observer, spec, scenario=scenario, initial_error=e0,
-                           runs=getattr(args, "quantile_runs", 200))
+                           runs=getattr(args, "quantile_runs", 200), seed=seed)
 
 
 def _positive_float(option):
@@ -683,7 +695,9 @@ def _cmd_ensemble(args) -> int:
     report("building the observer", stage=True)
     observer = build_observer(model, result, **_observer_options(args, result))
     _refuse_failed(observer)
-    observer = _threshold_from_args(args, model, observer, scenario)
+    # a quantile threshold is estimated on other samples than the ones it is validated on
+    observer = _threshold_from_args(args, model, observer, scenario,
+                                    seed=(scenario.seed + CALIBRATION_OFFSET) % 2 ** 64)
     _refuse_failed(observer)
     rule = None
     if observer.threshold is not None:
@@ -691,7 +705,7 @@ def _cmd_ensemble(args) -> int:
         rule = decision_rule(model, result, persistence=args.persistence)
     elif args.persistence != 1:
         raise UsageError("--persistence applies with --threshold")
-    from ..ensemble import replay, run_ensemble
+    from ..ensemble import replay, replay_worst, run_ensemble
     from ..reporting import (plot_ensemble_histograms, plot_simulation, write_signals_csv,
                              write_statistics_json, write_summary_csv)
     out = Path(args.out)
@@ -711,6 +725,12 @@ def _cmd_ensemble(args) -> int:
         case, k = divmod(args.replay, args.runs)
         d = out / f"run_{args.replay}"
         print(f"run {args.replay}: case {scenario.case_names[case]}, sample {k}")
+        from ..simulation import monitors, summarise
+        mon = monitors(model, observer, settle=args.settle, rule=rule)
+        summ = summarise(mon, res.columns, res["t"])
+        for f in summ.fields:
+            print(f"  {f.name} = {float(summ.values[f.name][0]):.6g}"
+                  + (f" {f.unit}" if f.unit else ""))
         print(f"wrote {write_signals_csv(res, d)}")
         for fig in plot_simulation(res, d, time=model.time, title=f"{title}, run {args.replay}"):
             print(f"wrote {fig}")
@@ -722,7 +742,7 @@ def _cmd_ensemble(args) -> int:
     with silenced(), progress_bar(total, desc="runs") as bar:
         res = run_ensemble(model, observer, scenario, runs=args.runs, engine=args.engine,
                            backend=backend, chunk=args.chunk, settle=args.settle, rule=rule,
-                           keep=args.keep, worst_by=args.worst_by, progress=bar.update,
+                           keep=0, worst_by=args.worst_by, progress=bar.update,
                            simulator=sim)
     wall = _time.perf_counter() - t0
     from ..version import package_version
@@ -739,6 +759,7 @@ def _cmd_ensemble(args) -> int:
     print(f"wrote {write_summary_csv(res.accumulator, out, runs=res.runs, seed=res.seed)}"
           f" ({res.completed} runs)")
     print(f"wrote {write_statistics_json(res.statistics, out, ensemble=meta)}")
+    _clear_stale(out)  # figures and worst runs of an earlier ensemble in DIR
     if res.interrupted:
         print(f"{PROG}: interrupted after {res.completed} of {res.total} runs; summary.csv and"
               " statistics.json hold the finished runs", file=sys.stderr)
@@ -750,13 +771,33 @@ def _cmd_ensemble(args) -> int:
     print(res.statistics.to_text().rstrip())
     for fig in plot_ensemble_histograms(res.accumulator, out / "figures", title=title):
         print(f"wrote {fig}")
-    for run, case, k, traj in res.kept:
+    # the worst runs, replayed after summary.csv and statistics.json are written (a
+    # failing replay or a Ctrl-C here loses nothing of the ensemble)
+    kept = replay_worst(res, model, observer, scenario, args.keep, worst_by=args.worst_by,
+                        engine=args.engine, simulator=sim, settle=args.settle,
+                        rule=rule) if args.keep else ()
+    for run, case, k, traj in kept:
         d = out / "worst" / f"run_{run}"
         print(f"worst run {run} (case {case}, sample {k}; replayed, its summary reproduced"
               f" exactly): wrote {write_signals_csv(traj, d)}")
         for fig in plot_simulation(traj, d, time=model.time, title=f"{title}, worst run {run}"):
             print(f"wrote {fig}")
     return 0
+
+
+#: the seed offset of the fault-free runs a quantile threshold is estimated on in an
+#: ensemble: other random numbers than the ensemble's own (validation is out of sample)
+CALIBRATION_OFFSET = 2 ** 62
+
+
+def _clear_stale(out: Path) -> None:
+    """Remove the histograms and worst runs an earlier ensemble wrote in ``out``."""
+    import shutil
+    for f in (out / "figures").glob("hist_*.png"):
+        f.unlink(missing_ok=True)
+    for d in (out / "worst").glob("run_*"):
+        if d.is_dir():
+            shutil.rmtree(d, ignore_errors=True)
 
 
 def _cmd_codegen(args) -> int:

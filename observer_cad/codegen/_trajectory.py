@@ -502,6 +502,8 @@ class CompiledSimulator:
         # V twice (signals and the result's copies), S, Y, O and t
         check_memory(scenario, self.model.time, runs=R,
                      columns=2 * self.nv + self.ns + self.ny + self.no + 1)
+        if case is None and scenario.cases:  # the first case, as the reference simulator
+            case = scenario.case_names[0]
         t, prog = self.program(scenario, case)
         N = t.size
         d = self.draws(scenario, R, first_run=first_run, samples=samples)

@@ -29,10 +29,11 @@ from ..errors import ObserverCadError, UsageError
 from ..model import PlantModel
 from ..observers import DecisionRule, Observer, output_symbols
 from ..simulation import (DrawPlan, EnsembleStatistics, Monitors, RunSummaries, Scenario,
-                          align_delay, monitors, signal_program, simulate, summarise)
+                          align_delay, check_memory, monitors, signal_program, simulate,
+                          summarise)
 from ._backends import Backend, Interrupted, map_chunks
 
-__all__ = ["Chunk", "EnsembleResult", "run_ensemble", "replay", "ReplayError", "ENGINES",
+__all__ = ["Chunk", "EnsembleResult", "run_ensemble", "replay", "replay_worst", "ReplayError", "ENGINES",
            "default_chunk", "CHUNK_BYTES", "default_worst_field"]
 
 ENGINES = ("compiled", "reference")
@@ -191,13 +192,20 @@ class EnsembleResult:
         return self.cases[c], k
 
 
-def default_chunk(model: PlantModel, observer: Observer | None, scenario: Scenario) -> int:
-    """Runs per chunk: trajectory buffers of about :data:`CHUNK_BYTES` (1 … 256 runs)."""
-    n = scenario.size(model.time)
+def _columns_per_run(model: PlantModel, observer: Observer | None) -> int:
+    """Time series a worker keeps per run of a chunk (states, outputs, signals, observer
+    states and outputs) plus its temporaries (delayed outputs, summaries)."""
     cols = (2 * len(model.states) + len(model.outputs) + len(model.inputs) + len(model.faults)
             + len(model.disturbances) + len(model.noise))
     if observer is not None:
         cols += len(observer.states) + len(observer.outputs)
+    return cols
+
+
+def default_chunk(model: PlantModel, observer: Observer | None, scenario: Scenario) -> int:
+    """Runs per chunk: trajectory buffers of about :data:`CHUNK_BYTES` (1 … 256 runs)."""
+    n = scenario.size(model.time)
+    cols = _columns_per_run(model, observer)
     return int(max(1, min(256, CHUNK_BYTES // max(1, n * cols * 8))))
 
 
@@ -255,6 +263,12 @@ def run_ensemble(model: PlantModel, observer: Observer, scenario: Scenario, *, r
     cases = scenario.case_names
     t = scenario.grid(model.time)
     mon = monitors(model, observer, settle=float(settle), rule=rule)
+    field = worst_by or default_worst_field(mon)
+    mon.field(field)  # an unknown field is refused before anything runs
+    # the trajectory buffers every worker holds (one chunk each), like a simulation's
+    ncols = _columns_per_run(model, observer)
+    check_memory(scenario, model.time, runs=chunk * (1 if backend.kind == "serial" else
+                                                      backend.workers), columns=ncols)
     if engine == "compiled":
         from ..codegen import CompiledSimulator
         sim = simulator if simulator is not None else CompiledSimulator(model, observer)
@@ -298,17 +312,29 @@ def run_ensemble(model: PlantModel, observer: Observer, scenario: Scenario, *, r
     result = EnsembleResult(acc.result(), acc, runs, cases, done, interrupted, seconds, desc,
                             backend, chunk, int(scenario.seed), scenario.sampling)
     if keep and not interrupted and done:
-        field = worst_by or default_worst_field(mon)
-        mon.field(field)  # a clear error for an unknown field
-        kept = []
-        for run in acc.worst(field, min(keep, done)):
-            case, k = result.locate(run)
-            res = replay(model, observer, scenario, run, runs=runs, engine=engine,
-                         simulator=sim if engine == "compiled" else None, monitors_=mon,
-                         expect=acc)
-            kept.append((int(run), case, k, res))
-        result = dataclasses.replace(result, kept=tuple(kept))
+        result = dataclasses.replace(result, kept=replay_worst(
+            result, model, observer, scenario, keep, worst_by=field, engine=engine,
+            simulator=sim if engine == "compiled" else None, monitors_=mon))
     return result
+
+
+def replay_worst(result: EnsembleResult, model: PlantModel, observer: Observer,
+                 scenario: Scenario, k: int, *, worst_by: str | None = None,
+                 engine: str = "compiled", simulator=None, monitors_: Monitors | None = None,
+                 settle: float = 0.0, rule: DecisionRule | None = None) -> tuple:
+    """The ``k`` worst runs of ``result`` by ``worst_by`` (default
+    :func:`default_worst_field`), replayed: tuples (run, case, sample, SimulationResult),
+    each checked to reproduce its recorded summary bit for bit (:class:`ReplayError`)."""
+    mon = monitors_ or monitors(model, observer, settle=settle, rule=rule)
+    field = worst_by or default_worst_field(mon)
+    mon.field(field)
+    kept = []
+    for run in result.accumulator.worst(field, min(int(k), result.completed)):
+        case, sample = result.locate(run)
+        res = replay(model, observer, scenario, run, runs=result.runs, engine=engine,
+                     simulator=simulator, monitors_=mon, expect=result.accumulator)
+        kept.append((int(run), case, sample, res))
+    return tuple(kept)
 
 
 def replay(model: PlantModel, observer: Observer, scenario: Scenario, run: int, *, runs: int,

@@ -23,10 +23,12 @@ __all__ = ["quantile_threshold", "fault_free", "apply_threshold"]
 
 
 def fault_free(model: PlantModel, scenario: Scenario) -> Scenario:
-    """The scenario with every fault signal removed (faults are zero)."""
+    """The scenario with every fault signal removed (faults are zero), and without its
+    fault cases (their signal overrides, faults removed, are not applied either: the base
+    signals)."""
     faults = {f.name for f in model.faults}
     return dataclasses.replace(scenario, signals={k: v for k, v in scenario.signals.items()
-                                                  if k not in faults})
+                                                  if k not in faults}, cases=None)
 
 
 def quantile_threshold(model: PlantModel, observer: Observer, scenario: Scenario, *,
@@ -67,9 +69,11 @@ def quantile_threshold(model: PlantModel, observer: Observer, scenario: Scenario
 
 
 def apply_threshold(model: PlantModel, observer: Observer, spec: ThresholdSpec, *,
-                    scenario: Scenario | None = None, initial_error=0, runs: int = 200) -> Observer:
+                    scenario: Scenario | None = None, initial_error=0, runs: int = 200,
+                    seed: int | None = None) -> Observer:
     """The observer with the bands ``spec`` asks for (a quantile needs the ``scenario`` whose
-    fault-free realisations it is estimated on)."""
+    fault-free realisations it is estimated on; ``seed`` their seed, default the
+    scenario's)."""
     if not isinstance(spec, ThresholdSpec):
         spec = ThresholdSpec.parse(spec)
     if spec.kind == "guaranteed":
@@ -77,5 +81,5 @@ def apply_threshold(model: PlantModel, observer: Observer, spec: ThresholdSpec, 
     if spec.kind == "quantile":
         if scenario is None:
             raise UsageError("a quantile threshold is estimated on a scenario: give one")
-        return quantile_threshold(model, observer, scenario, rate=spec.rate, runs=runs)
+        return quantile_threshold(model, observer, scenario, rate=spec.rate, runs=runs, seed=seed)
     return constant_threshold(observer, spec.value)

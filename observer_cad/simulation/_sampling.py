@@ -307,13 +307,17 @@ def _lhs(seed: int, d: int, n: int) -> np.ndarray:
     return qmc.LatinHypercube(d, seed=np.random.default_rng([seed, 2])).random(n)
 
 
-def _uniforms(method, seed, samples, d, total):
-    """(R, d) uniform samples of the quantities for the sample indices ``samples``."""
+def _uniforms(method, seed, samples, index, total):
+    """(R, d) uniform samples, for the sample indices ``samples``, of the random quantities
+    whose places in the fixed order are ``index`` (d of them): ``"random"`` uses stream
+    PARAMETER_STREAMS + 2q of quantity q — a quantity keeps its numbers when another one
+    becomes random — the quasi-random methods one dimension per random quantity."""
     R = samples.size
+    d = len(index)
     if d == 0:
         return np.zeros((R, 0))
     if method == "random":
-        keys = stream_keys(seed, samples, PARAMETER_STREAMS + 2 * np.arange(d))
+        keys = stream_keys(seed, samples, PARAMETER_STREAMS + 2 * np.asarray(index))
         return uniform_samples(keys, 1)[:, :, 0]
     if method == "sobol":
         from scipy.stats import qmc
@@ -373,8 +377,8 @@ class DrawPlan:
     def draw(self, samples, *, total: int | None = None) -> RunDraws:
         samples = np.atleast_1d(np.asarray(samples, dtype=np.int64))
         R = samples.size
-        rnd = [q for q in self.quantities if q[2].random]
-        U = _uniforms(self.method, self.seed, samples, len(rnd), total)
+        index = [q for q, quantity in enumerate(self.quantities) if quantity[2].random]
+        U = _uniforms(self.method, self.seed, samples, index, total)
         P = np.zeros((R, self.nplant + self.nobs))
         x0 = np.zeros((R, self.nx))
         xi0 = np.full((R, self.nxi), np.nan)
@@ -483,8 +487,9 @@ def check_distribution(where: str, what: str, spec, *, declared: bool = False) -
         a, b = pair
         for v, label in ((a, "low" if kind == "uniform" else "mean"),
                          (b, "high" if kind == "uniform" else "std")):
-            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
-                raise UsageError(f"{where}: {what}: {kind} {label} must be a finite number, got {v!r}")
+            if isinstance(v, bool) or not isinstance(v, (int, float)) or not _finite_float(v):
+                raise UsageError(f"{where}: {what}: {kind} {label} must be a finite number"
+                                 f" (a double), got {_short(v)}")
         if kind == "uniform" and a > b:
             raise UsageError(f"{where}: {what}: uniform low {a} > high {b}")
         if kind == "normal" and b < 0:
@@ -494,5 +499,18 @@ def check_distribution(where: str, what: str, spec, *, declared: bool = False) -
         allowed = "a number, {\"uniform\": [low, high]}, {\"normal\": [mean, std]}" + \
             (" or \"declared\"" if declared else "")
         raise UsageError(f"{where}: {what} must be {allowed}, got {spec!r}")
-    if not math.isfinite(spec):
-        raise UsageError(f"{where}: {what} must be finite, got {spec}")
+    if not _finite_float(spec):
+        raise UsageError(f"{where}: {what} must be finite (a double), got {_short(spec)}")
+
+
+def _finite_float(v) -> bool:
+    """A number that is a finite double (a JSON integer beyond ±1.8e308 is not)."""
+    try:
+        return math.isfinite(float(v))
+    except OverflowError:
+        return False
+
+
+def _short(v) -> str:
+    text = repr(v)
+    return text if len(text) <= 40 else f"{text[:20]}…({len(text)} characters)"

@@ -69,8 +69,14 @@ def _finite(where, what, v):
     """A finite JSON number (bool and strings refused)."""
     if not _is_number(v):
         raise UsageError(f"{where}: {what} must be a number, got {json.dumps(v) if _jsonable(v) else repr(v)}")
-    if not math.isfinite(v):
-        raise UsageError(f"{where}: {what} must be finite, got {v}")
+    try:
+        ok = math.isfinite(float(v))
+    except OverflowError:  # a JSON integer beyond the double range
+        ok = False
+    if not ok:
+        text = repr(v)
+        raise UsageError(f"{where}: {what} must be finite (a double), got"
+                         f" {text if len(text) <= 40 else text[:20] + '…'}")
     return v
 
 
@@ -516,8 +522,9 @@ def simulate(model: PlantModel, observer: Observer | None, scenario: Scenario, *
     ``"observer_parameters"``). ``runs=R`` simulates the samples ``first_run … first_run
     + R − 1`` at once (vectorised); what is random about sample k depends on (seed, k)
     only, so a run is the same in any batch (:mod:`observer_cad.simulation` sampling).
-    ``case``: a name of the scenario's ``"cases"`` (its signal overrides); ``samples``:
-    the ensemble's number of samples (only ``"sampling": "lhs"`` needs it).
+    ``case``: a name of the scenario's ``"cases"`` (its signal overrides; default the
+    first case); ``samples``: the ensemble's number of samples per case (only
+    ``"sampling": "lhs"`` needs it: without it, ``first_run + runs``).
 
     Refuses (UsageError) a scenario whose arrays would exceed :func:`memory_limit`
     before allocating them. A value that is not finite (NaN, ±inf) in a signal, a
@@ -545,6 +552,8 @@ def simulate(model: PlantModel, observer: Observer | None, scenario: Scenario, *
     layout = parameter_layout(m, observer)
     pars = list(layout.plant) + list(layout.observer)
     pvals = [draws.P[:, j] for j in range(len(pars))]
+    if case is None and scenario.cases:  # the first case, as the CLI and ensembles
+        case = scenario.case_names[0]
     prog = signal_program(m, scenario, t, case=case)
     Vall = prog.values(scenario.seed, ks)
     xs = list(m.states)

@@ -183,3 +183,26 @@ def test_declared_signals_are_uniform_over_the_models_bounds():
     bad = scenario_from_dict({"t_end": 1, "dt": 0.1, "signals": {"u1": "declared"}})
     with pytest.raises(UsageError, match="signal 'u1' is \"declared\" but the model declares no bounds"):
         signal_program(m, bad, bad.grid(m.time))
+
+
+def test_a_quantity_keeps_its_numbers_when_another_becomes_random(drive):
+    """Streams belong to quantities in the fixed order, not to the random ones only:
+    drawing k5 too leaves every initial state's realisation as it was."""
+    m, o = drive
+    base = {"steps": 5, "seed": 4, "initial": {"x1": {"uniform": [-1, 1]}}}
+    a = draw_runs(m, o, scenario_from_dict(base), np.arange(20))
+    b = draw_runs(m, o, scenario_from_dict({**base, "parameters": {"k5": "declared"}}),
+                  np.arange(20))
+    np.testing.assert_array_equal(a.x0, b.x0)
+    assert np.ptp(b.plant["k5"]) > 0
+
+
+def test_huge_json_numbers_are_one_line_errors():
+    for data, message in (({"steps": 3, "initial": {"x1": 10 ** 400}}, "must be finite"),
+                          ({"steps": 3, "parameters": {"k5": {"uniform": [0, 10 ** 400]}}},
+                           "uniform high must be a finite number"),
+                          ({"steps": 3, "signals": {"u": {"normal": [0, 10 ** 400]}}},
+                           "normal std must be a finite number"),
+                          ({"steps": 3, "signals": {"u": 10 ** 400}}, "must be finite")):
+        with pytest.raises(UsageError, match=message):
+            scenario_from_dict(data)
