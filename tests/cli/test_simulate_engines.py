@@ -85,3 +85,29 @@ def test_bad_case_and_run_are_one_line_errors(capsys, tmp_path, scenario):
     assert rc == 2 and "no case 'nope'" in err and len(err.strip().splitlines()) == 1
     rc, out, err = run(capsys, base + ["--run", "-1"])
     assert rc == 2 and "--run -1: must be ≥ 0" in err
+
+
+@needs_cc
+def test_lhs_replay_needs_the_ensembles_size(capsys, tmp_path):
+    """With a Latin hypercube a run's draws depend on the ensemble's size: --run needs
+    --samples, and then gives the ensemble's sample."""
+    from observer_cad.ensemble import Backend, run_ensemble
+    from observer_cad.model import load_model
+    from observer_cad.observers import build_observer
+    from observer_cad.simulation import load_scenario
+    from observer_cad.synthesis import design
+    p = tmp_path / "lhs.json"
+    p.write_text(json.dumps({**{k: v for k, v in SCEN.items() if k != "cases"},
+                             "sampling": "lhs"}))
+    base = ["simulate", MODELS / "electric_drive_uncertain.py", "--observer", "diagnostic",
+            "--scenario", p, "--run", "7"]
+    rc, out, err = run(capsys, base + ["--out", tmp_path / "a"])
+    assert rc == 2 and "give --samples N" in err
+    rc, out, err = run(capsys, base + ["--samples", "20", "--out", tmp_path / "b"])
+    assert rc == 0, err
+    m = load_model(MODELS / "electric_drive_uncertain.py")
+    o = build_observer(m, design(m, observer="diagnostic"))
+    ens = run_ensemble(m, o, load_scenario(p), runs=20, backend=Backend("serial"), keep=0)
+    cols = ens.accumulator.columns()
+    csv_r = read(tmp_path / "b" / "signals.csv")["r"]
+    assert float(np.max(np.abs(csv_r))) == cols["r.max_abs"][7]
