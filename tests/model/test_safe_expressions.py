@@ -25,6 +25,8 @@ T = {"t": t}
 
 
 def _texts(spec):
+    if spec == "declared":  # a keyword (uniform over the model's bounds), not an expression
+        return
     if isinstance(spec, str):
         yield spec, False
     elif isinstance(spec, dict) and "piecewise" in spec:
