@@ -22,8 +22,8 @@ writes one contiguous time series per run and column — ``S`` (R, ns, N), ``Y``
 N), ``O`` (R, no, N), ``V`` (R, nv, N): what the per-run summaries read row by row —
 generating each run's signals on the fly from the scenario's
 :class:`~observer_cad.simulation.SignalProgram` — ``v = BASE + SU·U + SN·Z`` with the
-counter-based generator keyed by ``KEYS`` (R, 2·nv), the same bits as the numpy
-reference (:mod:`observer_cad.simulation` ``_random``) — and writes them into ``V``.
+counter-based generator keyed by ``KEYS`` (R, 2·nv), the numpy reference's uniform
+samples bit for bit (normal ones to the last bits of libm's log1p/cos) (:mod:`observer_cad.simulation` ``_random``) — and writes them into ``V``.
 ``NAME_traj`` reads row i and writes row i + 1 of ``S`` directly; ``NAME_batch`` steps on
 two small state buffers and scatters each step into the columns: no casadi ``DM`` round
 trips either way.  The loops are called through ctypes, which releases the GIL, so runs
