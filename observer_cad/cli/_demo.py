@@ -51,7 +51,7 @@ from ..model import load_model
 from ..reporting import format_design, format_observer, format_structure
 from ..model import extract_structure
 from ..synthesis import design as make_design
-from ._demo_evaluation import BANK_MODEL, DRIVE_MODEL, evaluation_section, evaluation_summary, run_evaluation
+from ._demo_evaluation import BANK_MODEL, DRIVE_MODEL, ENSEMBLE_MODEL, evaluation_section, evaluation_summary, run_evaluation
 
 __all__ = ["CASES", "EXAMPLES_DIR", "FIGURES", "Case", "Run", "run_demo",
            "DIAGNOSABILITY", "BANK_FIGURE", "DiagnosabilityExample"]
@@ -1300,7 +1300,7 @@ def run_demo(models_dir: Path = EXAMPLES_DIR, out_dir: Path = Path("out"), *,
     report_path = out_dir / "report.md"
     totals["report"] = time.perf_counter() - t0
     totals["total"] = time.perf_counter() - t_start
-    for name in (DRIVE_MODEL, BANK_MODEL):
+    for name in (DRIVE_MODEL, BANK_MODEL, ENSEMBLE_MODEL):
         m = load_model(models_dir / name)
         used_models.setdefault(m.name, m)
     text = _report(outcomes, figs, out_dir, totals, engine, used_models, diag, evaluation)

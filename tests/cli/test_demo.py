@@ -68,7 +68,8 @@ def test_report_references_existing_pngs(demo_run):
         assert p.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     written = {p.name for p in (out / "figures").glob("*.png")}
     assert written == {name for name, *_ in demo.FIGURES} | {demo.BANK_FIGURE} | {
-        evaluation.DRIVE_FIGURE, evaluation.BANK_FIGURE, evaluation.BANK_RUN_FIGURE}
+        evaluation.DRIVE_FIGURE, evaluation.BANK_FIGURE, evaluation.BANK_RUN_FIGURE,
+        evaluation.ENSEMBLE_FIGURE, evaluation.ENSEMBLE_WORST_FIGURE}
     assert {r.split("/")[1] for r in refs} == written
     # the papers' figures are all there
     for name in ("000_fig1", "000_fig2", "000_fig3", "000_fig4", "002_fig2", "002_fig3", "001_fig2"):
@@ -233,3 +234,15 @@ def test_report_has_the_residual_evaluation(demo_run):
         assert f"| {f} | {row} | 0 |" in sec
     assert "comparison system stable" in sec and "594/625" in sec
     assert "0 false alarms in 200 fault-free runs" in report
+
+
+@pytest.mark.slow  # the whole demo run
+def test_report_has_the_ensemble(demo_run):
+    """Issue 16: the three-tank interval observer over an ensemble, its statistics and the
+    worst run replayed (a compiler is there: the demo compiles)."""
+    rc, out, log, _ = demo_run
+    report = (out / "report.md").read_text(encoding="utf-8")
+    assert "### Validation over an ensemble" in report
+    assert f"{2 * evaluation.ENSEMBLE_RUNS} runs in" in report
+    assert re.search(r"x1\.violations +\d+/\d+ +0 ", report)  # no run left the interval
+    assert "0 of 4000 three-tank runs left the interval" in report
