@@ -25,7 +25,7 @@ from typing import Callable
 
 import numpy as np
 
-from ..errors import ObserverCadError, UsageError
+from ..errors import UsageError
 from ..model import PlantModel
 from ..observers import DecisionRule, Observer, output_symbols
 from ..simulation import (DrawPlan, EnsembleStatistics, Monitors, RunSummaries, Scenario,
@@ -43,8 +43,9 @@ ENGINES = ("compiled", "reference")
 CHUNK_BYTES = 32 * 1024 ** 2
 
 
-class ReplayError(ObserverCadError):
-    """A run replayed alone did not reproduce its summary: a bug, never a result."""
+class ReplayError(RuntimeError):
+    """A run replayed alone did not reproduce its summary: a bug, never a result (the
+    command line reports it as an internal error, exit status 1)."""
 
 
 @dataclasses.dataclass(frozen=True)
