@@ -105,7 +105,8 @@ CASADI_SYMBOL_EXPORT int {name}_traj(casadi_int N, const casadi_real* t, const c
 CASADI_SYMBOL_EXPORT int {name}_batch(casadi_int R, casadi_int N, const casadi_real* t,
     const casadi_real* BASE, const casadi_real* SU, const casadi_real* SN, const int* KIND,
     const uint64_t* KEYS, const casadi_real* P, const casadi_real* S0,
-    casadi_real* S, casadi_real* Y, casadi_real* O, casadi_real* V, int* FIN) {{
+    casadi_real* S, casadi_real* Y, casadi_real* O, casadi_real* V, int* FIN,
+    const int* IV, int nI, casadi_int I0, casadi_real TOL, casadi_real* IVOUT, int STORE) {{
   const casadi_real* arg[{sz_arg}];
   casadi_real* res[{sz_res}];
   casadi_int iw[{sz_iw}];
@@ -115,7 +116,7 @@ CASADI_SYMBOL_EXPORT int {name}_batch(casadi_int R, casadi_int N, const casadi_r
   /* finiteness of the run: x - x is 0 for a finite x, NaN for NaN and ±inf (the
      signals are finite whenever the program is: the caller checks it once) */
   int bad;
-  int rj[{max(nv, 1)}], nr = 0, q;
+  int rj[{max(nv, 1)}], nr = 0, q, m;
   casadi_real h;
   casadi_int r, i, j;
   for (i = 0; i < {sz_arg}; ++i) arg[i] = 0;
@@ -133,6 +134,12 @@ CASADI_SYMBOL_EXPORT int {name}_batch(casadi_int R, casadi_int N, const casadi_r
     for (j = 0; j < {ns}; ++j) cur[j] = S0[r * {ns} + j];
     bad = 0;
     arg[2] = P + r * {npar};
+    /* interval summaries of the run (summarise's operations, while the samples are in
+       registers): violations, smallest slack, largest width, first violation */
+    for (m = 0; m < nI; ++m) {{
+      casadi_real* o4 = IVOUT + (r * nI + m) * 4;
+      o4[0] = 0; o4[1] = INFINITY; o4[2] = -INFINITY; o4[3] = -1;
+    }}
     /* the run's signals, column by column (BASE, SU, SN are (nv, N)): the deterministic
        part, then the random ones — the arithmetic and order of SignalProgram.values */
     for (j = 0; j < {nv}; ++j) {{
@@ -163,9 +170,23 @@ CASADI_SYMBOL_EXPORT int {name}_batch(casadi_int R, casadi_int N, const casadi_r
       res[1] = yb;
       res[2] = ob;
       if ({name}(arg, res, iw, w, 0)) return (int)(1 + r * N + i);
-      for (j = 0; j < {ns}; ++j) {{ Sr[j * N + i] = cur[j]; bad |= !(cur[j] - cur[j] == 0); }}
-      for (j = 0; j < {ny}; ++j) {{ Yr[j * N + i] = yb[j]; bad |= !(yb[j] - yb[j] == 0); }}
-      for (j = 0; j < {no}; ++j) {{ Or[j * N + i] = ob[j]; bad |= !(ob[j] - ob[j] == 0); }}
+      if (STORE) {{
+        for (j = 0; j < {ns}; ++j) Sr[j * N + i] = cur[j];
+        for (j = 0; j < {ny}; ++j) Yr[j * N + i] = yb[j];
+        for (j = 0; j < {no}; ++j) Or[j * N + i] = ob[j];
+      }}
+      for (j = 0; j < {ns}; ++j) bad |= !(cur[j] - cur[j] == 0);
+      for (j = 0; j < {ny}; ++j) bad |= !(yb[j] - yb[j] == 0);
+      for (j = 0; j < {no}; ++j) bad |= !(ob[j] - ob[j] == 0);
+      if (i >= I0) for (m = 0; m < nI; ++m) {{
+        const int* iv = IV + 4 * m;
+        casadi_real* o4 = IVOUT + (r * nI + m) * 4;
+        casadi_real z = iv[0] ? v[iv[1]] : cur[iv[1]], lo = ob[iv[2]], hi = ob[iv[3]];
+        casadi_real a = z - lo, b = hi - z, sl = b < a ? b : a, wd = hi - lo;
+        if (!(sl >= -TOL)) {{ if (o4[3] < 0) o4[3] = (casadi_real)i; o4[0] += 1; }}
+        if (sl < o4[1]) o4[1] = sl;
+        if (wd > o4[2]) o4[2] = wd;
+      }}
       tmp = cur; cur = nxt; nxt = tmp;
     }}
     FIN[r] = !bad;
@@ -180,6 +201,7 @@ def _buf(a):
 
 
 _DUMMY = np.zeros(8)
+_NO_INTERVALS = np.zeros(4, dtype=np.intc)
 
 
 class TrajectoryEngine:
@@ -210,12 +232,13 @@ class TrajectoryEngine:
             except AttributeError:
                 raise CodegenError(f"{self.fname}_batch is missing from the library") from None
             fn.restype = ctypes.c_int
-            fn.argtypes = [ctypes.c_longlong, ctypes.c_longlong] + [_P] * 13
+            fn.argtypes = [ctypes.c_longlong, ctypes.c_longlong] + [_P] * 14 + [
+                ctypes.c_int, ctypes.c_longlong, ctypes.c_double, _P, ctypes.c_int]
             self._batch = fn
         return self._batch
 
     def run_batch(self, t, program, seed: int, samples, P, S0, *, S=None, Y=None, O=None, V=None,
-                  finite=None):
+                  finite=None, intervals=None, store: bool = True):
         """Runs of a scenario in one compiled call: ``program`` the
         :class:`~observer_cad.simulation.SignalProgram` on the grid ``t``, ``samples`` (R,)
         the sample indices (their random signals come from (seed, sample)), ``P`` (R, np)
@@ -223,7 +246,12 @@ class TrajectoryEngine:
         ``Y`` (R, ny, N), ``O`` (R, no, N), ``V`` (R, nv, N) — one contiguous time series
         per run and column — C-contiguous (created when None); ``finite`` (R,) bool, set
         True for the runs whose every value is finite (False: some value may not be —
-        check exactly).  Returns ``(S, Y, O, V)``."""
+        check exactly).  ``intervals``: ``(spec, start, tol, out)`` — ``spec`` (nI, 4)
+        ints (truth is a signal: 1 / a state: 0, its index, the lower and upper observer
+        outputs), summaries over samples ≥ ``start`` into ``out`` (R, nI, 4): violations
+        (slack < −tol), smallest slack, largest width, first violation index (−1 none).
+        ``store=False``: ``S``, ``Y``, ``O`` are not written (when the loop's summaries
+        are all that is wanted).  Returns ``(S, Y, O, V)``."""
         t = np.ascontiguousarray(t, dtype=np.float64)
         N = t.size
         samples = np.atleast_1d(np.asarray(samples, dtype=np.int64))
@@ -247,9 +275,24 @@ class TrajectoryEngine:
                          for j in range(self.nv)], dtype=np.intc)
         fin = np.empty(R, dtype=np.intc)
         base, su, sn = program.columns
+        if intervals is None:
+            iv, n_iv, start, tol, ivout = _NO_INTERVALS, 0, 0, 0.0, _DUMMY
+        else:
+            iv, start, tol, ivout = intervals
+            iv = np.ascontiguousarray(iv, dtype=np.intc).reshape(-1, 4)
+            n_iv = iv.shape[0]
+            if ivout.shape != (R, n_iv, 4) or ivout.dtype != np.float64 \
+                    or not ivout.flags.c_contiguous:
+                raise UsageError(f"intervals: out must be a C-contiguous float64 ({R}, {n_iv}, 4) array")
+            if n_iv and (iv[:, 1].min() < 0 or iv[:, 2:].min() < 0 or iv[:, 2:].max() >= self.no
+                         or iv[:, 1][iv[:, 0] == 0].max(initial=-1) >= self.ns
+                         or iv[:, 1][iv[:, 0] != 0].max(initial=-1) >= self.nv):
+                raise UsageError("intervals: an index is out of range")
         rc = self._function()(R, N, _buf(t), _buf(base), _buf(su), _buf(sn),
                               _buf(kind), _buf(keys), _buf(P), _buf(S0),
-                              _buf(S), _buf(Y), _buf(O), _buf(V), _buf(fin))
+                              _buf(S), _buf(Y), _buf(O), _buf(V), _buf(fin),
+                              _buf(iv), int(n_iv), int(start), float(tol), _buf(ivout),
+                              1 if store else 0)
         if finite is not None:
             finite[:] = (fin != 0) & program.finite
         if rc:
@@ -357,7 +400,8 @@ class CompiledSimulator:
         fn.restype = ctypes.c_int
         fn.argtypes = [ctypes.c_longlong, _P, _P, _P, _P, _P, _P]
         batch.restype = ctypes.c_int
-        batch.argtypes = [ctypes.c_longlong, ctypes.c_longlong] + [_P] * 13
+        batch.argtypes = [ctypes.c_longlong, ctypes.c_longlong] + [_P] * 14 + [
+            ctypes.c_int, ctypes.c_longlong, ctypes.c_double, _P, ctypes.c_int]
         self._lib, self._fn, self._batch, self._fname = lib, fn, batch, fname
 
     @property

@@ -110,6 +110,7 @@ class _Payload:
     seed: int
     monitors: Monitors
     layout: _Layout
+    intervals: tuple = ()   # (signals, (nI, 4) spec, start): summarised in the loop
 
 
 _BUFFERS = threading.local()
@@ -134,10 +135,49 @@ def _compiled_chunk(payload: _Payload, chunk: Chunk) -> RunSummaries:
     S0 = np.concatenate([d.x0, d.xi0], axis=1)
     S, Y, O, V = _buffers(chunk.count, N, payload.engine)
     finite = np.zeros(chunk.count, dtype=bool)
-    payload.engine.run_batch(payload.t, payload.programs[chunk.case], payload.seed,
-                             d.samples, d.P, S0, S=S, Y=Y, O=O, V=V, finite=finite)
+    given = ivs = None
+    if payload.intervals:
+        signals, spec, start = payload.intervals
+        out = np.empty((chunk.count, len(signals), 4))
+        ivs = (spec, start, payload.monitors.tolerance, out)
+    mon = payload.monitors
+    # when the loop's summaries are all there is to compute, the trajectories are not
+    # stored (a run that is not finite is simulated again, stored, and summarised from
+    # its columns: the same numbers, found exactly)
+    store = not (ivs is not None and not mon.estimates and not mon.residuals
+                 and mon.rule is None and len(payload.intervals[0]) == len(mon.intervals))
+    run = (payload.t, payload.programs[chunk.case], payload.seed, d.samples, d.P, S0)
+    payload.engine.run_batch(*run, S=S, Y=Y, O=O, V=V, finite=finite, intervals=ivs,
+                             store=store)
+    if not store and not finite.all():
+        payload.engine.run_batch(*run, S=S, Y=Y, O=O, V=V, finite=finite, intervals=ivs)
+    if ivs is not None:
+        given = {sig: tuple(out[:, m, q] for q in range(4)) for m, sig in enumerate(signals)}
     return summarise(payload.monitors, _columns(payload.layout, S, Y, O, V), payload.t,
-                     finite=finite)
+                     finite=finite, intervals=given)
+
+
+def _loop_intervals(mon: Monitors, layout: _Layout, t: np.ndarray) -> tuple:
+    """The intervals the compiled loop can summarise itself — truth a state or a signal
+    column, bounds not delayed — as (signals, (nI, 4) spec, first sample ≥ settle); ()
+    when none (the others are summarised from the stored columns)."""
+    rows, signals = [], []
+    for iv in mon.intervals:
+        col = iv.truth.column
+        if col is None or mon.delays.get(iv.lower, 0) or mon.delays.get(iv.upper, 0):
+            continue
+        if col in layout.states:
+            kind, idx = 0, layout.states.index(col)
+        elif col in layout.inputs:
+            kind, idx = 1, layout.inputs.index(col)
+        else:
+            continue
+        rows.append((kind, idx, layout.observer.index(iv.lower), layout.observer.index(iv.upper)))
+        signals.append(iv.signal)
+    start = int(np.searchsorted(t, mon.settle, side="left"))
+    if not rows or start >= t.size:
+        return ()
+    return tuple(signals), np.asarray(rows, dtype=np.intc), start
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
@@ -274,9 +314,10 @@ def run_ensemble(model: PlantModel, observer: Observer, scenario: Scenario, *, r
         from ..codegen import CompiledSimulator
         sim = simulator if simulator is not None else CompiledSimulator(model, observer)
         programs = tuple(signal_program(model, scenario, t, case=c) for c in cases)
+        layout = _layout(model, observer)
         payload = _Payload(sim.engine() if backend.kind in ("processes", "dask") else
                            sim.local_engine(), t, programs, sim.plan(scenario), runs,
-                           int(scenario.seed), mon, _layout(model, observer))
+                           int(scenario.seed), mon, layout, _loop_intervals(mon, layout, t))
         task = _compiled_chunk
         desc = "compiled C" + (" (cache hit)" if sim.cached else "")
     else:

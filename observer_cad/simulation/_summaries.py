@@ -469,7 +469,7 @@ def _c(a: np.ndarray) -> np.ndarray:
     return np.ascontiguousarray(a, dtype=np.float64)
 
 
-def summarise(monitors: Monitors, columns, t, *, finite=None) -> RunSummaries:
+def summarise(monitors: Monitors, columns, t, *, finite=None, intervals=None) -> RunSummaries:
     """The per-run summaries of a chunk of runs.
 
     Parameters
@@ -484,6 +484,10 @@ def summarise(monitors: Monitors, columns, t, *, finite=None) -> RunSummaries:
     finite : array (R,) of bool, optional
         Runs already known to be finite in every value (the compiled loop's check): their
         columns are not scanned again; the others are checked exactly.
+    intervals : mapping signal → (violations, min_slack, max_width, first index), optional
+        Interval summaries the compiled loop computed while the samples were in the cache
+        (the same operations as here: s − lower, upper − s, their minimum, upper − lower;
+        first index −1 when none), used when every run is known finite (else recomputed).
 
     Returns
     -------
@@ -552,12 +556,23 @@ def summarise(monitors: Monitors, columns, t, *, finite=None) -> RunSummaries:
     row_bytes = max([8 * N] + [abs(v.strides[0]) for v in arrays.values()
                                if not (v.ndim == 2 and v.strides[1] == 8)])
     B = max(1, (8 * _BLOCK_ELEMENTS) // row_bytes)   # strided views: the parent's rows count
+    given = {}
+    if intervals and known is not None and known.all():
+        given = {iv.signal: intervals[iv.signal] for iv in monitors.intervals
+                 if iv.signal in intervals}
+        for sig, (viol, slack, width, first) in given.items():
+            values[f"{sig}.violations"][:] = viol
+            values[f"{sig}.min_slack"][:] = slack
+            values[f"{sig}.max_width"][:] = width
+            first = np.asarray(first, dtype=np.int64)
+            values[f"{sig}.first_violation"][:] = np.where(first >= 0, t[np.maximum(first, 0)],
+                                                           np.nan)
     with np.errstate(all="ignore"):
         for a in range(0, R, B):
             b = min(a + B, R)
             _summarise_block(monitors, {k: _c(v[a:b]) for k, v in arrays.items()}, t, N, windows,
                              {k: v[a:b] for k, v in values.items()},
-                             None if known is None else known[a:b])
+                             None if known is None else known[a:b], skip=given)
     return RunSummaries(fields=monitors.fields, values=values)
 
 
@@ -569,7 +584,7 @@ _BLOCK_ELEMENTS = 131072
 
 
 def _summarise_block(monitors: Monitors, arrays: dict, t: np.ndarray, N: int, windows: dict,
-                     out: dict, known=None) -> None:
+                     out: dict, known=None, skip=()) -> None:
     """The summaries of a block of rows, written into ``out`` (views of the result);
     ``known``: rows known to be finite (not scanned)."""
     delays = monitors.delays
@@ -609,6 +624,8 @@ def _summarise_block(monitors: Monitors, arrays: dict, t: np.ndarray, N: int, wi
                 out[f"{p}.{k}"][broken] = np.inf
     tol = monitors.tolerance
     for iv in monitors.intervals:
+        if iv.signal in skip:  # computed by the compiled loop
+            continue
         sl = windows[iv.signal]
         lo, hi = arrays[iv.lower][:, sl], arrays[iv.upper][:, sl]
         s = iv.truth.evaluate(arrays, sl, lo.shape)

@@ -284,3 +284,35 @@ def test_the_shipped_ensemble_scenario(tank):
     assert res.cases == ("calm", "gusty") and res.completed == 32
     assert res.statistics.overall.fields["x1.violations"].positive == 0
     assert res.statistics.overall.fields["x1.min_slack"].min > 0
+
+
+@pytest.mark.parametrize("settle, tol", [(0.0, 0.0), (1.0, 0.0), (0.5, 0.02)])
+def test_interval_summaries_in_the_loop_equal_summarise(tank, settle, tol):
+    """The compiled loop summarises intervals whose truth is a column while the samples
+    are in registers (and then stores no trajectory); the values equal summarise()'s on
+    the stored columns — with violations (noise 50× its declared bound), a settle window,
+    a tolerance, and runs that leave the domain (x3 < 0: sqrt of a negative, NaN), which
+    are simulated again with their columns stored."""
+    from observer_cad.ensemble import Chunk
+    from observer_cad.ensemble._runner import _compiled_chunk, _layout, _loop_intervals, _Payload
+    from observer_cad.simulation import signal_program
+    m, o, sim, _ = tank
+    sc = scenario_from_dict({**TT, "signals": {**TT["signals"], "w1": {"uniform": [-0.5, 0.5]}},
+                             "initial": {**TT["initial"], "x3": {"normal": [0.2, 0.3]}}})
+    t = sc.grid(m.time)
+    mon = monitors(m, o, settle=settle, tolerance=tol)
+    lay = _layout(m, o)
+    loop = _loop_intervals(mon, lay, t)
+    assert loop and loop[0] == ("x1",)
+    progs = tuple(signal_program(m, sc, t, case=c) for c in sc.case_names)
+    with_loop = _Payload(sim.local_engine(), t, progs, sim.plan(sc), 40, sc.seed, mon, lay, loop)
+    without = _Payload(sim.local_engine(), t, progs, sim.plan(sc), 40, sc.seed, mon, lay, ())
+    for first, count in ((0, 20), (20, 20)):
+        a = _compiled_chunk(with_loop, Chunk(1, first, count))
+        b = _compiled_chunk(without, Chunk(1, first, count))
+        for f in b.fields:
+            x, y = a.values[f.name], b.values[f.name]
+            assert np.all((x == y) | (np.isnan(x) & np.isnan(y))), f.name
+    whole = _compiled_chunk(without, Chunk(1, 0, 40)).values
+    assert np.count_nonzero(whole["x1.violations"]) > 5        # the case really violates
+    assert 0 < np.count_nonzero(whole["finite"] == 0) < 40       # and some runs diverge
