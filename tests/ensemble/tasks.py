@@ -77,3 +77,10 @@ def fails(payload, chunk):
     if chunk == 3:
         raise ValueError(f"chunk {chunk} failed")
     return chunk
+
+
+def sigint_default():
+    """Popen preexec_fn: the child takes Ctrl-C even when the test run itself ignores SIGINT
+    (a shell starts background jobs with SIGINT ignored, and children inherit that)."""
+    import signal
+    signal.signal(signal.SIGINT, signal.SIG_DFL)

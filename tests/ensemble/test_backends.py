@@ -22,7 +22,8 @@ from observer_cad.ensemble import (DASK_MISSING, Backend, Interrupted, map_chunk
                                    progress_bar)
 from observer_cad.errors import UsageError
 
-from tests.ensemble.tasks import SOURCE, CountedPayload, fails, runs, runs_counted
+from tests.ensemble.tasks import (SOURCE, CountedPayload, fails, runs, runs_counted,
+                                  sigint_default)
 
 ROOT = Path(__file__).resolve().parents[2]
 RUNS, CHUNK, STEPS = 200, 16, 500
@@ -171,7 +172,8 @@ def test_interrupt_leaves_finished_results(kind, tmp_path):
     env = dict(os.environ, PYTHONPATH=str(ROOT), OBSERVER_CAD_CACHE=str(tmp_path))
     p = subprocess.Popen([sys.executable, str(Path(__file__).with_name("interrupt_child.py")),
                           kind], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                         env=env, cwd=str(tmp_path), start_new_session=True)
+                         env=env, cwd=str(tmp_path), start_new_session=True,
+                         preexec_fn=sigint_default)
     try:
         assert p.stdout.readline().strip() == "READY"
         os.killpg(p.pid, signal.SIGINT)

@@ -29,6 +29,8 @@ from observer_cad.simulation import (apply_threshold, monitors, scenario_from_di
 from observer_cad.observers import ThresholdSpec
 from observer_cad.synthesis import design
 
+from tests.ensemble.tasks import sigint_default
+
 ROOT = Path(__file__).resolve().parents[2]
 MODELS = ROOT / "models"
 pytestmark = pytest.mark.skipif(shutil.which("cc") is None and shutil.which("gcc") is None,
@@ -252,7 +254,7 @@ def test_ctrl_c_leaves_what_finished_readable(tmp_path, scen_file):
                           "x1", "--scenario", str(scen_file), "--runs", "200000", "--chunk", "8",
                           "--workers", "2", "--out", str(out)],
                          cwd=ROOT, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                         text=True)
+                         text=True, preexec_fn=sigint_default)
     seen = ""
     deadline = time.time() + 300
     while time.time() < deadline:  # the progress bar shows runs done
