@@ -228,19 +228,6 @@ def _add_run_options(p) -> None:
                         " hypercube's draws depend on its size)")
 
 
-def _nonnegative_float(option):
-    def convert(text):
-        import math
-        try:
-            v = float(text)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"{option} {text}: not a number") from None
-        if not (math.isfinite(v) and v >= 0):
-            raise argparse.ArgumentTypeError(f"{option} {text}: must be a finite number ≥ 0")
-        return v
-    return convert
-
-
 def _simulate_with_engine(args, model, observer, scenario):
     """One run of ``scenario`` (case ``--case``, sample ``--run``) on the engine ``--engine``:
     (result, the engine's description)."""
@@ -315,14 +302,26 @@ def _threshold_from_args(args, model, observer, scenario=None, *, seed=None):
 
 def _positive_float(option):
     """argparse type: a finite number > 0 (``nan``, ``inf``, ``0`` and ``-1`` refused)."""
+    return _real(option, zero=False)
+
+
+def _nonnegative_float(option):
+    """argparse type: a finite number ≥ 0."""
+    return _real(option, zero=True)
+
+
+def _real(option, *, zero: bool):
+    """argparse type: a finite number > 0 (≥ 0 with ``zero``)."""
+    bound = "≥ 0" if zero else "> 0"
+
     def convert(text):
         import math
         try:
             v = float(text)
         except ValueError:
-            raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
-        if not (math.isfinite(v) and v > 0):
-            raise argparse.ArgumentTypeError(f"{text!r}: must be a finite number > 0")
+            raise argparse.ArgumentTypeError(f"{option} {text}: not a number") from None
+        if not (math.isfinite(v) and (v >= 0 if zero else v > 0)):
+            raise argparse.ArgumentTypeError(f"{option} {text}: must be a finite number {bound}")
         return v
     convert.__name__ = option
     return convert

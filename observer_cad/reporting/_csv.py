@@ -13,7 +13,7 @@ import numpy as np
 from ..errors import UsageError
 from ..files import atomic_write_text
 
-__all__ = ["write_signals_csv", "UNITS_FILE", "with_decisions", "DECISION_COLUMNS"]
+__all__ = ["write_signals_csv", "UNITS_FILE", "with_decisions", "DECISION_COLUMNS", "csv_cell"]
 
 #: the columns :func:`with_decisions` adds: the any-alarm (0/1) and the diagnosis (text)
 DECISION_COLUMNS = ("alarm", "diagnosis")
@@ -23,12 +23,17 @@ DECISION_COLUMNS = ("alarm", "diagnosis")
 UNITS_FILE = "signals.units.json"
 
 
-def _cell(v: float) -> str:
+def csv_cell(v: float, *, nan: str = "nan") -> str:
+    """A float as a CSV cell: shortest round-trip text, ``inf``/``-inf``, and ``nan`` as
+    given (``signals.csv`` writes ``nan``; an empty cell there means "not available")."""
     if np.isnan(v):
-        return "nan"
+        return nan
     if np.isinf(v):
         return "inf" if v > 0 else "-inf"
     return repr(float(v))
+
+
+
 
 
 def with_decisions(result, decisions, *, per_residual: bool = False):
@@ -69,7 +74,7 @@ def _any_cell(v: np.ndarray, i: int) -> str:
         return str(v[i])
     if v.dtype.kind in "bi":
         return str(int(v[i]))
-    return _cell(v[i])
+    return csv_cell(v[i])
 
 
 def write_signals_csv(result, out_dir) -> Path:

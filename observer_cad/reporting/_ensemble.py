@@ -21,6 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from ..files import atomic_write_text, atomic_writer
+from ._csv import csv_cell
 from ._plots import save_figure
 
 __all__ = ["write_summary_csv", "write_statistics_json", "plot_ensemble_histograms",
@@ -28,14 +29,6 @@ __all__ = ["write_summary_csv", "write_statistics_json", "plot_ensemble_histogra
 
 SUMMARY_FILE = "summary.csv"
 STATISTICS_FILE = "statistics.json"
-
-
-def _cell(v: float) -> str:
-    if math.isnan(v):
-        return ""
-    if math.isinf(v):
-        return "inf" if v > 0 else "-inf"
-    return repr(float(v))
 
 
 def write_summary_csv(accumulator, out_dir, *, runs: int, seed: int) -> Path:
@@ -55,7 +48,7 @@ def write_summary_csv(accumulator, out_dir, *, runs: int, seed: int) -> Path:
         for i in range(run.size):
             r = int(run[i])
             w.writerow([r, cols["case"][i], r % runs, seed]
-                       + [_cell(float(v[i])) for v in values])
+                       + [csv_cell(float(v[i]), nan="") for v in values])
     return path
 
 

@@ -39,7 +39,7 @@ import numpy as np
 from ..errors import UsageError
 from ..model import PlantModel
 from ..observers import NO_FAULT, UNKNOWN_PATTERN, DecisionRule, Observer, decide
-from ._simulate import Scenario, memory_limit, scenario_from_dict, simulate
+from ._simulate import Scenario, memory_limit, simulate
 
 __all__ = ["RunOutcome", "Metrics", "FaultCase", "evaluate_result", "evaluate_ensemble",
            "fault_onsets", "true_labels"]
@@ -361,22 +361,13 @@ def _cases(model: PlantModel, cases) -> tuple:
     return tuple(items)
 
 
-def _scenario_dict(scenario: Scenario, faults, case: FaultCase | None, seed: int) -> dict:
-    """The scenario as data with the fault signals of ``case`` (the others zero)."""
-    signals = dict(scenario.signals)
-    for f in faults:
-        signals[f] = 0
+def _case_scenario(scenario: Scenario, faults, case: FaultCase | None) -> Scenario:
+    """The scenario with the fault signals of ``case`` (the others zero; its own cases
+    dropped)."""
+    signals = {**scenario.signals, **{f: 0 for f in faults}}
     if case is not None:
         signals[case.fault] = {"piecewise": [[0, f"t < {case.onset!r}"], [case.size, True]]}
-    data = {"signals": signals, "initial": dict(scenario.initial), "seed": int(seed)}
-    if scenario.observer_initial is not None:
-        data["observer_initial"] = dict(scenario.observer_initial)
-    if scenario.parameters:
-        data["parameters"] = dict(scenario.parameters)
-    for key in ("steps", "t_end", "dt"):
-        if getattr(scenario, key) is not None:
-            data[key] = getattr(scenario, key)
-    return data
+    return dataclasses.replace(scenario, signals=signals, cases=None)
 
 
 def _chunk_runs(model: PlantModel, observer: Observer, scenario: Scenario, runs: int) -> int:
@@ -399,9 +390,10 @@ def evaluate_ensemble(model: PlantModel, observer: Observer, scenario: Scenario,
     ``cases``: :class:`FaultCase` values, or a mapping fault name → (size, onset). Each
     case (and the fault-free one) runs the scenario with that fault as a step (the other
     faults zero; the scenario's own fault signals are replaced) over ``runs`` seeded
-    realisations of its uniform random signals (:func:`simulate` with ``runs=R``, in
-    chunks below the memory limit; chunk c uses the seed derived from (``seed``, c), the
-    same for every case: common random numbers). ``add_columns``: optional callable
+    realisations of its random signals and per-run values, seeded by ``seed``
+    (:func:`simulate` with ``runs=R, first_run=…`` in chunks below the memory limit: run k
+    is the same whatever the chunks, and the same for every case — common random
+    numbers). ``add_columns``: optional callable
     result → mapping of further columns (e.g. thresholds ``r_lower``/``r_upper`` when
     the observer does not output them), merged before :func:`decide`.
     """
@@ -415,14 +407,13 @@ def evaluate_ensemble(model: PlantModel, observer: Observer, scenario: Scenario,
     faults = tuple(s.name for s in model.faults)
     chunk = _chunk_runs(model, observer, scenario, int(runs))
     total = None
+    base = dataclasses.replace(scenario, seed=int(seed))
     for case in (None,) + items:
-        done, c = 0, 0
+        sc = _case_scenario(base, faults, case)
+        done = 0
         while done < runs:
             r = min(chunk, runs - done)
-            s = int(np.random.SeedSequence([int(seed), c]).generate_state(1)[0])
-            sc = scenario_from_dict(_scenario_dict(scenario, faults, case, s),
-                                    source=scenario.source)
-            res = simulate(model, observer, sc, runs=r)
+            res = simulate(model, observer, sc, runs=r, first_run=done, samples=int(runs))
             columns = dict(res.columns)
             if add_columns is not None:
                 columns.update(add_columns(res))
@@ -431,5 +422,4 @@ def evaluate_ensemble(model: PlantModel, observer: Observer, scenario: Scenario,
                                 case=NO_FAULT if case is None else case.name)
             total = m if total is None else total + m
             done += r
-            c += 1
     return total

@@ -45,9 +45,9 @@ from ..observers import Observer, output_symbols
 from ._sampling import (DECLARED, NOMINAL_CASE, SAMPLING_METHODS, check_distribution, draw_runs,
                         parameter_layout, signal_program)
 
-__all__ = ["signal_arrays", "align_delay", "Scenario", "load_scenario", "scenario_from_dict",
+__all__ = ["align_delay", "Scenario", "load_scenario", "scenario_from_dict",
            "simulate", "SimulationResult", "column_units", "T", "memory_limit", "check_memory",
-           "find_nonfinite", "finish_result", "parameter_arrays", "MEMORY_LIMIT_ENV", "DEFAULT_MEMORY_LIMIT"]
+           "find_nonfinite", "finish_result", "MEMORY_LIMIT_ENV", "DEFAULT_MEMORY_LIMIT"]
 
 T = sp.Symbol("t")
 
@@ -465,22 +465,6 @@ def find_nonfinite(columns: Mapping, order, *, t: np.ndarray, delays: Mapping, s
                     " (e.g. sqrt or log of a negative argument) or diverged",
     }[kind]
     return cause
-
-
-def signal_arrays(model: PlantModel, sc: Scenario, t: np.ndarray, runs: int, *,
-                  first_run: int = 0, case: str | None = None) -> dict:
-    """The scenario's signals for runs ``first_run … first_run + runs − 1``: {name: (R, N)}
-    (the model's inputs, faults, disturbances and noise; see :class:`SignalProgram`)."""
-    prog = signal_program(model, sc, t, case=case)
-    V = prog.values(sc.seed, np.arange(first_run, first_run + runs))
-    return {name: V[:, :, j] for j, name in enumerate(prog.names)}
-
-
-def parameter_arrays(model: PlantModel, sc: Scenario, runs: int, *, first_run: int = 0) -> dict:
-    """The true plant parameters a scenario sets: {symbol: array (runs,)} (see
-    :func:`draw_runs`); a value outside the model's declared uncertainty is refused."""
-    d = draw_runs(model, None, sc, np.arange(first_run, first_run + runs), total=first_run + runs)
-    return {p: d.plant[p.name] for p in model.parameters if p.name in d.plant}
 
 
 def align_delay(v: np.ndarray, delay: int) -> np.ndarray:
