@@ -40,6 +40,7 @@ from ..model import ObserverKind, PlantModel, Task, parse_expression
 from ._nonlinear import substitute_arguments
 from ._poles import default_eigenvalues
 from ._lambda_search import family_jump_lambdas, one_row_lambdas
+from ._order_bound import chain_order, estimation_order_bound, residual_order_bound, spread_lambdas
 from ._reduced import is_stable, jordan_equations, observer_symbols, output_symbols
 from ._signature import residual_response
 from ._task import task_for, task_parts
@@ -226,6 +227,8 @@ def design_jordan(model: PlantModel, *, observer: str, estimate=None,
                        + (f"; complex roots {', '.join(map(str, adm.other_roots))} are not usable"
                           if adm.other_roots else ""), "METHOD §2b; seed 002 eq. (2.5)")]
     one_row = jumps = None  # the special-λ analysis (every λ admissible, none requested)
+    chains: list = []  # what each order m says about the λ a model of m rows needs
+    extra: list = []
     if lambdas:
         lam_list = []
         for v in lambdas:
@@ -256,6 +259,11 @@ def design_jordan(model: PlantModel, *, observer: str, estimate=None,
         for v in (one_row.stable if one_row else ()) + jumps.stable:
             if not any(_same_number(v, w) for w in lam_list):
                 lam_list.append(v)
+        chains = _chain_orders(observer, F, H, M, work.time, n, lam_list)
+        extra = []  # the chain polynomials' roots: tried as whole sets, not in combinations
+        for c in chains:
+            extra += [v for v in c.lambdas if not any(_same_number(v, w)
+                                                      for w in lam_list + extra)]
     else:  # every stable admissible root, exactly (CRootOf for irreducible cubics and up)
         lam_list = [v for v in adm.values if is_stable(v, work.time) is not False]
         lam_list.sort(key=lambda v: (not v.is_rational, v.has(sp.CRootOf), str(v)))
@@ -274,8 +282,9 @@ def design_jordan(model: PlantModel, *, observer: str, estimate=None,
     pool = []
     sums = []  # diagnostic: one generic member per λ family (Σ basis rows), tried last
     lam_pivots = {}
-    for i_lam, lam in enumerate(lam_list):
-        report(f"designing (Jordan form): null space for λ = {lam} ({i_lam + 1} of {len(lam_list)})")
+    for i_lam, lam in enumerate(lam_list + extra):
+        report(f"designing (Jordan form): null space for λ = {lam} ({i_lam + 1} of"
+               f" {len(lam_list) + len(extra)})")
         P = _pencil(F, H, L0, lam)
         members, rkP = left_null_echelon(P)
         lam_pivots[lam] = rkP.conditions
@@ -286,7 +295,8 @@ def design_jordan(model: PlantModel, *, observer: str, estimate=None,
             if Phi_i != sp.zeros(1, n):
                 rows_phi.append(Phi_i)
                 rows_j.append(J.applyfunc(sp.cancel))
-                pool.append((lam, Phi_i, J.applyfunc(sp.cancel)))
+                if i_lam < len(lam_list):
+                    pool.append((lam, Phi_i, J.applyfunc(sp.cancel)))
         if rows_phi:
             fam[lam] = (sp.Matrix.vstack(*rows_phi), sp.Matrix.vstack(*rows_j))
             if observer == "diagnostic":  # rows inside rowspace(H): a residual with k = 1
@@ -307,7 +317,8 @@ def design_jordan(model: PlantModel, *, observer: str, estimate=None,
     tried = []
     chosen = None
     if M is not None:  # directed: M ∈ rowspace(H) + Σ_λ rowspace(N_λ L0), one row per λ
-        chosen = _directed_rows(fam, lam_list, H, M, n, observer, D, st, tried, names)
+        chosen = _directed_rows(fam, lam_list, H, M, n, observer, D, st, tried, names,
+                                tuple(c.lambdas for c in chains if c.lambdas))
     for size in range(1, n) if chosen is None else ():  # fewest rows first, every strategy
         chosen = _combination_rows(pool, n, observer, H, D, M, st, tried, names, (size,))
         if chosen is None and sums:  # the basis rows alone do not do it: generic members too
@@ -367,7 +378,9 @@ def design_jordan(model: PlantModel, *, observer: str, estimate=None,
                                  nonlinear, k, decoupled)
     conds.append(Condition("certificate", cert.passed, cert.summary(), "METHOD §2"))
     minimal = _minimality(observer, k, n, lams, lam_list, adm, bool(lambdas), one_row, jumps,
-                          work.time)
+                          work.time, lambda k_: _order_bound(observer, F, H, L, D, M, st, k_,
+                                                             decoupled), chains,
+                          decoupled and bool(L.cols) or bool(st.terms))
     conds.append(minimal)
     choice = (f"k = {k}: rows with λ = ({', '.join(map(str, lams))}) chosen from"
               f" {len(pool)} candidate row(s) for λ in {{{', '.join(map(str, lam_list))}}};"
@@ -473,12 +486,14 @@ def _rows_in_rowspace(family, H):
     return out
 
 
-def _directed_rows(fam, lam_list, H, M, n, observer, D, st, tried, names=()):
-    """Sets of distinct λ, smallest first: solve M = Σ c_λ N_λ L0 + Q H for one row per λ."""
+def _directed_rows(fam, lam_list, H, M, n, observer, D, st, tried, names=(), sets=()):
+    """Sets of distinct λ, smallest first: solve M = Σ c_λ N_λ L0 + Q H for one row per λ.
+    ``sets``: whole λ sets (the roots of a chain polynomial) tried first at their size."""
     lams = [lam for lam in lam_list if lam in fam]
     for size in range(1, n):
         report(f"designing (Jordan form): {size} row(s) of at most {n - 1}")
-        for combo in itertools.combinations(lams, size):
+        first = [c for c in sets if len(c) == size and all(lam in fam for lam in c)]
+        for combo in itertools.chain(first, itertools.combinations(lams, size)):
             B = sp.Matrix.vstack(*[fam[lam][0] for lam in combo])
             if _irrational(combo) and not _maybe_in_rowspace(sp.Matrix.vstack(B, H), M):
                 continue  # numerically far from solvable: skip the algebraic-field solve
@@ -609,8 +624,14 @@ def _special_lambdas(observer, F, H, L0, L, M, time):
     return one, family_jump_lambdas(F, H, L0, LAMBDA, time)
 
 
-def _minimality(observer, k, n, lams, lam_list, adm, requested, one_row, jumps, time) -> Condition:
-    """Why fewer rows are impossible, as far as it is proven (METHOD §2b)."""
+def _minimality(observer, k, n, lams, lam_list, adm, requested, one_row, jumps, time,
+                bound, chains=(), constrained=True) -> Condition:
+    """Why fewer rows are impossible, as far as it is proven (METHOD §2b). ``bound(k)``
+    gives the :class:`OrderBound` of every reduced model of the task (any F*); ``chains``
+    the :class:`ChainOrder` of each order m (one row z, every λ admissible); with no
+    decoupled input and a linear model (``constrained`` False) a Jordan design of m rows
+    exists iff some order m' ≤ m has a chain polynomial with m' real, distinct, stable
+    roots."""
     ref = "METHOD §2b; seed 002 §2"
     name = "k is minimal over λ"
     special = [v for v in lams if not any(_same_number(v, w)
@@ -621,12 +642,48 @@ def _minimality(observer, k, n, lams, lam_list, adm, requested, one_row, jumps, 
         return Condition(name, True, found + "k = 1: one row, the fewest possible", ref,
                          required=False)
     if requested:
-        return Condition(name, False, f"k = {k} for the requested λ only; other λ were not"
-                         " searched", ref, required=False)
-    if not adm.generic:
+        why = f"k = {k} for the requested λ only; other λ were not searched"
+        proven = False
+    elif not adm.generic:
         return Condition(name, True, f"every stable admissible λ ({', '.join(map(str, lam_list))};"
                          f" {adm.describe()}) was searched: no set of fewer than {k} rows"
                          " satisfies the task", ref, required=False)
+    else:
+        why, proven = _searched(observer, k, lam_list, one_row, jumps)
+    if proven:
+        return Condition(name, True, found + why, ref, required=False)
+    below = [c for c in chains if c.m < k]
+    if (not requested and not constrained and below and below[-1].m == k - 1
+            and all(c.impossible for c in below)):
+        return Condition(name, True, found + "no Jordan model of fewer rows: a model of m rows"
+                         " has its λ as the roots of a monic p of degree m with M p(F) ∈"
+                         " rowspace [H; …; H Fᵐ] (every λ of a Jordan model real, distinct,"
+                         " stable); " + "; ".join(c.evidence for c in below), ref,
+                         required=False)
+    b = bound(k)
+    where = (f" (for parameters with {', '.join(sorted(str(c.lhs) for c in b.conditions))}"
+             " nonzero)" if b.conditions else "")
+    anyf = ("no residual generator of any form (any F*) with fewer states responds to every"
+            " fault" if observer == "diagnostic" else "every model of any form (any F*) giving z"
+            " has at least that many states")
+    if b.k == k:
+        return Condition(name, True, found + f"{why}; and k = {k} is a lower bound: {anyf}"
+                         f"{where} — {b.evidence}", ref, required=False)
+    if b.k > k:  # a diagnostic design whose residual misses a fault (unobservable rows)
+        return Condition(name, False, found + f"{why}; but {anyf} below {b.k} states{where}"
+                         f" ({b.evidence}): this design's residual does not respond to every"
+                         " fault (see the observability of (F*, H*))", ref, required=False)
+    least = (f"; an order-{b.k} model exists for some F* (its eigenvalues need not be real,"
+             " distinct or stable)" if b.exact else "")
+    if below:
+        least += "; chain polynomials: " + "; ".join(c.evidence for c in below)
+    return Condition(name, False, found + f"{why}; the lower bound over every F* is {b.k}{where}"
+                     f" ({b.evidence}){least}, so the least order lies in [{b.k}, {k}]", ref,
+                     required=False)
+
+
+def _searched(observer, k, lam_list, one_row, jumps) -> tuple:
+    """(what the search over λ proves, proven?) for k ≥ 2 when every λ is admissible."""
     stable_txt = ", ".join(map(str, one_row.stable)) if one_row else ""
     if observer == "diagnostic":
         k1 = ("k = 1 is impossible for every λ: a one-row residual needs Φ ∈ rowspace H, and"
@@ -650,7 +707,32 @@ def _minimality(observer, k, n, lams, lam_list, adm, requested, one_row, jumps, 
             f"; 2 ≤ k < {k} was searched over λ in {{{', '.join(map(str, lam_list))}}} (the"
             " defaults and the stable roots where P(λ) drops rank"
             f" — {jumps.evidence if jumps else 'not analysed'}) only")
-    return Condition(name, proven, found + k1 + more, ref, required=False)
+    return k1 + more, proven
+
+
+def _chain_orders(observer, F, H, M, time, n, tries) -> list:
+    """:func:`chain_order` for m = 1, 2, … (one row z, numeric, not diagnostic) until every
+    monic p of degree m qualifies (the default λ then suffice) or m = n − 1."""
+    if observer == "diagnostic" or M is None or M.rows != 1 or \
+            set().union(*(X.free_symbols for X in (F, H, M))):
+        return []
+    out = []
+    tries = list(tries) + [v for v in spread_lambdas(time)
+                           if not any(_same_number(v, w) for w in tries)]
+    for m in range(1, n):
+        c = chain_order(F, H, M, m, LAMBDA, time, tries)
+        out.append(c)
+        if c.verdict == "free" and c.dim >= m:
+            break
+    return out
+
+
+def _order_bound(observer, F, H, L, D, M, st, k, decoupled):
+    """The lower bound on the order of every model of the task (:mod:`._order_bound`)."""
+    if observer == "diagnostic":
+        return residual_order_bound(F, H, L, D, k - 1)
+    return estimation_order_bound(F, H, M, decoupled=decoupled and bool(L.cols),
+                                  linear=not st.terms)
 
 
 def _task_ok(observer, Phi, H, D, M, st, names=()):
