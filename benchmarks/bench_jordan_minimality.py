@@ -28,6 +28,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "tests" / "synthesis"))
 
 from observer_cad import InfeasibleDesignError, PlantModel  # noqa: E402
+from observer_cad.model import random_model  # noqa: E402
 from observer_cad.synthesis import default_eigenvalues, design_jordan  # noqa: E402
 from common import load as _load, machine as _machine, publish  # noqa: E402
 
@@ -54,6 +55,18 @@ def cases(slow: bool):
            ("unmeasured block, modes −2 ± √2", PlantModel(
                name="quadratic", time="continuous", states=[x1, x2, x3], inputs=[u], outputs=[x3],
                dynamics=[-2 * x1 + x2, 2 * x1 - 2 * x2 + u, -x3 + u]), "x1", 2)]
+    s = sp.Symbol("s")
+    c = sp.Poly(sp.expand((s + sp.Rational(1, 2)) * (s + sp.Rational(3, 2)) * (s + sp.Rational(5, 2))),
+                s).all_coeffs()
+    out.append(("unmeasured companion block, roots −1/2, −3/2, −5/2", PlantModel(
+        name="companion", time="continuous", states=[x1, x2, x3, x4], inputs=[u], outputs=[x4],
+        dynamics=[x2, x3, -c[3] * x1 - c[2] * x2 - c[1] * x3 + u, -x4 + u]), "x1", 3))
+    # random plants: the minimal k is the proven lower bound over every F*
+    # (estimation_order_bound), reached with the roots of the chain polynomial
+    out.append(("`random_model(6, 1, 0, seed=11, density=0.5)`, z = x1", random_model(
+        6, 1, 0, seed=11, time="continuous", density=0.5), "x1", 2))
+    out.append(("`random_model(6, 1, 0, seed=3, density=0.5)`, z = x1", random_model(
+        6, 1, 0, seed=3, time="continuous", density=0.5), "x1", 3))
     if slow:
         out.append(("unmeasured companion block, λ³ + 6λ² + 8λ + 1", PlantModel(
             name="cubic", time="continuous", states=[x1, x2, x3, x4], inputs=[u], outputs=[x4],
@@ -95,15 +108,19 @@ def run(runs: int, slow: bool) -> str:
     info = _machine()
     lines = [f"Machine: {info['nproc']} CPU(s), {info['cpu']}; Python {info['python']}, sympy"
              f" {info['sympy']}; load average before: {_load()}. Medians of {runs} run(s).", "",
-             "| plant | minimal k | defaults only: k (time) | new search: k, λ (time wall / CPU) | target |",
-             "|---|---|---|---|---|"]
+             "| plant | minimal k | defaults only: k (time) | new search: k, λ (time wall / CPU) |"
+             " minimality proven | target |",
+             "|---|---|---|---|---|---|"]
     for label, model, z, kmin in cases(slow):
         defaults = [str(v) for v in default_eigenvalues(model.time, len(model.states))]
         w0, c0, d0 = measure(model, z, defaults, runs)
         w1, c1, d1 = measure(model, z, None, runs)
         ok = d1 is not None and d1.k == kmin and d1.certificate.passed
+        proven = d1 is not None and next(c for c in d1.conditions
+                                         if c.name == "k is minimal over λ").holds
         lines.append(f"| {label} | {kmin} | {_k(d0)} ({_fmt(w0)}) | {_k(d1)}, λ = {_lams(d1)}"
-                     f" ({_fmt(w1)} / {_fmt(c1)}) | k = {kmin} certified: {'met' if ok else '**MISSED**'} |")
+                     f" ({_fmt(w1)} / {_fmt(c1)}) | {'yes' if proven else 'no'} |"
+                     f" k = {kmin} certified and proven: {'met' if ok and proven else '**MISSED**'} |")
         print(lines[-1], flush=True)
     lines += ["", f"Load average after: {_load()}. Reproduce: `python3 benchmarks/bench_jordan_minimality.py"
               f" --runs {runs}{' --slow' if slow else ''} --write`."]
