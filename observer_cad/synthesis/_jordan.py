@@ -630,8 +630,8 @@ def _minimality(observer, k, n, lams, lam_list, adm, requested, one_row, jumps, 
     gives the :class:`OrderBound` of every reduced model of the task (any F*); ``chains``
     the :class:`ChainOrder` of each order m (one row z, every λ admissible); with no
     decoupled input and a linear model (``constrained`` False) a Jordan design of m rows
-    exists iff some order m' ≤ m has a chain polynomial with m' real, distinct, stable
-    roots."""
+    exists iff order m has a chain polynomial with m real, distinct, stable roots (members
+    nest: q of degree m − 1 times (λ − c) is a member of degree m)."""
     ref = "METHOD §2b; seed 002 §2"
     name = "k is minimal over λ"
     special = [v for v in lams if not any(_same_number(v, w)
@@ -654,11 +654,13 @@ def _minimality(observer, k, n, lams, lam_list, adm, requested, one_row, jumps, 
         return Condition(name, True, found + why, ref, required=False)
     below = [c for c in chains if c.m < k]
     if (not requested and not constrained and below and below[-1].m == k - 1
-            and all(c.impossible for c in below)):
+            and below[-1].impossible):
         return Condition(name, True, found + "no Jordan model of fewer rows: a model of m rows"
                          " has its λ as the roots of a monic p of degree m with M p(F) ∈"
                          " rowspace [H; …; H Fᵐ] (every λ of a Jordan model real, distinct,"
-                         " stable); " + "; ".join(c.evidence for c in below), ref,
+                         " stable), and such a p of degree m − 1 times (λ − c) is one of"
+                         f" degree m, so order {k - 1} ruling it out rules out every lower"
+                         " order; " + "; ".join(c.evidence for c in below), ref,
                          required=False)
     b = bound(k)
     where = (f" (for parameters with {', '.join(sorted(str(c.lhs) for c in b.conditions))}"

@@ -41,6 +41,7 @@ from __future__ import annotations
 import dataclasses
 import itertools
 
+import numpy as np
 import sympy as sp
 
 from ..numerics import exact_rank, left_null_echelon, left_null_space, solve_left
@@ -53,6 +54,8 @@ __all__ = ["OrderBound", "ChainOrder", "estimation_order_bound", "residual_order
 
 #: at most this many subsets of the tried λ are used to pin a member of a family of p
 MAX_SUBSETS = 60
+#: seeded random λ sets tried (in floating point first) after those subsets
+SAMPLES = 3000
 
 
 @dataclasses.dataclass(frozen=True)
@@ -171,8 +174,9 @@ class ChainOrder:
     """What the monic polynomials p of degree m with M p(F) ∈ W_m say about order m.
 
     ``verdict``: "empty" (no such p: no model of order m), "unique" (one p; its roots are
-    every model's eigenvalues), "signed" (a hyperplane of p none of which has only negative
-    roots, continuous time), "free" (an affine family of dimension ``dim``);
+    every model's eigenvalues), "line" (a one-parameter family, decided exactly), "signed"
+    (a hyperplane of p none of which has only negative roots, continuous time), "free" (an
+    affine family of dimension ``dim``, searched, undecided when nothing is found);
     ``polynomial``: the unique p, or the member found with ``lambdas`` as its roots;
     ``lambdas``: m distinct real stable roots of a member (exact), () when none was found;
     ``evidence``: one line."""
@@ -187,7 +191,7 @@ class ChainOrder:
     @property
     def impossible(self) -> bool:
         """No member has m distinct real stable roots (decided exactly)."""
-        return self.verdict in ("empty", "signed") or (self.verdict == "unique"
+        return self.verdict in ("empty", "signed") or (self.verdict in ("unique", "line")
                                                          and not self.lambdas)
 
 
@@ -235,29 +239,125 @@ def chain_order(F, H, M, m: int, lam, time: str, tries) -> ChainOrder:
                              f" order {m}"))
     if d >= m:  # every monic p: the default λ already give order m
         return ChainOrder(m, "free", d, None, (), f"m = {m}: every monic p of degree {m}")
-    for subset in itertools.islice(itertools.combinations(tries, d), MAX_SUBSETS):
-        # p(v) = 0 for each v of the subset: d linear equations in the d directions' weights
-        B = sp.Matrix([[sum(dirs[r][i] * v ** i for i in range(m)) for r in range(d)]
-                       for v in subset])
-        rhs = sp.Matrix([poly(a0).subs(lam, v) for v in subset])
-        if exact_rank(B).rank < d:
-            continue
-        w = B.LUsolve(rhs)
-        p = poly([a0[i] + sum(w[r] * dirs[r][i] for r in range(d)) for i in range(m)])
-        rts = roots_ok(p)
-        if rts:
-            return ChainOrder(m, "free", d, p, rts,
-                              f"m = {m}: a {d}-parameter family of p; through λ ="
-                              f" {', '.join(map(str, subset))}: p(λ) = {sp.factor(p)}")
     if d == m - 1 and time == "continuous":
         sign = _one_sign(m, a0, dirs)
         if sign:
             return ChainOrder(m, "signed", d, None, (),
                               f"m = {m}: the p form a hyperplane Σ c_i e_i(−λ) = 0 with every c_i"
                               f" {sign} and e_i(−λ) > 0 for λ < 0: no p has only negative roots")
+
+    if d == 1:
+        return _pencil_order(m, poly(a0), sp.expand(-sum(dirs[0][i] * lam ** i
+                                                          for i in range(m))), lam, time,
+                             roots_ok)
+
+    def pinned(subset):
+        """The member with p(v) = 0 for each v of the subset (d linear equations in the d
+        directions' weights), exactly; None when they do not determine it."""
+        B = sp.Matrix([[sum(dirs[r][i] * v ** i for i in range(m)) for r in range(d)]
+                       for v in subset])
+        if exact_rank(B).rank < d:
+            return None
+        w = B.LUsolve(sp.Matrix([poly(a0).subs(lam, v) for v in subset]))
+        return poly([a0[i] + sum(w[r] * dirs[r][i] for r in range(d)) for i in range(m)])
+
+    subsets = itertools.chain(itertools.islice(itertools.combinations(tries, d), MAX_SUBSETS),
+                              _sampled_subsets(m, d, a0, dirs, time))
+    for subset in subsets:
+        p = pinned(subset)
+        rts = roots_ok(p) if p is not None else ()
+        if rts:
+            return ChainOrder(m, "free", d, p, rts,
+                              f"m = {m}: a {d}-parameter family of p; through λ ="
+                              f" {', '.join(map(str, subset))}: p(λ) = {sp.factor(p)}")
     return ChainOrder(m, "free", d, None, (),
                       f"m = {m}: a {d}-parameter family of p; none through {d} of the tried λ"
-                      " has only real, distinct, stable roots (undecided)")
+                      f" nor of {SAMPLES} sampled sets has only real, distinct, stable roots"
+                      " (undecided)")
+
+
+def _pencil_order(m, p0, p1, lam, time, roots_ok) -> ChainOrder:
+    """Decide the one-parameter family p0 + t p1 (p1 of degree < m, so every member has
+    degree m) exactly: its roots collide only where the discriminant in λ vanishes and
+    cross the stability boundary only where p(0) = 0 (continuous) or p(±1) = 0 (discrete);
+    between consecutive such t (roots in t, isolated exactly) whether all m roots are
+    real, distinct and stable does not change, so one rational t per interval decides."""
+    t = sp.Symbol("t")
+    pt = sp.expand(p0 + t * p1)
+    disc = sp.discriminant(sp.Poly(pt, lam)).as_expr()
+    fam = f"the p form the line p0 + t p1, p0 = {sp.factor(p0)}, p1 = {sp.factor(p1)}"
+    if sp.expand(disc) == 0:
+        return ChainOrder(m, "line", 1, None, (), f"m = {m}: {fam}; every member has a"
+                          " repeated root")
+    edges = [0] if time == "continuous" else [1, -1]
+    crit = sp.Mul(disc, *[pt.subs(lam, e) for e in edges])
+    crit = sp.Poly(sp.expand(crit), t)
+    pts = []
+    if crit.degree() > 0:
+        ends = _separated_roots(crit.sqf_part())
+        pts.append(ends[0][0] - 1)
+        pts += [(ends[i][1] + ends[i + 1][0]) / 2 for i in range(len(ends) - 1)]
+        pts.append(ends[-1][1] + 1)
+    else:
+        pts.append(sp.Integer(0))
+    for v in pts:
+        p = sp.expand(pt.subs(t, v))
+        rts = roots_ok(p)
+        if rts:
+            return ChainOrder(m, "line", 1, p, rts, f"m = {m}: {fam}; at t = {v}: p(λ) ="
+                              f" {sp.factor(p)}")
+    return ChainOrder(m, "line", 1, None, (),
+                      f"m = {m}: {fam}; no t gives only real, distinct, stable roots (checked"
+                      f" at one t in each of the {len(pts)} intervals cut by the"
+                      f" {len(pts) - 1} t where roots collide or cross the stability boundary)")
+
+
+def _separated_roots(poly) -> list:
+    """Isolating intervals [a, b] of the real roots of a squarefree polynomial, ascending and
+    strictly apart (b_i < a_{i+1}: an interval may end exactly on the next root, which is
+    then refined away)."""
+    eps = None
+    while True:
+        ivs = poly.intervals() if eps is None else poly.intervals(eps=eps)
+        ends = sorted((sp.Rational(a), sp.Rational(b)) for (a, b), _ in ivs)
+        if all(ends[i][1] < ends[i + 1][0] for i in range(len(ends) - 1)):
+            return ends
+        eps = sp.Rational(1, 10) if eps is None else eps / 1000
+
+
+def _sampled_subsets(m, d, a0, dirs, time):
+    """Seeded random sets of d rational stable λ whose pinned member has, in floating point,
+    m − d further roots that are real, distinct and stable with a margin (the exact check
+    follows): log-uniform over 10⁻² … 10^2.5 (continuous), uniform in (−0.95, 0.95)
+    (discrete), two significant digits."""
+    rng = np.random.default_rng(20261123)
+    A0 = np.array([float(v) for v in a0])
+    Dn = np.array([[float(v) for v in r] for r in dirs])
+    for _ in range(SAMPLES):
+        if time == "continuous":
+            vals = -10.0 ** rng.uniform(-2, 2.5, d)
+        else:
+            vals = rng.uniform(-0.95, 0.95, d)
+        vals = np.array([float(f"{v:.2g}") for v in vals])
+        if len(set(vals)) < d:
+            continue
+        V = np.vander(vals, m, increasing=True)  # V[j, i] = v_j^i
+        B = V @ Dn.T
+        rhs = vals ** m - V @ A0
+        try:
+            w = np.linalg.solve(B, rhs)
+        except np.linalg.LinAlgError:
+            continue
+        a = A0 + w @ Dn
+        r = np.roots(np.concatenate([[1.0], -a[::-1]]))
+        if np.max(np.abs(r.imag)) > 1e-9 * (1 + np.max(np.abs(r))):
+            continue
+        r = np.sort(r.real)
+        if (np.min(np.diff(r)) <= 1e-6 * (1 + np.max(np.abs(r))) or
+                (time == "continuous" and r.max() >= -1e-9) or
+                (time != "continuous" and np.abs(r).max() >= 1 - 1e-9)):
+            continue
+        yield tuple(sp.Rational(f"{v:.2g}") for v in vals)
 
 
 def _one_sign(m, a0, dirs) -> str:

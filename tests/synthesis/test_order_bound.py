@@ -167,3 +167,31 @@ def test_bound_with_symbolic_parameters_lists_its_pivots():
     b = estimation_order_bound(F, H, sp.Matrix([[1, 0, 0, 0]]))
     assert b.k == 3
     assert b.exact
+
+
+def test_one_parameter_family_found_in_a_narrow_window():
+    """Order 2 works only for t in an interval of width ~1e-4 (between a root collision and
+    a root crossing 0): the exact interval analysis finds it; sampled λ would miss it."""
+    m = random_model(5, 1, 0, seed=4, time="continuous", density=0.5)
+    F, H, _ = _matrices(m)
+    c = chain_order(F, H, sp.Matrix([[1, 0, 0, 0, 0]]), 2, LAM, "continuous", [])
+    assert c.verdict == "line" and len(c.lambdas) == 2
+    assert all(v < 0 for v in c.lambdas) and c.lambdas[0] != c.lambdas[1]
+    assert sp.expand(c.polynomial.subs(LAM, c.lambdas[0])) == 0
+    d = design_jordan(m, observer="interval", estimate="x1")
+    assert d.k == 2 and d.certificate.passed and _minimal(d).holds
+
+
+@pytest.mark.parametrize("seed,k,why", [(0, 4, "the line p0 + t p1"),
+                                        (2, 5, "hyperplane")])
+def test_lower_orders_ruled_out_exactly(seed, k, why):
+    """The bound (3) is below k; the chain polynomials rule out every order below k: a
+    one-parameter family decided on its critical t, or a one-signed hyperplane (which also
+    rules out the orders below it: members nest)."""
+    m = random_model(6, 1, 1, seed=seed, time="continuous")
+    d = design_jordan(m, observer="interval", estimate="x1")
+    assert d.k == k and d.certificate.passed
+    cond = _minimal(d)
+    assert cond.holds and "no Jordan model of fewer rows" in cond.detail and why in cond.detail
+    F, H, _ = _matrices(m)
+    assert estimation_order_bound(F, H, sp.Matrix([[1, 0, 0, 0, 0, 0]])).k == 3
