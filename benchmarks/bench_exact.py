@@ -16,6 +16,14 @@ timed), each run in a fresh process after the imports, wall-clock and CPU time:
   sympy's ``DomainMatrix.rref(method="CD")`` on gmpy2 integers (what a machine without
   python-flint gets).
 
+Incremental over k (flint ground types): the same design with the search over k done as
+now (``krylov_null_spaces``: the null space of (W⁽ᵏ⁾ L⁽ᵏ⁾) grown from that of k − 1 by
+``GrowingLeftNull``) and from scratch (as before: (W⁽ᵏ⁾ L⁽ᵏ⁾) built and eliminated at
+each k, H Fʲ kept), fresh processes alternating between the two, the ratio the median of
+the paired ratios; then the cost of each k in this process (CPU, median, the two
+interleaved): the elimination of (W⁽ᵏ⁾ L⁽ᵏ⁾) from scratch (``rational_left_null``)
+against the step from k − 1 (``GrowingLeftNull.grow``), with the path the step took.
+
 Elimination: one reduced row echelon form of (W⁽ᵏ⁾ L⁽ᵏ⁾)ᵀ at the k the design stops at,
 in this process (flint ground types): the hand-written Gauss–Jordan that the exact path
 used before (``_gauss_jordan``, still the elimination over QQ(parameters)), sympy's
@@ -53,12 +61,31 @@ def _model(n):
     return model, extract_structure(model)
 
 
-def _child(n: int) -> None:
+def _from_scratch(F, H, L, *, H0=None):
+    """The search over k as before ``krylov_null_spaces``: (W⁽ᵏ⁾ L⁽ᵏ⁾) built and
+    eliminated at each k, H Fʲ kept across k (rational F, H, L; H0 = H)."""
+    import itertools
+
+    from observer_cad.numerics import as_rational, left_null_echelon
+    from observer_cad.synthesis._canonical import _krylov_rational
+
+    Fq, Hq, Lq = (as_rational(A) for A in (F, H, L))
+    HF = [Hq]
+    for k in itertools.count(1):
+        W, Lk = _krylov_rational(Fq, Hq, Lq, k, HF)
+        members, rk = left_null_echelon(W.hstack(Lk) if Lk.shape[1] else W)
+        yield members, rk.rank, rk.conditions
+
+
+def _child(n: int, scratch: bool = False) -> None:
     from sympy.external.gmpy import GROUND_TYPES
 
     from observer_cad import design_canonical
     from observer_cad.numerics import RATIONAL_BACKEND
+    from observer_cad.synthesis import _canonical
 
+    if scratch:
+        _canonical.krylov_null_spaces = _from_scratch
     model, st = _model(n)
     t, c = time.perf_counter(), time.process_time()
     d = design_canonical(model, unknown_input="d", symbolic=True, method="exact", structure=st)
@@ -67,13 +94,67 @@ def _child(n: int) -> None:
                       "backend": RATIONAL_BACKEND}))
 
 
-def _cold(n: int, env: dict, runs: int) -> list:
+def _cold(n: int, env: dict, runs: int, scratch: bool = False) -> list:
     out = []
     for _ in range(runs):
-        res = subprocess.run([sys.executable, __file__, "--child", str(n)], cwd=ROOT,
+        res = subprocess.run([sys.executable, __file__, "--child", str(n)]
+                             + (["--scratch"] if scratch else []), cwd=ROOT,
                              capture_output=True, text=True, check=True,
                              env={**os.environ, **env})
         out.append(json.loads(res.stdout.strip().splitlines()[-1]))
+    return out
+
+
+def _incremental(n: int, pairs: int) -> tuple:
+    """Fresh processes alternating from scratch / incremental (the order swapped every
+    pair): (k, medians from scratch, medians incremental, median paired CPU ratio)."""
+    a, b = [], []
+    for i in range(pairs):
+        order = (True, False) if i % 2 == 0 else (False, True)
+        got = {scratch: _cold(n, {}, 1, scratch=scratch)[0] for scratch in order}
+        a.append(got[True])
+        b.append(got[False])
+    med = lambda rs, key: statistics.median(r[key] for r in rs)  # noqa: E731
+    ratio = statistics.median(y["cpu"] / x["cpu"] for x, y in zip(a, b))
+    assert {r["k"] for r in a + b} == {a[0]["k"]}
+    return a[0]["k"], (med(a, "t"), med(a, "cpu")), (med(b, "t"), med(b, "cpu")), ratio
+
+
+def _per_k(n: int, k_max: int, runs: int) -> list:
+    """For k = 1 … k_max: (k, shape, members, CPU from scratch, CPU of the step, path),
+    medians of ``runs``, the two interleaved at each k."""
+    import sympy as sp
+
+    from observer_cad.numerics import (RATIONAL_BACKEND, GrowingLeftNull, as_rational,
+                                       rational_left_null)
+    from observer_cad.synthesis._canonical import _krylov_rational
+
+    _, st = _model(n)
+    F, H, L = (as_rational(sp.Matrix(A)) for A in (st.F, st.H, st.unknown_input_columns(
+        [sp.Symbol("rho1")])))
+    p = L.shape[1]
+    states, tops, HF, HFL = [GrowingLeftNull.of(H)], [None], [H], []
+    for k in range(1, k_max + 1):  # the states the search passes through, and the new rows
+        HFL.append(HF[-1] * L)
+        HF.append(HF[-1] * F)
+        tops.append(HF[k].hstack(*HFL))
+        states.append(states[-1].grow(tops[k], at=st.n, width=p))
+    out = []
+    for k in range(1, k_max + 1):
+        ta, tb = [], []
+        for _ in range(runs):
+            c = time.process_time()
+            W, Lk = _krylov_rational(F, H, L, k, HF)  # as the search did, H Fʲ at hand
+            M = W.hstack(Lk)
+            N = rational_left_null(M)
+            ta.append(time.process_time() - c)
+            c = time.process_time()
+            S = states[k - 1].grow(tops[k], at=st.n, width=p)
+            tb.append(time.process_time() - c)
+        assert S.null.to_list() == N.to_list()  # the same members, exactly
+        path = ("incremental" if S.kernel is not None else "full rank (certificate)"
+                if not S.null.shape[0] and RATIONAL_BACKEND == "flint" else "from scratch")
+        out.append((k, M.shape, N.shape[0], statistics.median(ta), statistics.median(tb), path))
     return out
 
 
@@ -112,7 +193,11 @@ def _eliminations(n: int, k: int) -> list:
     return dm.shape, out
 
 
-def run(runs: int) -> str:
+def _ms(t: float) -> str:
+    return f"{t * 1e3:.1f} ms"
+
+
+def run(runs: int, pairs: int) -> str:
     info = _machine()
     load0 = _load()
     started = time.strftime("%Y-%m-%d %H:%M")
@@ -129,6 +214,17 @@ def run(runs: int) -> str:
                         f" {res[0]['k']} | {_fmt(wall)} ({_fmt(cpu)}) | {BEFORE[n]} |"
                         f" {target:g} s | {wall / target:.2f} / {cpu / target:.2f} ({mark}) |")
             print(rows[-1], flush=True)
+    inc_rows, perk_rows = [], []
+    for n in TARGETS:
+        k, (ta, ca), (tb, cb), ratio = _incremental(n, pairs)
+        inc_rows.append(f"| n = {n}, l = 8 | {k} | {_fmt(ta)} ({_fmt(ca)}) | {_fmt(tb)} ({_fmt(cb)})"
+                        f" | {ratio:.2f} |")
+        print(inc_rows[-1], flush=True)
+    for n, k in ks.items():
+        for kk, shape, dim, ta, tb, path in _per_k(n, k, 5):
+            perk_rows.append(f"| n = {n} | {kk} | {shape[0]}×{shape[1]} | {dim} | {_ms(ta)} |"
+                             f" {_ms(tb)} | {path} |")
+            print(perk_rows[-1], flush=True)
     elim = []
     for n, k in ks.items():
         shape, times = _eliminations(n, k)
@@ -156,22 +252,38 @@ def run(runs: int) -> str:
         "| plant | backend | k | exact design | before | target | ratio wall / CPU |",
         "|---|---|---|---|---|---|---|",
     ]
+    inc = ["", f"Incremental over k (flint ground types): the exact design with the search over k"
+           f" from scratch (as before: (W⁽ᵏ⁾ L⁽ᵏ⁾) eliminated at each k) and incremental (now),"
+           f" {pairs} fresh processes each, alternating; median wall-clock (CPU); ratio: median of"
+           f" the {pairs} paired CPU ratios incremental / from scratch.", "",
+           "| plant | k | from scratch | incremental | ratio |", "|---|---|---|---|---|"]
+    perk = ["", "Each k of that search (CPU, median of 5, the two interleaved, in this process):"
+            " building and eliminating (W⁽ᵏ⁾ L⁽ᵏ⁾) from scratch (`rational_left_null`) against"
+            " the step from k − 1 (`GrowingLeftNull.grow`, which builds the grown matrix from"
+            " the new rows), the same members; the path the step took: a"
+            " full-rank certificate (no members), an elimination from scratch (no null space to"
+            " reuse at k − 1), or incremental.", "",
+            "| plant | k | (W L) | members | from scratch | step | path |",
+            "|---|---|---|---|---|---|---|"]
     tail = ["", "One reduced row echelon form of (W⁽ᵏ⁾ L⁽ᵏ⁾)ᵀ at the design's k (CPU time,"
             " median; flint ground types in this process):", "",
             "| matrix | elimination | CPU | × FLINT |", "|---|---|---|---|"]
-    return "\n".join(head + rows + tail + elim)
+    return "\n".join(head + rows + inc + inc_rows + perk + perk_rows + tail + elim)
 
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--write", action="store_true", help="update the table in benchmarks/README.md")
     ap.add_argument("--runs", type=int, default=3, help="fresh processes per row (default 3)")
+    ap.add_argument("--pairs", type=int, default=5,
+                    help="alternating from-scratch / incremental pairs per plant (default 5)")
     ap.add_argument("--child", type=int, help=argparse.SUPPRESS)
+    ap.add_argument("--scratch", action="store_true", help=argparse.SUPPRESS)
     args = ap.parse_args(argv)
     if args.child is not None:
-        _child(args.child)
+        _child(args.child, args.scratch)
         return 0
-    table = run(args.runs)
+    table = run(args.runs, args.pairs)
     publish(table, README, BEGIN, END, write=args.write)
     return 0
 

@@ -29,7 +29,9 @@ import sympy as sp
 from sympy.external.gmpy import GROUND_TYPES
 from sympy.polys.matrices import DomainMatrix
 
-__all__ = ["default_rtol", "rank_from_sv", "ExactRank", "FloatRank", "exact_rank", "left_null_space", "echelon_rows", "solve_left", "float_rank", "float_left_null_space", "nonzero_conditions", "denominator_conditions", "to_domain_matrix", "rational_rref", "rational_left_null", "left_null_echelon", "exact_rank_value", "as_rational", "from_rational", "RATIONAL_BACKEND"]
+from ..errors import DimensionError
+
+__all__ = ["default_rtol", "rank_from_sv", "ExactRank", "FloatRank", "exact_rank", "left_null_space", "echelon_rows", "solve_left", "float_rank", "float_left_null_space", "nonzero_conditions", "denominator_conditions", "to_domain_matrix", "rational_rref", "rational_left_null", "GrowingLeftNull", "left_null_echelon", "exact_rank_value", "as_rational", "from_rational", "RATIONAL_BACKEND"]
 
 #: Which code eliminates rational matrices: "flint" (``fmpq_mat.rref``, when sympy's ground
 #: types are flint: python-flint installed) or "sympy-CD" (``DomainMatrix.rref(method="CD")``).
@@ -367,6 +369,177 @@ def rational_left_null(M: DomainMatrix) -> DomainMatrix:
     return _left_null_echelon(dm)[0]
 
 
+def _solve_square(A: DomainMatrix, B: DomainMatrix) -> DomainMatrix:
+    """X with A X = B for a nonsingular square A over QQ (FLINT's ``fmpq_mat.solve`` under
+    flint ground types, else the reduced form of (A B))."""
+    n = A.shape[0]
+    if n == 0 or B.shape[1] == 0:
+        return DomainMatrix.zeros((n, B.shape[1]), sp.QQ).to_dense()
+    if RATIONAL_BACKEND == "flint":
+        return A.to_dense().lu_solve(B.to_dense())
+    R, pivots = rational_rref(A.hstack(B))
+    if len(pivots) < n or pivots[-1] >= n:  # pragma: no cover - A is nonsingular by construction
+        raise ArithmeticError("singular system in _solve_square")
+    return R.extract(list(range(n)), list(range(n, n + B.shape[1])))
+
+
+def _scatter(X: DomainMatrix, cols, width: int) -> DomainMatrix:
+    """The matrix with X's columns at positions ``cols`` of ``width`` columns, zero elsewhere."""
+    K = sp.QQ
+    rows = X.to_list()
+    out = [[K.zero] * width for _ in rows]
+    for i, row in enumerate(rows):
+        for j, c in enumerate(cols):
+            out[i][c] = row[j]
+    return DomainMatrix(out, (len(rows), width), K).to_dense()
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class GrowingLeftNull:
+    """The left null space of a rational matrix, kept while the matrix grows by rows on
+    top (:meth:`grow`): the search over k of the canonical form (METHOD §2a), where
+    (W⁽ᵏ⁺¹⁾ L⁽ᵏ⁺¹⁾) is (W⁽ᵏ⁾ L⁽ᵏ⁾) with a zero column block inserted and l rows on top.
+
+    For M (m × c) over QQ: ``null``, the reduced echelon basis of {v : v M = 0} (rows;
+    exactly what :func:`rational_left_null` gives, the form being unique), and ``rows``
+    B, rank M independent rows of M (the rows that are not leading positions of
+    ``null``). ``columns``, ``kernel`` and ``kernel_columns`` are what :meth:`grow`
+    reuses, ``None`` until it needs them (:meth:`with_kernel`): C, as many columns as B
+    with M[B, C] nonsingular, and the basis (rows) of {z : M z = 0} that is the identity
+    on the other columns: row i has its 1 at column ``kernel_columns[i]``, zeros at the
+    others.
+    """
+
+    matrix: DomainMatrix
+    null: DomainMatrix
+    rows: tuple
+    columns: tuple | None = None
+    kernel: DomainMatrix | None = None
+    kernel_columns: tuple | None = None
+
+    @property
+    def rank(self) -> int:
+        return len(self.rows)
+
+    @property
+    def null_pivots(self) -> tuple:
+        """The leading column of each row of ``null``: the rows of M not in ``rows``."""
+        B = set(self.rows)
+        return tuple(i for i in range(self.matrix.shape[0]) if i not in B)
+
+    @classmethod
+    def of(cls, M: DomainMatrix) -> "GrowingLeftNull":
+        """The state of M (a DomainMatrix over ZZ or QQ), from scratch: the full-rank
+        certificate of :func:`exact_rank_value` when M has no more rows than columns, else
+        one elimination (:func:`rational_left_null`)."""
+        dm = M.convert_to(sp.QQ).to_dense()
+        m, c = dm.shape
+        if m == 0 or c == 0:
+            return cls(dm, DomainMatrix.eye(m, sp.QQ).to_dense(), ())
+        if m <= c and _full_rank_certified(dm):
+            return cls(dm, DomainMatrix.zeros((0, m), sp.QQ).to_dense(), tuple(range(m)))
+        null, _, piv = _left_null_echelon(dm)
+        return cls(dm, null, tuple(sorted(m - 1 - p for p in piv)))
+
+    def with_kernel(self) -> "GrowingLeftNull":
+        """This state with ``columns`` and ``kernel`` (one elimination of M unless it has
+        full column rank)."""
+        if self.kernel is not None:
+            return self
+        m, c = self.matrix.shape
+        if self.rank == c:
+            C, kernel = tuple(range(c)), DomainMatrix.zeros((0, c), sp.QQ).to_dense()
+        else:
+            R, C = rational_rref(self.matrix)
+            kernel = _null_rows(R, C, c).to_dense()
+        Cset = set(C)
+        return dataclasses.replace(self, columns=tuple(C), kernel=kernel,
+                                   kernel_columns=tuple(j for j in range(c) if j not in Cset))
+
+    def grow(self, top: DomainMatrix, *, at: int, width: int) -> "GrowingLeftNull":
+        """The state of
+
+            M' = [ top                                                ]
+                 [ M with ``width`` zero columns inserted at column ``at`` ]
+
+        (``top``: l rows, c + ``width`` columns, over ZZ or QQ).
+
+        Method. v = (s, x) is in the left null space of M' iff s T = 0 (T the inserted
+        columns of ``top``) and s A + x M = 0 (A the rest of ``top``). The second is
+        solvable iff s A is in the row space of M, i.e. s A Kᵀ = 0 for the kernel K, so the
+        s form the left null space S of G = (T, A Kᵀ), an l-row matrix. The reduced echelon
+        basis of the new null space is (sᵢ, xᵢ) for the reduced echelon basis sᵢ of S,
+        xᵢ = −sᵢ Y with Y M[B, :] = A on the columns C (one square solve; xᵢ M = −sᵢ A
+        because sᵢ A is in the row space), reduced against the old basis, followed by
+        (0, old basis). The rows of ``top`` at the non-leading positions of S join B; the
+        pivot columns of G's reduced form join C (the Schur complement of M[B, C] in
+        M'[B', C'] is those columns of G); G's right kernel gives the new kernel.
+
+        This reuses M's null space when it has one and M's kernel has at most ``width``
+        vectors (in the search over k: once the null space has appeared, when the kernel
+        comes only from the inserted columns, e.g. H L = 0). Otherwise M' is eliminated
+        from scratch (:meth:`of`): there is no basis to reuse, or the kernel of a wide
+        matrix costs more than the elimination it spares (measured in
+        ``benchmarks/bench_exact.py``).
+        """
+        K = sp.QQ
+        m, c = self.matrix.shape
+        l = top.shape[0]
+        if top.shape[1] != c + width or not 0 <= at <= c:
+            raise DimensionError(f"GrowingLeftNull.grow: the new rows have {top.shape[1]}"
+                                 f" columns, expected {c} + width {width}, inserted at"
+                                 f" 0 <= at = {at} <= {c}")
+        top = top.convert_to(K).to_dense()
+        zeros = DomainMatrix.zeros
+        every, old_rows = list(range(l)), list(range(m))
+        grown = top.vstack(zeros((m, 0), K).to_dense().hstack(
+            self.matrix.extract(old_rows, list(range(at))), zeros((m, width), K).to_dense(),
+            self.matrix.extract(old_rows, list(range(at, c)))))
+        if not self.null.shape[0] or c - self.rank > width:
+            return GrowingLeftNull.of(grown)
+        base = self.with_kernel()
+        old = [j if j < at else j + width for j in range(c)]  # column j of M → column of M'
+        ins = list(range(at, at + width))
+        A = top.extract(every, old)
+        G = top.extract(every, ins)
+        if base.kernel.shape[0]:
+            G = G.hstack(A * base.kernel.transpose())
+        g = G.shape[1]
+        # S: the starts s of null vectors; T: rows of top independent modulo M's row space
+        if g:
+            S, _, piv = _left_null_echelon(G)
+            T = tuple(sorted(l - 1 - p for p in piv))
+            RG, PG = rational_rref(G)
+        else:
+            S, T, RG, PG = DomainMatrix.eye(l, K).to_dense(), (), G, ()
+        d = S.shape[0]
+        null = zeros((self.null.shape[0], l), K).to_dense().hstack(self.null)
+        if d:
+            C = list(base.columns)
+            Y = _solve_square(self.matrix.extract(list(self.rows), C).transpose(),
+                              A.extract(every, C).transpose()).transpose()
+            x = _scatter(-(S * Y), self.rows, m)
+            x = x - x.extract(list(range(d)), list(self.null_pivots)) * self.null
+            null = S.hstack(x).vstack(null)
+        # the next step's B, C and kernel
+        gcol = ins + [old[q] for q in base.kernel_columns]  # G's column → column of M'
+        PGset = set(PG)
+        free = [j for j in range(g) if j not in PGset]
+        if free:
+            Y = _null_rows(RG, PG, g).to_dense()
+            kept = list(range(len(free)))
+            Yk = Y.extract(kept, list(range(width, g))) * base.kernel if base.kernel.shape[0] \
+                else zeros((len(free), c), K).to_dense()
+            kernel = Yk.extract(kept, list(range(at))).hstack(
+                Y.extract(kept, list(range(width))), Yk.extract(kept, list(range(at, c))))
+        else:
+            kernel = zeros((0, c + width), K).to_dense()
+        return GrowingLeftNull(
+            grown, null, T + tuple(i + l for i in self.rows),
+            tuple(old[j] for j in base.columns) + tuple(gcol[j] for j in PG),
+            kernel, tuple(gcol[j] for j in free))
+
+
 def exact_rank_value(M) -> int:
     """The exact rank alone (no conditions: for a matrix over QQ(parameters) it is the
     generic rank, see :func:`exact_rank`).
@@ -385,13 +558,20 @@ def exact_rank_value(M) -> int:
             return exact_rank(M).rank
     if 0 in dm.shape:
         return 0
-    if RATIONAL_BACKEND == "flint":
-        import flint
-
-        num, _den = dm.to_dense().rep.rep.numer_denom()
-        if flint.nmod_mat(num, _PRIME).rank() == min(dm.shape):
-            return min(dm.shape)
+    if _full_rank_certified(dm):
+        return min(dm.shape)
     return len(rational_rref(dm)[1])
+
+
+def _full_rank_certified(dm: DomainMatrix) -> bool:
+    """True if the integer numerator of dm (over QQ, no zero dimension) has full rank
+    modulo :data:`_PRIME` (then dm has full rank over QQ); False if not or without FLINT."""
+    if RATIONAL_BACKEND != "flint":
+        return False
+    import flint
+
+    num, _den = dm.to_dense().rep.rep.numer_denom()
+    return flint.nmod_mat(num, _PRIME).rank() == min(dm.shape)
 
 
 #: The prime of :func:`exact_rank_value`'s full-rank certificate (the Mersenne prime 2⁶¹ − 1).

@@ -20,7 +20,8 @@ Method
 2. Check the necessary condition rank [H; L0] < rank H + rank L0 (000 eq. (2.4)) and
    report the matching condition rank(HD) = rank(D) (000 Remark 1).
 3. For k = 1, 2, … < n: the left null space of (W⁽ᵏ⁾ L⁽ᵏ⁾), exactly (DomainMatrix
-   over QQ or QQ(parameters)) or by SVD with a stated tolerance.
+   over QQ, grown from that of k − 1: :func:`krylov_null_spaces`; or over
+   QQ(parameters)) or by SVD with a stated tolerance.
 4. Choose a member for the task: D* = Φ D nonzero and (by default) entering one row
    only — the first (matched case) preferred, then the last (mismatched case, 000 §7).
    "One row only" is a linear condition on the null-space coefficients, so the members
@@ -55,9 +56,9 @@ from ._task import task_for
 from ..model import PlantModel, Task
 from ._nonlinear import substitute_arguments
 from ..model import Structure, extract_structure
-from ..numerics import as_rational, from_rational, exact_rank_value, left_null_echelon, default_rtol, denominator_conditions, echelon_rows, exact_rank, float_left_null_space, float_rank, left_null_space, nonzero_conditions
+from ..numerics import GrowingLeftNull, as_rational, from_rational, exact_rank_value, left_null_echelon, default_rtol, denominator_conditions, echelon_rows, exact_rank, float_left_null_space, float_rank, left_null_space, nonzero_conditions
 
-__all__ = ["design_canonical", "krylov_blocks", "member_to_phi",
+__all__ = ["design_canonical", "krylov_blocks", "krylov_null_spaces", "member_to_phi",
            "FLOAT_AUTO_N"]
 
 #: Above this state dimension a numeric design uses the float (SVD) path by default.
@@ -65,37 +66,59 @@ FLOAT_AUTO_N = 20
 
 
 # ---------------------------------------------------------------- blocks
-def krylov_blocks(F, H, L, k):
-    """W⁽ᵏ⁾ = [H Fᵏ; …; H F; H] and the block Toeplitz L⁽ᵏ⁾ (METHOD §2a), sympy."""
+def krylov_blocks(F, H, L, k, *, H0=None):
+    """W⁽ᵏ⁾ = [H Fᵏ; H0 Fᵏ⁻¹; …; H0 F; H0] and the block Toeplitz L⁽ᵏ⁾, block (i, j) =
+    Hᵢ Fʲ⁻ⁱ L for j ≥ i (H₀ = H, Hᵢ = H0 below), sympy (METHOD §2a).
+
+    (R*, −J*_1, …, −J*_k) (W⁽ᵏ⁾ L⁽ᵏ⁾) = 0 with R* acting on H and J* on ``H0``: H0 = H
+    (the default) for the canonical form, H0 = [H; M] for seed 004's virtual sensor.
+    """
     F, H, L = (A if isinstance(A, sp.MatrixBase) else sp.Matrix(A) for A in (F, H, L))
-    l, p = H.rows, L.cols
-    Fq, Hq, Lq = as_rational(F), as_rational(H), as_rational(L)
-    if Fq is not None and Hq is not None and Lq is not None:  # rational: products in FLINT
-        Wq, Lkq = _krylov_rational(Fq, Hq, Lq, k)
+    H0 = H if H0 is None else (H0 if isinstance(H0, sp.MatrixBase) else sp.Matrix(H0))
+    p = L.cols
+    Fq, Hq, Lq, H0q = (as_rational(A) for A in (F, H, L, H0))
+    if None not in (Fq, Hq, Lq, H0q):  # rational: products in FLINT
+        Wq, Lkq = _krylov_rational(Fq, Hq, Lq, k, H0q=None if H0 is H else H0q)
         return from_rational(Wq), from_rational(Lkq)
-    HF = [H]
+    HF, H0F = [H], [H0]
     for _ in range(k):
         HF.append(HF[-1] * F)
-    W = sp.Matrix.vstack(*[HF[k - i] for i in range(k + 1)])
-    Lk = sp.zeros(l * (k + 1), k * p)
+        H0F.append(H0F[-1] * F)
+    W = sp.Matrix.vstack(HF[k], *[H0F[k - i] for i in range(1, k + 1)])
+    Lk = sp.zeros(W.rows, k * p)
     if p:
         HFL = [HF[j] * L for j in range(k)]
+        H0FL = HFL if H0 is H else [H0F[j] * L for j in range(k - 1)]
         for i in range(k):
+            B, r0 = (HFL, 0) if i == 0 else (H0FL, H.rows + (i - 1) * H0.rows)
             for j in range(i, k):
-                Lk[i * l:(i + 1) * l, j * p:(j + 1) * p] = HFL[j - i]
+                Lk[r0:r0 + B[0].rows, j * p:(j + 1) * p] = B[j - i]
     return W, Lk
 
 
-def _krylov_rational(Fq, Hq, Lq, k, HF=None):
+def _krylov_rational(Fq, Hq, Lq, k, HF=None, H0q=None):
     """:func:`krylov_blocks` on dense DomainMatrices over QQ. ``HF``, if given, is the list
-    [H, H F, …] computed so far; it is extended in place (the search over k reuses it)."""
+    [H, H F, …] computed so far; it is extended in place (the search over k from scratch
+    in ``benchmarks/bench_exact.py`` reuses it). With ``H0q``: the first block row with H,
+    below it the matrices of order k − 1 with ``H0q`` (a zero block column first)."""
+    p = Lq.shape[1]
+    if H0q is not None and k:
+        W0, L0 = _krylov_rational(Fq, H0q, Lq, k - 1)
+        P = [Hq]
+        for _ in range(k):
+            P.append(P[-1] * Fq)
+        W = P[k].vstack(W0)
+        if not p:
+            return W, DomainMatrix.zeros((W.shape[0], 0), sp.QQ).to_dense()
+        top = (P[0] * Lq).hstack(*[P[j] * Lq for j in range(1, k)])
+        return W, top.vstack(DomainMatrix.zeros((L0.shape[0], p), sp.QQ).to_dense().hstack(L0))
     HF = [Hq] if HF is None else HF
     while len(HF) < k + 1:
         HF.append(HF[-1] * Fq)
-    l, p = Hq.shape[0], Lq.shape[1]
+    l = Hq.shape[0]
     W = HF[k].vstack(*[HF[k - i] for i in range(1, k + 1)])
     Z = DomainMatrix.zeros((l, p), sp.QQ).to_dense()
-    if not p:
+    if not p or not k:
         return W, DomainMatrix.zeros((l * (k + 1), 0), sp.QQ).to_dense()
     HFL = [HF[j] * Lq for j in range(k)]
     blocks = [[HFL[j - i] if j >= i else Z for j in range(k)] for i in range(k + 1)]
@@ -106,6 +129,49 @@ def _block(blocks):
     """A block matrix from a list of rows of DomainMatrix blocks."""
     rows = [b[0].hstack(*b[1:]) for b in blocks]
     return rows[0].vstack(*rows[1:])
+
+
+def krylov_null_spaces(F, H, L, *, H0=None):
+    """For k = 1, 2, …: the left null space of (W⁽ᵏ⁾ L⁽ᵏ⁾) (:func:`krylov_blocks`) as
+    ``(members, rank, conditions)``: its reduced echelon basis (1 × rows matrices), the
+    rank of (W⁽ᵏ⁾ L⁽ᵏ⁾) and the conditions of a generic rank (empty for rationals).
+
+    Rational F, H, L (and H0): incrementally, with
+    :class:`~observer_cad.numerics.GrowingLeftNull`, as
+
+        (W⁽ᵏ⁾ L⁽ᵏ⁾) = [ H Fᵏ   H L   H F L … H Fᵏ⁻¹ L ]
+                      [ W̃      0         L̃          ]
+
+    where (W̃ L̃) is the matrix of order k − 1 with H0 in place of H (k = 1: H0 alone):
+    (W⁽ᵏ⁾ L⁽ᵏ⁾) is that matrix with a zero column block inserted after W and l rows on
+    top. With H0 ≠ H (seed 004) the H0 matrices are grown alongside. With parameters:
+    eliminated from scratch at each k (:func:`~observer_cad.numerics.left_null_echelon`).
+    """
+    Fq, Hq, Lq = (as_rational(A) for A in (F, H, L))
+    H0q = Hq if H0 is None else as_rational(H0)
+    if None in (Fq, Hq, Lq, H0q):
+        for k in itertools.count(1):
+            members, rk = left_null_echelon(sp.Matrix.hstack(*krylov_blocks(F, H, L, k, H0=H0)))
+            yield members, rk.rank, rk.conditions
+    n, p = Fq.shape[0], Lq.shape[1]
+
+    def tops(Hx):  # the rows on top at k = 1, 2, …: (H Fᵏ, H L, …, H Fᵏ⁻¹ L), in FLINT
+        P, PL = Hx, []
+        while True:
+            PL.append(P * Lq)
+            P = P * Fq
+            yield P.hstack(*PL) if p else P
+
+    below = GrowingLeftNull.of(H0q)  # the H0 matrix of order k − 1
+    tops0 = tops(H0q)
+    for top in tops(Hq):
+        state = below.grow(top, at=n, width=p)
+        if H0 is not None:
+            below = below.grow(next(tops0), at=n, width=p)
+        else:
+            below = state
+        N = state.null
+        yield [from_rational(N[i:i + 1, :]) for i in range(N.shape[0])], state.rank, frozenset()
 
 
 def member_to_phi(v, F, H, k):
@@ -308,30 +374,23 @@ def _design_exact(model, st, task, target, dec, D, L, *, symbolic, single_row) -
     attempts: list = []
     minimality: set = set()
     chosen = None
-    FHLq = [as_rational(A) for A in (F, H, L)]
-    HF = [FHLq[1]]  # rational: H, H F, H F², … kept across k, products in FLINT
+    spaces = krylov_null_spaces(F, H, L)
     for k in range(1, n):
         report(f"designing (exact, canonical form): k = {k} of at most {n - 1}")
-        if None not in FHLq:
-            Wq, Lkq = _krylov_rational(*FHLq, k, HF)
-            M = Wq.hstack(Lkq) if Lkq.shape[1] else Wq
-        else:
-            W, Lk = krylov_blocks(F, H, L, k)
-            M = sp.Matrix.hstack(W, Lk)
-        members, rk = left_null_echelon(M)
+        members, rank, rank_conds = next(spaces)
         need = l * (k + 1)
-        rank_txt = f"rank (W L) = {rk.rank}" + (
-            f" (generic: {', '.join(sorted(map(str, rk.conditions)))})" if rk.conditions else "")
+        rank_txt = f"rank (W L) = {rank}" + (
+            f" (generic: {', '.join(sorted(map(str, rank_conds)))})" if rank_conds else "")
         if not members:
             attempts.append(f"k={k}: rank condition (3.3) fails: {rank_txt} = l(k+1) = {need}")
-            minimality |= rk.conditions
+            minimality |= rank_conds
             continue
         found, why = _choose_member(members, F, H, D, k, single_row, st)
         if found is None:
             attempts.append(
                 f"k={k}: rank condition (3.3) holds ({rank_txt} < {need}), null space of"
                 f" dimension {len(members)}, but {why}")
-            minimality |= rk.conditions
+            minimality |= rank_conds
             continue
         chosen = (k, members, found, rank_txt, need)
         break

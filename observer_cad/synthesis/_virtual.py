@@ -24,7 +24,7 @@ from typing import Sequence
 import sympy as sp
 
 from ..progress import report
-from ._canonical import shift_matrix
+from ._canonical import krylov_null_spaces, shift_matrix
 from ._poles import (closed_loop_eigenvalues, default_eigenvalues, parse_eigenvalues, pole_placement,
                      require_stable)
 from ._certificate import certify_design
@@ -35,28 +35,9 @@ from ._task import task_for
 from ..model import PlantModel, Task
 from ._nonlinear import substitute_arguments
 from ..model import extract_structure
-from ..numerics import echelon_rows, exact_rank, left_null_space, solve_left
+from ..numerics import exact_rank, solve_left
 
 __all__ = ["design_virtual_sensor_canonical"]
-
-
-def _blocks(F, H1, H0, L, k):
-    """(W L) for (R*, −J*_1, …, −J*_k) when R* acts on H1 and J* on H0.
-
-    Row by row Φ_1 = R* H1, Φ_{i+1} = Φ_i F − J*_i H0, Φ_k F = J*_k H0, Φ L = 0; the plain
-    form has H1 = H0 = H (METHOD §2a), the seed-004 variant H1 = H, H0 = [H; M].
-    """
-    p = L.cols
-    blocks_W = [H1 * F ** k] + [H0 * F ** (k - i) for i in range(1, k + 1)]
-    W = sp.Matrix.vstack(*blocks_W)
-    rows = []
-    for i, Hb in enumerate([H1] + [H0] * k):
-        cols = []
-        for j in range(k):
-            cols.append(Hb * F ** (j - i) * L if (j >= i and i < k) else sp.zeros(Hb.rows, p))
-        rows.append(sp.Matrix.hstack(*cols) if cols and p else sp.zeros(Hb.rows, k * p))
-    Lk = sp.Matrix.vstack(*rows)
-    return W, Lk
 
 
 def _member(v, F, H1, H0, k):
@@ -104,16 +85,16 @@ def design_virtual_sensor_canonical(model: PlantModel, *, estimate, variant: str
     attempts = []
     pivots: set = set()  # the rank decisions' pivots: smaller k impossible, then the chosen k
     chosen = None
+    # (R*, −J*_1, …, −J*_k) (W L) = 0 with R* acting on H and J* on H0 (krylov_blocks)
+    spaces = krylov_null_spaces(F, H, L, H0=H0 if variant == "004" else None)
     for k in range(1, n):
         report(f"designing (virtual sensor, canonical form): k = {k} of at most {n - 1}")
-        W, Lk = _blocks(F, H, H0, L, k)
-        basis, rk = left_null_space(sp.Matrix.hstack(W, Lk))
-        need = W.rows
-        if not basis:
-            attempts.append(f"k={k}: rank condition (3.3) fails: rank (W L) = {rk.rank} = {need} rows")
-            pivots |= rk.conditions
+        members, rank, rank_conds = next(spaces)
+        need = H.rows + k * H0.rows
+        if not members:
+            attempts.append(f"k={k}: rank condition (3.3) fails: rank (W L) = {rank} = {need} rows")
+            pivots |= rank_conds
             continue
-        members = echelon_rows(basis)
         cands = list(members) + [a + b for i, a in enumerate(members) for b in members[i + 1:]]
         why = "no member"
         for v in cands:
@@ -133,13 +114,13 @@ def design_virtual_sensor_canonical(model: PlantModel, *, estimate, variant: str
                 why = why_nl
                 continue
             chosen = (k, v, R0, J0, Phi, idents, subs)
-            chosen_rank = (rk.rank, need, len(members))
-            pivots |= rk.conditions | rPhi.conditions | rPH.conditions | rPHM.conditions
+            chosen_rank = (rank, need, len(members))
+            pivots |= rank_conds | rPhi.conditions | rPH.conditions | rPHM.conditions
             break
         if chosen:
             break
-        pivots |= rk.conditions
-        attempts.append(f"k={k}: rank condition (3.3) holds (rank (W L) = {rk.rank} < {need} rows),"
+        pivots |= rank_conds
+        attempts.append(f"k={k}: rank condition (3.3) holds (rank (W L) = {rank} < {need} rows),"
                         f" but {why}")
     if chosen is None:
         raise InfeasibleDesignError(
