@@ -49,6 +49,7 @@ import sympy as sp
 
 from ..files import atomic_write_text
 from ..errors import UsageError
+from ..numerics import algebraic_to_float
 from ..observers import Observer
 from ..observers import DecisionRule
 from ._decide_c import decision_sources
@@ -134,16 +135,19 @@ def _initial_state(observer: Observer, initial: Mapping | None):
     given = {str(k): float(v) for k, v in (initial or {}).items()}
     states = [str(s) for s in observer.states]
     par = dict(observer.parameters)
+    # a CRootOf coefficient as its Float first: xreplace of a plant state named like the
+    # root's polynomial variable (x) would rebuild that polynomial
+    init = {s: algebraic_to_float(observer.initial.get(s, 0)).xreplace(par)
+            for s in observer.states}
     # every symbol some initial value depends on is a valid key, even when the state
     # that uses it is given directly
-    free_used = {str(sym) for s in observer.states
-                 for sym in sp.sympify(observer.initial.get(s, 0)).xreplace(par).free_symbols}
+    free_used = {str(sym) for e in init.values() for sym in e.free_symbols}
     x0, notes = [], []
     for s in observer.states:
         if str(s) in given:
             x0.append(given[str(s)])
             continue
-        e = sp.sympify(observer.initial.get(s, 0)).xreplace(par)
+        e = init[s]
         free = sorted(e.free_symbols, key=str)
         sub = {}
         for sym in free:

@@ -41,6 +41,7 @@ import sympy as sp
 
 from ..errors import UsageError
 from ..model import PlantModel
+from ..numerics import algebraic_to_float
 from ..observers import Observer
 from ..simulation import parameter_layout
 
@@ -598,8 +599,9 @@ def joint_step(model: PlantModel, observer: Observer | None, *, name: str | None
         par = dict(layout.rename)
         ps = list(layout.plant) + list(layout.observer)
     obs_states = list(observer.states) if observer else []
-    obs_upd = [sp.sympify(e).xreplace(par) for e in (observer.update if observer else ())]
-    obs_out = [sp.sympify(e).xreplace(par) for _, e in (observer.outputs if observer else ())]
+    obs_upd = [algebraic_to_float(e).xreplace(par) for e in (observer.update if observer else ())]
+    obs_out = [algebraic_to_float(e).xreplace(par)
+               for _, e in (observer.outputs if observer else ())]
     ysyms = [sp.Symbol(f"y{i + 1}") for i in range(len(m.outputs))]
     allx = xs + obs_states
     n, nv = len(allx), len(vs)

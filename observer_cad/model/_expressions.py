@@ -6,7 +6,7 @@ Scenario signals, ``--estimate``, ``--lambda``, ``--eigenvalues``, ``--gain``,
 expression node by node from a whitelist grammar::
 
     expr     := number | name | constant | expr op expr | -expr | +expr | (expr)
-              | function(expr, ...) | Piecewise((expr, cond), ...)
+              | function(expr, ...) | Piecewise((expr, cond), ...) | root
     op       := + - * / ** (^ is read as ** too, as sympy's parser does)
     number   := 2, 0.25, 1e-3 (exact: 0.25 is 1/4), 1/3 is the rational 1/3
     name     := a declared name (the caller's: t, the states, the parameters, ...)
@@ -15,6 +15,11 @@ expression node by node from a whitelist grammar::
                 Abs abs sign floor ceiling Heaviside Min Max
     cond     := expr < expr (also <=, >, >=, ==, !=, chained) | cond and cond
               | cond or cond | not cond | cond & cond | cond | cond | True | False
+    root     := CRootOf(poly, index)             (only where the caller allows it)
+    poly     := integer | var | poly + poly | poly - poly | poly * poly | -poly | +poly
+              | (poly) | poly / c | poly ** e     (c: a nonzero constant poly; e: an
+                                                   integer literal ≥ 0; ^ is ** too)
+    index    := integer | -integer               (a literal)
 
 Conditions are allowed only where the caller asks for them (piecewise scenario
 segments) and inside ``Piecewise``. Anything else — attribute access, subscripts,
@@ -24,11 +29,32 @@ literals, numbers outside the floating-point range, exponents above
 :class:`~observer_cad.errors.ExpressionError` (a :class:`UsageError`: one line naming
 ``where`` and what was rejected). Nothing is executed: no ``eval``, no ``sympify``,
 no ``parse_expr`` on the text.
+
+``root`` is read only where the caller passes ``allow_crootof=True`` (a design's JSON,
+``--lambda``): the real algebraic number sympy prints as ``CRootOf(x**3 - 3*x + 1, 0)``
+(an irrational Jordan λ of degree ≥ 3). ``poly`` has rational coefficients (integers,
+``/`` by a nonzero constant; a decimal such as ``0.5`` is refused) and exactly one
+variable ``var``: any identifier, sympy's ``lambda`` too (a Python keyword, read here as
+a name). ``CRootOf`` binds it: it is not looked up among the caller's names, so
+``CRootOf(x**3 - 3*x + 1, 0)`` is the same number whether or not the model has a state
+``x`` (the root is built in sympy's own variable ``x``, whatever name was written). The
+degree, counted as written, is at most :data:`MAX_CROOTOF_DEGREE`; ``index`` satisfies
+−degree ≤ index < degree (sympy's numbering: the real roots first, ascending, with
+multiplicity) and must name a *real* root — a complex one is refused even where ``I`` is
+allowed (no design needs one, and isolating the complex roots of a polynomial of high
+degree can take minutes). Two variables, a variable in a denominator or an exponent,
+functions, constants (``pi``, ``I``) and a nested ``CRootOf`` inside ``poly`` are
+refused. The number is built node by node like the rest (``sympy.Poly`` of the built
+polynomial, then its real roots; the text is never evaluated). Isolating the real roots
+is sympy's work, and its time grows with the degree, the size of the coefficients and how
+close the roots lie: a crafted polynomial of modest degree can still keep it busy
+(``x**16 - 2*(256*x - 1)**2``, two roots 3·10⁻²² apart: over five minutes).
 """
 from __future__ import annotations
 
 import ast
 import math
+import re
 from decimal import Decimal, InvalidOperation
 from typing import Iterable, Mapping
 
@@ -36,13 +62,19 @@ import sympy as sp
 
 from ..errors import ExpressionError
 
-__all__ = ["parse_expression", "parse_number", "FUNCTIONS", "MAX_LENGTH", "MAX_EXPONENT"]
+__all__ = ["parse_expression", "parse_number", "FUNCTIONS", "MAX_LENGTH", "MAX_EXPONENT",
+           "MAX_CROOTOF_DEGREE"]
 
 #: longest text accepted (characters)
 MAX_LENGTH = 2000
 #: largest |exponent| of a number in ``a**b``; numbers whose result leaves the
 #: floating-point range are refused too
 MAX_EXPONENT = 1000
+#: highest degree (as written) of the polynomial in ``CRootOf(poly, index)``; above the
+#: state dimension of any exact design (the exact path is the default up to
+#: ``FLOAT_AUTO_N`` = 20 states), below where sympy's root isolation gets slow for
+#: ordinary coefficients
+MAX_CROOTOF_DEGREE = 32
 _MAX_DEPTH = 100
 _FLOAT_MAX_LOG10 = math.log10(1.7976931348623157e308)
 
@@ -65,6 +97,14 @@ _OPNAMES = {ast.FloorDiv: "'//'", ast.Mod: "'%'", ast.MatMult: "'@'", ast.LShift
 _COMPARE = {ast.Lt: sp.Lt, ast.LtE: sp.Le, ast.Gt: sp.Gt, ast.GtE: sp.Ge, ast.Eq: sp.Eq,
             ast.NotEq: sp.Ne}
 _NONFINITE = (sp.nan, sp.zoo, sp.oo, -sp.oo)
+#: ``lambda`` (a Python keyword, the name sympy's λ prints as) is parsed under this name
+#: where CRootOf is allowed, then read back as the name ``lambda``
+_KEYWORD_LAMBDA = "_kw_lambda_"
+#: the variable a CRootOf read here is written in (the one sympy's real_roots uses)
+_ROOT_VARIABLE = sp.Symbol("x")
+_IN_POLY = "in CRootOf's polynomial"
+_POLY_GRAMMAR = ("allowed: integers, one variable, + - * /, ** with an integer exponent ≥ 0;"
+                 " e.g. CRootOf(x**3 - 3*x + 1, 0)")
 
 
 class _Reject(Exception):
@@ -95,13 +135,19 @@ def _describe(node: ast.AST) -> str:
 
 
 class _Builder:
-    def __init__(self, text, table, allow_complex, any_name, exact_floats=True):
+    def __init__(self, text, table, allow_complex, any_name, exact_floats=True,
+                 allow_crootof=False, keyword_lambda=False):
         self.exact_floats = exact_floats
         self.text = text
         self.table = table
         self.allow_complex = allow_complex
         self.any_name = any_name
+        self.allow_crootof = allow_crootof
+        self.keyword_lambda = keyword_lambda  # `lambda` was renamed to _KEYWORD_LAMBDA
         self.depth = 0
+
+    def identifier(self, ident: str) -> str:
+        return "lambda" if self.keyword_lambda and ident == _KEYWORD_LAMBDA else ident
 
     # ------------------------------------------------------------------ expressions
     def expr(self, node):
@@ -175,6 +221,7 @@ class _Builder:
         raise _Reject(type(v).__name__)
 
     def name(self, ident):
+        ident = self.identifier(ident)
         if ident in self.table:
             return self.table[ident]
         if ident in _CONSTANTS:
@@ -183,7 +230,7 @@ class _Builder:
             if self.allow_complex:
                 return sp.I
             raise _Reject("the imaginary unit I (complex values are not allowed here)")
-        if ident in FUNCTIONS or ident == "Piecewise":
+        if ident in FUNCTIONS or ident in ("Piecewise", "CRootOf"):
             raise _Reject(f"function '{ident}' used without arguments")
         if self.any_name and not ident.startswith("_"):
             return sp.Symbol(ident)
@@ -222,9 +269,11 @@ class _Builder:
             raise _Reject(f"starred arguments in {f.id}(...)")
         if f.id == "Piecewise":
             return self.piecewise(node)
+        if f.id == "CRootOf":
+            return self.crootof(node)
         if f.id not in FUNCTIONS:
             raise _Reject(f"call of '{f.id}' (allowed functions: {', '.join(FUNCTIONS)},"
-                          " Piecewise)")
+                          " Piecewise" + (", CRootOf)" if self.allow_crootof else ")"))
         fn, nargs = FUNCTIONS[f.id]
         if (nargs is None and not node.args) or (nargs is not None and len(node.args) not in nargs):
             want = "one or more" if nargs is None else " or ".join(map(str, nargs))
@@ -240,6 +289,121 @@ class _Builder:
                 raise _Reject("Piecewise takes (value, condition) pairs")
             pieces.append((self.expr(a.elts[0]), self.cond(a.elts[1])))
         return sp.Piecewise(*pieces)
+
+    # ------------------------------------------------------------------ algebraic numbers
+    def crootof(self, node):
+        """``CRootOf(poly, index)``: a real root of a rational polynomial (module docstring)."""
+        if not self.allow_crootof:
+            raise _Reject("CRootOf (an algebraic number) is not allowed here")
+        if len(node.args) != 2:
+            raise _Reject(f"CRootOf takes (polynomial, index), got {len(node.args)} argument(s)")
+        var = []  # the one variable's name, once seen
+        expr, _bound = self.poly(node.args[0], var)
+        index = self.root_index(node.args[1])
+        if not var:
+            raise _Reject("CRootOf's polynomial has no variable")
+        # in sympy's own variable (real_roots writes x): the roots of one polynomial then
+        # carry the same expression whatever name each text used
+        poly = sp.Poly(expr, sp.Symbol(var[0])).replace(sp.Symbol(var[0]), _ROOT_VARIABLE)
+        deg = poly.degree()
+        if deg < 1:
+            raise _Reject(f"CRootOf's polynomial {expr} has degree {max(deg, 0)} (at least 1"
+                          " is needed)")
+        if not -deg <= index < deg:
+            raise _Reject(f"CRootOf index {index} is out of range for degree {deg}"
+                          f" (−{deg} ≤ index < {deg})")
+        reals = poly.real_roots(radicals=False)  # ascending, with multiplicity: sympy's order
+        i = index % deg
+        if i >= len(reals):
+            have = (f"its real roots are indices 0…{len(reals) - 1}" if reals
+                    else "it has no real root")
+            raise _Reject(f"CRootOf index {index} names a complex root of {poly.as_expr()}"
+                          f" ({have}); only real roots are read")
+        return reals[i]
+
+    def root_index(self, node) -> int:
+        sign = 1
+        if isinstance(node, ast.UnaryOp) and isinstance(node.op, (ast.USub, ast.UAdd)):
+            sign = -1 if isinstance(node.op, ast.USub) else 1
+            node = node.operand
+        if not (isinstance(node, ast.Constant) and isinstance(node.value, int)
+                and not isinstance(node.value, bool)):
+            seg = ast.get_source_segment(self.text, node) or _describe(node)
+            raise _Reject(f"CRootOf's index must be an integer literal, got {seg!r}")
+        return sign * node.value
+
+    def poly(self, node, var: list):
+        """(sympy polynomial, degree bound as written) of CRootOf's first argument."""
+        self.depth += 1
+        if self.depth > _MAX_DEPTH:
+            raise _Reject("too deeply nested")
+        try:
+            expr, deg = self._poly(node, var)
+        finally:
+            self.depth -= 1
+        if deg > MAX_CROOTOF_DEGREE:
+            raise _Reject(f"CRootOf's polynomial has degree above {MAX_CROOTOF_DEGREE}"
+                          " (the most that is read)")
+        return expr, deg
+
+    def _poly(self, node, var):
+        if isinstance(node, ast.Constant):
+            v = node.value
+            if isinstance(v, float):
+                seg = ast.get_source_segment(self.text, node) or repr(v)
+                raise _Reject(f"decimal coefficient {seg} {_IN_POLY} (coefficients are exact:"
+                              " write 1/4, not 0.25)")
+            return self.number(node), 0  # an integer, or the number's own refusal
+        if isinstance(node, ast.Name):
+            ident = self.identifier(node.id)
+            if ident in _CONSTANTS or ident == "I":
+                raise _Reject(f"'{ident}' {_IN_POLY} (coefficients must be rational numbers)")
+            if ident in FUNCTIONS or ident in ("Piecewise", "CRootOf"):
+                raise _Reject(f"function '{ident}' used without arguments {_IN_POLY}")
+            if ident.startswith("_"):
+                raise _Reject(f"name '{ident}' {_IN_POLY} (names starting with '_' are not read)")
+            if not var:
+                var.append(ident)
+            elif var[0] != ident:
+                raise _Reject(f"two variables {_IN_POLY} ('{var[0]}' and '{ident}'): it must be"
+                              " a polynomial in one variable")
+            return sp.Symbol(ident), 1
+        if isinstance(node, ast.UnaryOp) and isinstance(node.op, (ast.USub, ast.UAdd)):
+            v, d = self.poly(node.operand, var)
+            return (-v if isinstance(node.op, ast.USub) else v), d
+        if isinstance(node, ast.BinOp) and type(node.op) in (ast.Add, ast.Sub, ast.Mult, ast.Div):
+            (a, da), (b, db) = self.poly(node.left, var), self.poly(node.right, var)
+            if isinstance(node.op, ast.Add):
+                return a + b, max(da, db)
+            if isinstance(node.op, ast.Sub):
+                return a - b, max(da, db)
+            if isinstance(node.op, ast.Mult):
+                return a * b, da + db
+            if db:
+                raise _Reject(f"division by the variable {_IN_POLY} (not a polynomial)")
+            if b == 0:
+                raise _Reject("division by zero")
+            return a / b, da
+        if isinstance(node, ast.BinOp) and isinstance(node.op, (ast.Pow, ast.BitXor)):
+            e = node.right
+            if not (isinstance(e, ast.Constant) and isinstance(e.value, int)
+                    and not isinstance(e.value, bool)):
+                seg = ast.get_source_segment(self.text, e) or _describe(e)
+                raise _Reject(f"exponent {seg} {_IN_POLY} (an integer literal ≥ 0 is needed)")
+            a, da = self.poly(node.left, var)
+            if da * e.value > MAX_CROOTOF_DEGREE:
+                raise _Reject(f"CRootOf's polynomial has degree above {MAX_CROOTOF_DEGREE}"
+                              " (the most that is read)")
+            return (self.power(a, sp.Integer(e.value)) if da == 0 else a ** e.value), da * e.value
+        if isinstance(node, ast.BinOp):
+            raise _Reject(f"operator {_OPNAMES.get(type(node.op), type(node.op).__name__)}"
+                          f" {_IN_POLY} ({_POLY_GRAMMAR})")
+        if isinstance(node, ast.Call):
+            f = node.func.id if isinstance(node.func, ast.Name) else None
+            if f == "CRootOf":
+                raise _Reject(f"CRootOf {_IN_POLY} (nested CRootOf is not read)")
+            raise _Reject(f"call of '{f or _describe(node.func)}' {_IN_POLY} ({_POLY_GRAMMAR})")
+        raise _Reject(f"{_describe(node)} {_IN_POLY} ({_POLY_GRAMMAR})")
 
     # ------------------------------------------------------------------ conditions
     def cond(self, node):
@@ -275,9 +439,22 @@ class _Builder:
         raise _Reject("a value where a condition (e.g. t <= 20) is expected")
 
 
+def _keyword_lambda_as_name(source: str):
+    """(renamed text, tree) when ``source`` parses once ``lambda`` — sympy's printed λ,
+    a Python keyword — is read as a name (``CRootOf(lambda**3 - 3*lambda + 1, 0)``);
+    None when it still does not parse."""
+    if not re.search(r"\blambda\b", source):
+        return None
+    renamed = re.sub(r"\blambda\b", _KEYWORD_LAMBDA, source)
+    try:
+        return renamed, ast.parse(renamed, mode="eval")
+    except (SyntaxError, ValueError, RecursionError, MemoryError, OverflowError):
+        return None
+
+
 def parse_expression(text, names=None, *, where: str, allow_complex: bool = False,
                      condition: bool = False, any_name: bool = False,
-                     exact_floats: bool = True) -> sp.Basic:
+                     exact_floats: bool = True, allow_crootof: bool = False) -> sp.Basic:
     """The sympy expression (or, with ``condition=True``, the sympy boolean) that
     ``text`` denotes, built from a whitelist grammar (see the module docstring).
 
@@ -299,6 +476,9 @@ def parse_expression(text, names=None, *, where: str, allow_complex: bool = Fals
         Every identifier not otherwise known becomes a Symbol (design JSON files).
     exact_floats : bool
         Decimals become exact rationals (``0.2`` → 1/5, the default) or sympy Floats.
+    allow_crootof : bool
+        Whether ``CRootOf(poly, index)`` (a real algebraic number, as sympy prints it)
+        is read (design JSON, ``--lambda``); off by default. See the module docstring.
 
     Raises
     ------
@@ -327,13 +507,18 @@ def parse_expression(text, names=None, *, where: str, allow_complex: bool = Fals
         raise fail("empty")
     if "\x00" in text:
         raise fail("a NUL character")
+    source, keyword_lambda = text.strip(), False
     try:
-        tree = ast.parse(text.strip(), mode="eval")
+        tree = ast.parse(source, mode="eval")
     except SyntaxError as exc:
-        raise fail(f"not a valid expression ({exc.msg})") from None
+        renamed = _keyword_lambda_as_name(source) if allow_crootof else None
+        if renamed is None:
+            raise fail(f"not a valid expression ({exc.msg})") from None
+        (source, tree), keyword_lambda = renamed, True
     except (ValueError, RecursionError, MemoryError, OverflowError) as exc:
         raise fail(f"not a valid expression ({type(exc).__name__})") from None
-    b = _Builder(text.strip(), _symbol_table(names), allow_complex, any_name, exact_floats)
+    b = _Builder(source, _symbol_table(names), allow_complex, any_name, exact_floats,
+                 allow_crootof, keyword_lambda)
     try:
         out = b.cond(tree.body) if condition else b.expr(tree.body)
     except _Reject as exc:

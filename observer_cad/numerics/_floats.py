@@ -7,7 +7,10 @@ import numpy as np
 import sympy as sp
 
 __all__ = ["np_exact", "to_sympy_float", "SingleThreadBLAS", "rationalize_floats",
-           "rational_approximation"]
+           "rational_approximation", "algebraic_to_float", "ALGEBRAIC_DIGITS"]
+
+#: significant digits of the Float that stands for a CRootOf in numeric code
+ALGEBRAIC_DIGITS = 30
 
 
 def _to_np(M):
@@ -81,6 +84,28 @@ def rationalize_floats(expr):
     if not floats:
         return e
     return e.xreplace({f: _float_rational(f) for f in floats})
+
+
+def algebraic_to_float(expr):
+    """``expr`` with every ``CRootOf`` (an irrational Jordan λ of degree ≥ 3) replaced by
+    its value as a Float of :data:`ALGEBRAIC_DIGITS` significant digits — for code that
+    evaluates numerically (``lambdify``, substituting numbers for the plant's symbols).
+
+    Both fail on the exact root: ``lambdify`` prints ``CRootOf(...)``, a name numpy does
+    not have, and ``xreplace`` of a plant symbol that happens to be the root's polynomial
+    variable (sympy writes roots in ``x``; a model may have a state ``x``) rebuilds the
+    polynomial with a number in place of its variable. Anything without a ``CRootOf``
+    is returned as it is.
+    """
+    e = sp.sympify(expr)
+    if not isinstance(e, sp.Basic):
+        return e
+    if isinstance(e, sp.MatrixBase):
+        return e.applyfunc(algebraic_to_float)
+    roots = e.atoms(sp.CRootOf)
+    if not roots:
+        return e
+    return e.xreplace({r: sp.Float(r.evalf(ALGEBRAIC_DIGITS), ALGEBRAIC_DIGITS) for r in roots})
 
 
 def rational_approximation(x, tolerance: float) -> sp.Rational:

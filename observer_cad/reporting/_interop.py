@@ -209,6 +209,8 @@ def matrices_from_json(data: dict) -> dict:
 def _parse(text: str, matrix: str = "?"):
     """An expression printed by sympy, read by the safe reader (never evaluated); every
     name that is not a known function or constant is a Symbol (so a parameter called
-    ``gamma`` or ``S`` stays a symbol); decimals stay floats."""
+    ``gamma`` or ``S`` stays a symbol); decimals stay floats; ``CRootOf(poly, index)`` is
+    the real algebraic number (an irrational Jordan λ)."""
     return parse_expression(str(text), where=f"design JSON: matrix {matrix}",
-                            allow_complex=True, any_name=True, exact_floats=False)
+                            allow_complex=True, any_name=True, exact_floats=False,
+                            allow_crootof=True)

@@ -36,6 +36,7 @@ import sympy as sp
 
 from ..errors import UsageError
 from ..model import PlantModel, parse_expression
+from ..numerics import algebraic_to_float
 from ._random import PARAMETER_STREAMS, normal_samples, stream_keys, uniform_samples
 
 __all__ = ["Distribution", "SignalProgram", "signal_program", "RunDraws", "draw_runs",
@@ -467,7 +468,7 @@ def draw_runs(model: PlantModel, observer, scenario, samples, *, total: int | No
 def _initial_function(e, xs):
     """x(0) ↦ the observer state's default initial value, vectorised over runs (cached:
     lambdify costs milliseconds, a call microseconds)."""
-    f = sp.lambdify(xs, e, "numpy")
+    f = sp.lambdify(xs, algebraic_to_float(e), "numpy")  # CRootOf: lambdify has no name for it
 
     def call(*x):
         v = np.asarray(f(*x), dtype=float)

@@ -41,6 +41,7 @@ import sympy as sp
 from ..errors import NonFiniteError, UsageError
 from ..files import read_json_file
 from ..model import PlantModel, parse_expression
+from ..numerics import algebraic_to_float
 from ..observers import Observer, output_symbols
 from ._sampling import (DECLARED, NOMINAL_CASE, SAMPLING_METHODS, check_distribution, draw_runs,
                         parameter_layout, signal_program)
@@ -546,8 +547,11 @@ def simulate(model: PlantModel, observer: Observer | None, scenario: Scenario, *
     y_expr = list(m.outputs)
     obs_states = list(observer.states) if observer else []
     # the observer sees y = h(x, w) and u; its parameters are run-time arguments
-    obs_upd = [layout.observer_equation(e) for e in (observer.update if observer else ())]
-    obs_out = [layout.observer_equation(e) for _, e in (observer.outputs if observer else ())]
+    # numeric from here on: an exact CRootOf λ becomes its Float (lambdify has no CRootOf)
+    obs_upd = [layout.observer_equation(algebraic_to_float(e))
+               for e in (observer.update if observer else ())]
+    obs_out = [layout.observer_equation(algebraic_to_float(e))
+               for _, e in (observer.outputs if observer else ())]
     ysub = dict(zip(ys, y_expr))
     joint_args = xs + obs_states + ins
     f_joint = _vector_fn(joint_args + pars,

@@ -1,8 +1,9 @@
 """Reading the expressions stored in a design's JSON with the model stage's whitelist
 reader (:func:`observer_cad.model.parse_expression`): nothing in a design file is
 evaluated. Identifiers the design introduced (``xs1``, ``y1``, gains) become symbols;
-decimals stay floats (float designs); the assumptions ``Ne(a, b)`` / ``Eq(a, b)`` and
-comparisons are read as relations."""
+decimals stay floats (float designs); ``CRootOf(poly, index)`` (an irrational Jordan λ of
+degree ≥ 3, as sympy prints it) is read as that real algebraic number; the assumptions
+``Ne(a, b)`` / ``Eq(a, b)`` and comparisons are read as relations."""
 from __future__ import annotations
 
 import re
@@ -39,7 +40,8 @@ def parse_json_expression(text, names: Mapping, where: str) -> sp.Basic:
     if isinstance(text, bool) or not isinstance(text, (str, int, float)):
         raise UsageError(f"{where}: expected an expression string, got {type(text).__name__}")
     text = str(text)
-    kw = dict(where=where, any_name=True, allow_complex=True, exact_floats=False)
+    kw = dict(where=where, any_name=True, allow_complex=True, exact_floats=False,
+              allow_crootof=True)
     m = _RELATION.match(text)
     if m:
         args = _split_top_level(m.group(2))

@@ -233,7 +233,8 @@ def design_jordan(model: PlantModel, *, observer: str, estimate=None,
         lam_list = []
         for v in lambdas:
             try:
-                lam = parse_expression(v, list(work.parameters), where="--lambda", allow_complex=True)
+                lam = parse_expression(v, list(work.parameters), where="--lambda", allow_complex=True,
+                                       allow_crootof=True)
             except ExpressionError as exc:
                 raise UsageError(f"λ = {v!r} is not a number: {exc.reason}") from None
             if not isinstance(lam, sp.Expr) or lam.free_symbols - set(work.parameters):

@@ -451,7 +451,8 @@ def _design(model, observer, task, lambdas, rtol, structure=None):
         lam_list = []
         for v in lambdas:
             try:
-                lam_s = parse_expression(v, where="--lambda", allow_complex=True)
+                lam_s = parse_expression(v, where="--lambda", allow_complex=True,
+                                         allow_crootof=True)
                 lam = complex(lam_s)
             except ExpressionError as exc:
                 raise UsageError(f"λ = {v!r} is not a number: {exc.reason}") from None

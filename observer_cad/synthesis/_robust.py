@@ -663,7 +663,7 @@ def _jordan_setup(model, estimate, lambdas, decouple):
     if lambdas:
         lams = []
         for val in lambdas:
-            lam = parse_expression(val, where="--lambda", allow_complex=True)
+            lam = parse_expression(val, where="--lambda", allow_complex=True, allow_crootof=True)
             lam = rationalize_floats(lam)  # a float λ by its decimal string; exact stays
             if lam.free_symbols or not lam.is_real:
                 raise UsageError(f"λ = {lam} must be a real number")

@@ -314,3 +314,71 @@ def test_interval_design_fails_where_simulate_refuses(capsys, tmp_path):
     err_s = capsys.readouterr().err
     assert rc_d == rc_s == 2
     assert err_d == err_s and len(err_d.strip().splitlines()) == 1
+
+
+# ----------------------------------------------------------------------------- CRootOf λ
+CLASH_MODEL = '''"""A state called x: the name sympy writes a CRootOf's polynomial in."""
+import sympy as sp
+from observer_cad import PlantModel
+x, x2, x3, u = sp.symbols("x x2 x3 u")
+model = PlantModel(name="clash", time="continuous", states=[x, x2, x3], inputs=[u],
+                   outputs=[x2, x3], dynamics=[-x + x2 + u, x - 2*x2 + x3 + u, x2 - 2*x3])
+'''
+CUBIC_ROOT = "CRootOf(x**3 + 6*x**2 + 8*x + 1, 0)"  # irreducible cubic, three stable roots
+
+
+def test_crootof_lambda_design_written_by_the_cli_loads_and_runs(capsys, tmp_path):
+    """``design --lambda 'CRootOf(...)' --json > F.json`` (the CLI's design file: there is
+    no ``--out``/``--design`` option) read back with ``read_design_json``: re-certified,
+    the same λ and matrices as the design made in Python. The design's own file
+    (``write_design_json``) builds and simulates: the virtual sensor reproduces z = x (it
+    starts at Φ x(0) = 0)."""
+    from observer_cad import design
+    from observer_cad.observers import build_observer
+    from observer_cad.reporting import read_design_json, write_design_json
+    from observer_cad.simulation import load_scenario, simulate
+    path = tmp_path / "clash.py"
+    path.write_text(CLASH_MODEL)
+    common = [path, "--observer", "virtual-sensor", "--estimate", "x", "--lambda", CUBIC_ROOT]
+    rc, out, err = run(capsys, ["design", *common, "--json"])
+    assert rc == 0, err
+    design_file = tmp_path / "F.json"
+    design_file.write_text(out)
+    model = load_model(path)
+    d = read_design_json(design_file, model)
+    (lam,) = d.lambdas
+    assert isinstance(lam, sp.CRootOf) and str(lam) == CUBIC_ROOT
+    assert d.certificate.passed and d.certificate.exact
+    ref = design(model, observer="virtual-sensor", estimate="x", form="jordan",
+                 lambdas=[CUBIC_ROOT])
+    assert d.lambdas == ref.lambdas
+    for name, M in ref.ordered_matrices:
+        assert sp.Matrix(getattr(d.matrices, name)) == sp.Matrix(M), name
+    again = read_design_json(write_design_json(ref, tmp_path / "G.json"), model)
+    scen = tmp_path / "s.json"
+    scen.write_text(json.dumps({"t_end": 2, "dt": 0.01, "signals": {"u": "sin(3*t)"}}))
+    res = simulate(model, build_observer(model, again), load_scenario(scen))
+    x, x_hat = res["x"], res["x_hat"]
+    assert abs(x).max() > 0.1  # the plant moved
+    assert abs(x_hat - x).max() < 1e-9 * (1 + abs(x).max())
+
+
+def test_crootof_lambda_simulate_and_codegen(capsys, tmp_path):
+    """simulate and codegen of a design with a CRootOf λ, for a model with a state called x
+    (lambdify has no CRootOf; substituting x(0) into the initial state would rebuild the
+    root's polynomial in x): both used to stop with an internal error."""
+    path = tmp_path / "clash.py"
+    path.write_text(CLASH_MODEL)
+    common = [path, "--observer", "virtual-sensor", "--estimate", "x", "--lambda", CUBIC_ROOT]
+    scen = tmp_path / "s.json"
+    scen.write_text(json.dumps({"t_end": 2, "dt": 0.01, "signals": {"u": "sin(3*t)"}}))
+    rc, out, err = run(capsys, ["simulate", *common, "--scenario", scen, "--out", tmp_path / "o",
+                                "--engine", "reference"])
+    assert rc == 0, err
+    cols = (tmp_path / "o" / "signals.csv").read_text().splitlines()
+    head, last = cols[0].split(","), [float(v) for v in cols[-1].split(",")]
+    x, x_hat = last[head.index("x")], last[head.index("x_hat")]
+    assert abs(x) > 0.01 and abs(x_hat - x) < 1e-9
+    rc, out, err = run(capsys, ["codegen", *common, "--out", tmp_path / "c"])
+    assert rc == 0, err
+    assert list((tmp_path / "c").glob("*.c"))

@@ -218,3 +218,157 @@ def test_a_lambda_may_name_a_parameter_of_a_symbolic_design(capsys):
                "--fault", "d", "--symbolic", "--lambda", "k2"])
     out = capsys.readouterr().out
     assert rc == 0 and "λ = (k2)" in out and "F_star = [ k2 ]" in out, out
+
+
+# ----------------------------------------------------------------------------- CRootOf
+# An irrational Jordan λ of degree ≥ 3 is a sympy CRootOf; a design's JSON and --lambda
+# read it back (allow_crootof=True), nowhere else. The oracle for the value is numpy's
+# companion-matrix eigenvalues, not sympy.
+def _real_roots_np(coeffs):
+    """The real roots of the polynomial with these coefficients (highest first), ascending,
+    from numpy's companion-matrix eigenvalues (an oracle independent of sympy)."""
+    r = np.roots(np.asarray(coeffs, dtype=float))
+    return np.sort(r[np.abs(r.imag) < 1e-6].real)  # a double root splits by ~1e-8
+
+
+def _crootof(text, names=None):
+    return parse_expression(text, names, where="design.json: lambdas", allow_crootof=True,
+                            any_name=True)
+
+
+@pytest.mark.parametrize("text,coeffs,k", [
+    ("CRootOf(x**3 - 3*x + 1, 0)", [1, 0, -3, 1], 0),                # as sympy prints it
+    ("CRootOf(x**3 - 3*x + 1, 2)", [1, 0, -3, 1], 2),
+    ("CRootOf(x**3 - 3*x + 1, -1)", [1, 0, -3, 1], 2),               # counted from the end
+    ("CRootOf(lambda**3 + 6*lambda**2 + 8*lambda + 1, 1)", [1, 6, 8, 1], 1),  # sympy's λ
+    ("CRootOf(x**3/2 - 3*x/2 + 1/2, 1)", [1, 0, -3, 1], 1),          # rational coefficients
+    ("CRootOf(s**3 - 3*s + 1, 0)", [1, 0, -3, 1], 0),                # any one name
+    ("CRootOf((x - 1)**2*(x**3 - 3*x + 1), 3)", [1, -2, -2, 7, -5, 1], 3),  # double root 1
+    ("CRootOf(x**5 - x + 1, 0)", [1, 0, 0, 0, -1, 1], 0),            # one real root of five
+])
+def test_crootof_accepted(text, coeffs, k):
+    v = _crootof(text)
+    assert v.is_real and not v.free_symbols
+    roots = _real_roots_np(coeffs)
+    assert abs(float(v) - roots[k]) <= 1e-9 * (1 + abs(roots[k]))
+
+
+def test_crootof_is_exact_and_the_same_number_as_sympys():
+    X = sp.Symbol("x")
+    r = sp.CRootOf(X**3 - 3 * X + 1, 1)
+    assert _crootof("CRootOf(x**3 - 3*x + 1, 1)") == r
+    assert _crootof("CRootOf(x**3 - 3*x + 1, 1)") != sp.CRootOf(X**3 - 3 * X + 1, 2)
+    # arithmetic around it is read as usual
+    e = _crootof("2*CRootOf(x**3 - 3*x + 1, 1)**2 - 1/3")
+    assert e == 2 * r**2 - sp.Rational(1, 3)
+
+
+def test_crootof_variable_is_bound_not_the_models_name():
+    """The polynomial's variable is not looked up: a state called x (here with
+    assumptions, so that it is a different Symbol from sympy's x) stays the state outside
+    CRootOf, and the root is the same number with or without it."""
+    x_state = sp.Symbol("x", real=True)
+    e = _crootof("x + CRootOf(x**3 - 3*x + 1, 0)", {"x": x_state})
+    assert e.free_symbols == {x_state}
+    root = e - x_state
+    assert isinstance(root, sp.CRootOf) and root == _crootof("CRootOf(y**3 - 3*y + 1, 0)")
+    assert not root.expr.has(x_state)  # the polynomial is not in the state
+    # substituting a number for the state leaves the root alone
+    assert abs(float(e.subs(x_state, 1)) - (1 + _real_roots_np([1, 0, -3, 1])[0])) < 1e-12
+
+
+def test_crootof_round_trip_of_sympys_own_roots():
+    """str(root) read back is the root, for the real roots sympy gives of seeded random
+    integer polynomials of degree 3 to 6 (CRootOf, and rationals where a factor is linear)."""
+    import random
+    rng = random.Random(20261123)
+    X = sp.Symbol("x")
+    seen = 0
+    for _ in range(12):
+        deg = rng.randint(3, 6)
+        p = sum(rng.randint(-9, 9) * X**i for i in range(deg)) + X**deg
+        for r in sp.Poly(p, X).real_roots():
+            assert _crootof(str(r)) == r, str(r)
+            seen += isinstance(r, sp.CRootOf)
+    assert seen >= 10
+
+
+CROOTOF_REJECTED = {
+    "not_polynomial_function": ("CRootOf(sin(x), 0)", "call of 'sin' in CRootOf's polynomial"),
+    "not_polynomial_division": ("CRootOf(1/x + 1, 0)", "division by the variable"),
+    "not_polynomial_negative_power": ("CRootOf(x**-1 + 1, 0)", "exponent -1"),
+    "not_polynomial_symbolic_power": ("CRootOf(2**x - 3, 0)", "exponent x"),
+    "not_polynomial_sqrt": ("CRootOf(sqrt(x) - 2, 0)", "call of 'sqrt'"),
+    "two_variables": ("CRootOf(x**3 - 3*x*y + 1, 0)", "two variables"),
+    "float_coefficient": ("CRootOf(x**3 - 0.5*x + 1, 0)", "decimal coefficient 0.5"),
+    "irrational_coefficient": ("CRootOf(pi*x**3 - 1, 0)", "'pi' in CRootOf's polynomial"),
+    "imaginary_coefficient": ("CRootOf(x**3 + I, 0)", "'I' in CRootOf's polynomial"),
+    "index_too_high": ("CRootOf(x**3 - 3*x + 1, 3)", "index 3 is out of range for degree 3"),
+    "index_too_low": ("CRootOf(x**3 - 3*x + 1, -4)", "index -4 is out of range for degree 3"),
+    "index_not_literal": ("CRootOf(x**3 - 3*x + 1, 1 + 1)", "integer literal"),
+    "index_float": ("CRootOf(x**3 - 3*x + 1, 1.0)", "integer literal"),
+    "index_bool": ("CRootOf(x**3 - 3*x + 1, True)", "integer literal"),
+    "complex_root": ("CRootOf(x**5 - x + 1, 1)", "complex root"),
+    "no_real_root": ("CRootOf(x**2 + 1, 0)", "it has no real root"),
+    "degree_too_high": (f"CRootOf(x**{33} + x + 1, 0)", "degree above 32"),
+    "degree_too_high_product": ("CRootOf((x**8 + 1)**4*x + 1, 0)", "degree above 32"),
+    "constant": ("CRootOf(3, 0)", "no variable"),
+    "degree_zero": ("CRootOf(x - x + 1, 0)", "degree 0"),
+    "nested": ("CRootOf(CRootOf(x**3 - 3*x + 1, 0)*x + 1, 0)", "nested CRootOf"),
+    "nested_in_index": ("CRootOf(x**3 - 3*x + 1, CRootOf(x - 1, 0))", "integer literal"),
+    "one_argument": ("CRootOf(x**3 - 3*x + 1)", "takes (polynomial, index), got 1"),
+    "three_arguments": ("CRootOf(x**3 - 3*x + 1, x, 0)", "takes (polynomial, index), got 3"),
+    "keyword": ("CRootOf(x**3 - 3*x + 1, index=0)", "keyword arguments"),
+    "bare_name": ("CRootOf", "without arguments"),
+    "dunder_variable": ("CRootOf(__x**2 - 2, 0)", "names starting with '_'"),
+    "payload": ("CRootOf(__import__('os').system('touch PWNED'), 0)", "in CRootOf's polynomial"),
+    "attribute": ("CRootOf(x.real, 0)", "attribute access"),
+    "division_by_zero": ("CRootOf(x**2/0 - 1, 0)", "division by zero"),
+}
+
+
+@pytest.mark.parametrize("cid", list(CROOTOF_REJECTED))
+def test_crootof_rejected(cid, tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    text, needle = CROOTOF_REJECTED[cid]
+    with pytest.raises(ExpressionError) as info:
+        _crootof(text)
+    msg = str(info.value)
+    assert msg.startswith("design.json: lambdas: cannot read ") and "\n" not in msg, msg
+    assert needle in msg, (needle, msg)
+    assert not (tmp_path / "PWNED").exists()
+
+
+@pytest.mark.parametrize("call", [
+    lambda: parse_expression("CRootOf(x**3 - 3*x + 1, 0)", T, where="signal 'u'"),
+    lambda: parse_expression("CRootOf(x**3 - 3*x + 1, 0)", where="json", any_name=True),
+    lambda: parse_number("CRootOf(x**3 - 3*x + 1, 0)", where="--eigenvalues",
+                         allow_complex=True),
+])
+def test_crootof_only_where_allowed(call):
+    with pytest.raises(ExpressionError, match="CRootOf .*is not allowed here"):
+        call()
+
+
+def test_crootof_limits():
+    from observer_cad.model import MAX_CROOTOF_DEGREE
+    from observer_cad.synthesis import FLOAT_AUTO_N
+    # every λ of an exact design fits: its degree is at most the state dimension, and the
+    # exact path is the default up to FLOAT_AUTO_N states
+    assert MAX_CROOTOF_DEGREE >= FLOAT_AUTO_N
+    ok = _crootof(f"CRootOf(x**{MAX_CROOTOF_DEGREE} - 2, 0)")
+    assert abs(float(ok) + 2 ** (1 / MAX_CROOTOF_DEGREE)) < 1e-12
+    with pytest.raises(ExpressionError, match=f"degree above {MAX_CROOTOF_DEGREE}"):
+        _crootof(f"CRootOf(x**{MAX_CROOTOF_DEGREE + 1} - 2, 0)")
+
+
+def test_keyword_lambda_is_a_name_only_where_crootof_is_read():
+    """sympy prints λ as `lambda`, a Python keyword: read as a name where CRootOf is
+    allowed (then `lambda` outside CRootOf is the symbol lambda), a lambda elsewhere."""
+    e = _crootof("lambda*2 + CRootOf(lambda**3 - 3*lambda + 1, 0)")
+    assert {s.name for s in e.free_symbols} == {"lambda"}
+    for text in ("lambda: 1", "(lambda: 1)()"):
+        with pytest.raises(ExpressionError):
+            _crootof(text)
+    with pytest.raises(ExpressionError, match="not a valid expression"):
+        parse_expression("CRootOf(lambda**3 - 3*lambda + 1, 0)", where="x")

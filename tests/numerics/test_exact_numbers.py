@@ -9,7 +9,8 @@ import sympy as sp
 
 import observer_cad
 from observer_cad import design, load_model
-from observer_cad.numerics import rational_approximation, rationalize_floats
+from observer_cad.numerics import (ALGEBRAIC_DIGITS, algebraic_to_float, rational_approximation,
+                                   rationalize_floats)
 from observer_cad.observers import interval_observer_nonlinear
 from observer_cad.synthesis import place_poles
 
@@ -40,6 +41,30 @@ def test_rational_approximation_states_its_tolerance():
     assert rational_approximation(MANGLED, 1e-3) == MANGLED  # exact: unchanged
     v = rational_approximation(0.123456789, 1e-6)
     assert abs(float(v) - 0.123456789) <= 1e-6
+
+
+def test_algebraic_to_float_lets_numeric_code_substitute_a_state_named_x():
+    """sympy writes a CRootOf's polynomial in x; a model may have a state x. Substituting a
+    number for the state rebuilds the root's polynomial (the hazard); on the Float the
+    numeric stages use instead, it is an ordinary substitution."""
+    import numpy as np
+    x, x2 = sp.symbols("x x2")
+    root = sp.CRootOf(x**3 + 6 * x**2 + 8 * x + 1, 0)
+    e = x + x2 * (root + 1)
+    try:  # the hazard, when sympy's root is in the same x as the model (else nothing to guard)
+        bad = e.xreplace({x: 2, x2: 3})
+    except Exception:
+        bad = None
+    assert bad is None or root.poly.gen != x
+    f = algebraic_to_float(e)
+    assert not f.atoms(sp.CRootOf) and f.free_symbols == {x, x2}
+    oracle = min(np.roots([1, 6, 8, 1]).real)  # numpy, not sympy
+    assert abs(float(f.xreplace({x: 2, x2: 3})) - (2 + 3 * (oracle + 1))) < 1e-12
+    flt = algebraic_to_float(root)
+    assert isinstance(flt, sp.Float)
+    assert abs(flt - root.evalf(ALGEBRAIC_DIGITS + 5)) < sp.Float(10) ** (2 - ALGEBRAIC_DIGITS)
+    assert algebraic_to_float(x + sp.sqrt(2)) == x + sp.sqrt(2)  # nothing else is touched
+    assert algebraic_to_float(sp.Matrix([[root]]))[0, 0] == flt
 
 
 def test_interval_margin_keeps_a_mangled_rational(models_dir):

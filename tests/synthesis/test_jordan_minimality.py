@@ -3,10 +3,13 @@ rows may need a particular λ — a rational one outside the default lists, or a
 one (a fixed mode of the reduced model). Constructed plants whose minimal design needs
 such a λ; each design is checked for its k, its λ, its certificate and the reason why
 fewer rows are impossible."""
+import json
+
 import pytest
 import sympy as sp
 
-from observer_cad import InfeasibleDesignError, PlantModel
+from observer_cad import Design, InfeasibleDesignError, PlantModel, UsageError, design
+from observer_cad.errors import CertificateError
 from observer_cad.synthesis import design_jordan, design_jordan_float
 from observer_cad.synthesis._certificate import _algebraic_is_zero
 from observer_cad.synthesis._lambda_search import exact_real_roots, one_row_lambdas
@@ -113,7 +116,19 @@ def test_irrational_lambda_quadratic():
         design_jordan(m, observer="virtual-sensor", estimate="x1", lambdas=["-1", "-2", "-3"])
 
 
-@pytest.mark.slow  # three CRootOf λ in one design: arithmetic in a degree-6 field (~15 s)
+def _same_after_json(d, m):
+    """The design written as JSON text and read back: equal matrices and λ, re-certified."""
+    back = Design.from_json(json.loads(json.dumps(d.to_json())), m)
+    assert back.lambdas == d.lambdas
+    assert [type(v) for v in back.lambdas] == [type(v) for v in d.lambdas]
+    for name, M in d.ordered_matrices:
+        assert sp.Matrix(getattr(back.matrices, name)) == sp.Matrix(M), name
+    assert back.certificate.passed and back.certificate.exact
+    assert back.request == d.request
+    return back
+
+
+@pytest.mark.slow  # three CRootOf λ in one design: arithmetic in a degree-6 field (~15 s; JSON ~3 s)
 def test_irrational_lambda_cubic_crootof():
     # unmeasured companion block, char. poly λ³ + 6λ² + 8λ + 1: irreducible, three
     # stable real roots, Galois group S3
@@ -124,6 +139,60 @@ def test_irrational_lambda_cubic_crootof():
     assert all(isinstance(v, sp.CRootOf) for v in d.lambdas)
     assert sorted(v.index for v in d.lambdas) == [0, 1, 2]
     assert d.certificate.passed
+    _same_after_json(d, m)  # the λ the synthesis found come back from the design's JSON
+
+
+#: one CRootOf λ in a cheap design: a root of the irreducible cubic λ³ + 6λ² + 8λ + 1
+#: (all three roots real and stable), written as sympy prints it
+CUBIC_ROOT_TEXT = "CRootOf(x**3 + 6*x**2 + 8*x + 1, 0)"
+
+
+def _clash_plant():
+    """Three states, the first called x — the name sympy writes a CRootOf's polynomial
+    in; two outputs, so every λ admits rows (a requested CRootOf λ gives k = 1)."""
+    x = sp.Symbol("x")
+    return PlantModel(name="clash", time="continuous", states=[x, x2, x3], inputs=[u],
+                      outputs=[x2, x3], dynamics=[-x + x2 + u, x - 2 * x2 + x3 + u, x2 - 2 * x3])
+
+
+@pytest.fixture(scope="module")
+def crootof_design():
+    m = _clash_plant()
+    return m, design(m, observer="virtual-sensor", estimate="x", form="jordan",
+                     lambdas=[CUBIC_ROOT_TEXT])
+
+
+def test_crootof_lambda_design_round_trips_through_json(crootof_design):
+    m, d = crootof_design
+    (lam,) = d.lambdas
+    assert isinstance(lam, sp.CRootOf) and d.k == 1 and d.certificate.passed
+    assert d.request.lambdas == (lam,)
+    # independent of the certificate: Φ F = λ Φ + J* H, exactly in QQ(λ)
+    F = sp.Matrix([[-1, 1, 0], [1, -2, 1], [0, 1, -2]])
+    H = sp.Matrix([[0, 1, 0], [0, 0, 1]])
+    Phi, J = sp.Matrix(d.matrices.Phi), sp.Matrix(d.matrices.J_star)
+    for e in Phi * F - lam * Phi - J * H:
+        assert _algebraic_is_zero(sp.expand(e)) is True
+    text = json.dumps(d.to_json())
+    assert CUBIC_ROOT_TEXT in text
+    back = _same_after_json(d, m)
+    assert back.matrices.F_star[0, 0] == lam
+    from observer_cad.reporting import matrices_from_json  # the matrices alone, no model
+    mats = matrices_from_json(json.loads(text))
+    assert mats["F_star"] == sp.Matrix([[lam]]) and mats["Phi"] == sp.Matrix(d.matrices.Phi)
+
+
+def test_crootof_lambda_design_is_recertified_on_load(crootof_design):
+    """Reading re-certifies: the other root of the same cubic in F* (a one-character
+    edit) no longer satisfies Φ F = F* Φ + J* H and is refused."""
+    m, d = crootof_design
+    data = json.loads(json.dumps(d.to_json()))
+    data["matrices"]["F_star"][0][0] = CUBIC_ROOT_TEXT.replace(", 0)", ", 1)")
+    with pytest.raises(CertificateError):
+        Design.from_json(data, m)
+    data["matrices"]["F_star"][0][0] = CUBIC_ROOT_TEXT.replace(", 0)", ", 3)")
+    with pytest.raises(UsageError, match="out of range for degree 3"):
+        Design.from_json(data, m)
 
 
 def test_exact_real_roots():
