@@ -638,7 +638,7 @@ def _minimality(observer, k, n, lams, lam_list, adm, requested, one_row, jumps, 
     special = [v for v in lams if not any(_same_number(v, w)
                                           for w in default_eigenvalues(time, n))]
     found = (f"λ = {', '.join(map(str, special))} found exactly (not in the default list); "
-             if adm.generic and special else "")
+             if adm.generic and special and not requested else "")
     if k == 1:
         return Condition(name, True, found + "k = 1: one row, the fewest possible", ref,
                          required=False)
