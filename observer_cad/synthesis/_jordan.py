@@ -380,8 +380,7 @@ def design_jordan(model: PlantModel, *, observer: str, estimate=None,
     conds.append(Condition("certificate", cert.passed, cert.summary(), "METHOD §2"))
     minimal = _minimality(observer, k, n, lams, lam_list, adm, bool(lambdas), one_row, jumps,
                           work.time, lambda k_: _order_bound(observer, F, H, L, D, M, st, k_,
-                                                             decoupled), chains,
-                          decoupled and bool(L.cols) or bool(st.terms))
+                                                             decoupled), chains)
     conds.append(minimal)
     choice = (f"k = {k}: rows with λ = ({', '.join(map(str, lams))}) chosen from"
               f" {len(pool)} candidate row(s) for λ in {{{', '.join(map(str, lam_list))}}};"
@@ -626,13 +625,14 @@ def _special_lambdas(observer, F, H, L0, L, M, time):
 
 
 def _minimality(observer, k, n, lams, lam_list, adm, requested, one_row, jumps, time,
-                bound, chains=(), constrained=True) -> Condition:
+                bound, chains=()) -> Condition:
     """Why fewer rows are impossible, as far as it is proven (METHOD §2b). ``bound(k)``
     gives the :class:`OrderBound` of every reduced model of the task (any F*); ``chains``
-    the :class:`ChainOrder` of each order m (one row z, every λ admissible); with no
-    decoupled input and a linear model (``constrained`` False) a Jordan design of m rows
-    exists iff order m has a chain polynomial with m real, distinct, stable roots (members
-    nest: q of degree m − 1 times (λ − c) is a member of degree m)."""
+    the :class:`ChainOrder` of each order m (one row z, every λ admissible). A Jordan
+    design of m rows (decoupled or not, linear or not) needs a chain polynomial of degree
+    m with m real, distinct, stable roots (its λ; members nest: q of degree m − 1 times
+    (λ − c) is a member of degree m), so order k − 1 ruled out proves k minimal; without
+    decoupling in a linear model such a polynomial is also enough."""
     ref = "METHOD §2b; seed 002 §2"
     name = "k is minimal over λ"
     special = [v for v in lams if not any(_same_number(v, w)
@@ -654,8 +654,7 @@ def _minimality(observer, k, n, lams, lam_list, adm, requested, one_row, jumps, 
     if proven:
         return Condition(name, True, found + why, ref, required=False)
     below = [c for c in chains if c.m < k]
-    if (not requested and not constrained and below and below[-1].m == k - 1
-            and below[-1].impossible):
+    if not requested and below and below[-1].m == k - 1 and below[-1].impossible:
         return Condition(name, True, found + "no Jordan model of fewer rows: a model of m rows"
                          " has its λ as the roots of a monic p of degree m with M p(F) ∈"
                          " rowspace [H; …; H Fᵐ] (every λ of a Jordan model real, distinct,"
