@@ -200,3 +200,21 @@ def test_lower_orders_ruled_out_exactly(seed, k, why):
     assert cond.holds and "no Jordan model of fewer rows" in cond.detail and why in cond.detail
     F, H, _ = _matrices(m)
     assert estimation_order_bound(F, H, sp.Matrix([[1, 0, 0, 0, 0, 0]])).k == 3
+
+
+def test_vector_z_proven_by_the_subspace_bound():
+    """z = (x1, x2) of an unmeasured chain: three rows, proven by the subspace bound
+    (rank [M; M F; H; H F] − rank [H; H F] = 3), which covers several components."""
+    m = PlantModel(name="vector_z", time="continuous", states=[x1, x2, x3, x4], inputs=[u],
+                   outputs=[x4], dynamics=[-x1 + x2, -2 * x2 + x3, -3 * x3 + u, -x4 + u])
+    M = sp.Matrix([[1, 0, 0, 0], [0, 1, 0, 0]])
+    d = design_jordan(m, observer="interval", estimate=M)
+    assert d.k == 3 and d.certificate.passed
+    cond = _minimal(d)
+    assert cond.holds and "subspace bound" in cond.detail and "k = 3 is a lower bound" in cond.detail
+    F, H, _ = _matrices(m)
+    # independent: the rank difference by floating-point SVD
+    Fn, Hn, Mn = (np.array(X.tolist(), dtype=float) for X in (F, H, M))
+    A = np.vstack([Mn, Mn @ Fn, Hn, Hn @ Fn])
+    B = np.vstack([Hn, Hn @ Fn])
+    assert np.linalg.matrix_rank(A) - np.linalg.matrix_rank(B) == 3
