@@ -8,36 +8,47 @@ buffers::
 
     int NAME_traj(casadi_int N, const double *t, const double *V, const double *p,
                   double *S, double *Y, double *O);
-    int NAME_batch(casadi_int R, casadi_int N, const double *t,
-                   const double *BASE, const double *SU, const double *SN, const int *KIND,
-                   const uint64_t *KEYS, const double *P, const double *S0,
-                   double *S, double *Y, double *O, double *V);
+    int NAME_batch(const NAME_batch_args *A);
 
 ``t`` (N) time grid (``h = t[i+1] - t[i]``, exactly as the reference simulator computes
 it), ``V`` (N, nv) the held signals (inputs, faults, disturbances, noise; C order), ``S``
 (N, ns) joint states — row 0 holds the initial state on entry — ``Y`` (N, ny) plant
-outputs, ``O`` (N, no) observer outputs.  ``NAME_batch`` runs R runs one after the other
-from their initial joint states ``S0`` (R, ns), with their parameters ``P`` (R, np), and
-writes one contiguous time series per run and column — ``S`` (R, ns, N), ``Y`` (R, ny,
-N), ``O`` (R, no, N), ``V`` (R, nv, N): what the per-run summaries read row by row —
-generating each run's signals on the fly from the scenario's
-:class:`~observer_cad.simulation.SignalProgram` — ``v = BASE + SU·U + SN·Z`` with the
-counter-based generator keyed by ``KEYS`` (R, 2·nv), the numpy reference's uniform
-samples bit for bit (normal ones to the last bits of libm's log1p/cos) (:mod:`observer_cad.simulation` ``_random``) — and writes them into ``V``.
-``NAME_traj`` reads row i and writes row i + 1 of ``S`` directly; ``NAME_batch`` steps on
-two small state buffers and scatters each step into the columns: no casadi ``DM`` round
-trips either way.  The loops are called through ctypes, which releases the GIL, so runs
-proceed on several threads at once (:meth:`CompiledSimulator.simulate` with ``runs=R``).
+outputs, ``O`` (N, no) observer outputs.  ``NAME_batch`` takes one argument block (a
+struct of 8-byte fields, ``_BATCH_FIELDS``: a ctypes call with one argument costs a
+fraction of one with twenty) and runs R runs one after the other from their initial
+joint states ``S0`` (R, ns), with their parameters ``P`` (R, np), generating each run's
+signals from the scenario's :class:`~observer_cad.simulation.SignalProgram` — ``v = BASE
++ SU·U + SN·Z`` with the counter-based generator keyed by (``SEED``, ``SAMPLES[r]``,
+stream), the numpy reference's uniform samples bit for bit (normal ones to the last bits
+of libm's log1p/cos) (:mod:`observer_cad.simulation` ``_random``), a tile of steps at a
+time into a small scratch buffer — and writes, with ``STORE``, one contiguous time
+series per run and column: the first ``KS`` joint states, the plant outputs, the
+observer outputs (a delayed one shifted into place, NaN where not available), the
+signals and optionally the time grid, each at ``X + r·XR + j·XC`` (run and column
+strides: the ensemble's (R, k, N) buffers and :meth:`CompiledSimulator.simulate`'s
+column-major result block alike).  It also decides per run whether every state and
+output was finite, and can summarise intervals on the fly (``IV``).  ``NAME_traj``
+reads row i and writes row i + 1 of ``S`` directly; ``NAME_batch`` steps on two small
+state buffers: no casadi ``DM`` round trips either way.  The loops are called through
+ctypes, which releases the GIL, so runs proceed on several threads at once
+(:meth:`CompiledSimulator.simulate` with ``runs=R``).
 
 :meth:`CompiledSimulator.simulate` returns the same
 :class:`~observer_cad.simulation.SimulationResult` (columns and order) as
 :func:`observer_cad.simulation.simulate` for the same scenario, including the scenario's
-sampled parameters, initial states and cases.
+sampled parameters, initial states and cases.  What does not change from call to call
+— the grid, the signal program, the runs' draws, the argument block — is kept with the
+scenario (the last few), and a result's memory is reused once the result is gone
+(``_Blocks``), so a repeated scenario-in, result-out call costs the compiled loop and a
+few microseconds.
 """
 from __future__ import annotations
 
 import ctypes
+import dataclasses
 import os
+import sys
+import threading
 import time
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
@@ -48,8 +59,8 @@ import sympy as sp
 from ..errors import UsageError
 from ..model import PlantModel
 from ..observers import Observer, output_symbols
-from ..simulation import (RANDOM_C, Scenario, SimulationResult, align_delay, check_memory, column_units,
-                          draw_plan, finish_result, parameter_layout, signal_program, stream_keys)
+from ..simulation import (RANDOM_C, Scenario, SimulationResult, check_memory, column_units,
+                          draw_plan, finish_result, memory_limit, parameter_layout, signal_program)
 from ._library import LibrarySpec, load_library
 from ._compile import CACHE_LOCK, FLAGS, STATS, CodegenError, compile_source, fingerprint, forget_fingerprint, generate_c, lookup_fingerprint, record_fingerprint, size_aware_flags
 from ._translate import describe, joint_identity, joint_step, joint_step_name
@@ -58,12 +69,36 @@ __all__ = ["CompiledSimulator", "simulate_compiled", "loop_source", "TRAJ_FLAGS"
 
 # -fno-semantic-interposition lets gcc inline the exported casadi step into the loop
 # (with plain -fPIC an exported symbol may be interposed, so it is called): measured
-# ≈ 12.6 → 6.3–8.7 ns/step on the 4-state electric-drive joint step.  Retried with
-# plain FLAGS if the compiler rejects it.  Both are made size-aware (-O1 for large C,
-# codegen.size_aware_flags) unless flags are given.
-TRAJ_FLAGS = FLAGS + ("-fno-semantic-interposition",)
+# ≈ 12.6 → 6.3–8.7 ns/step on the 4-state electric-drive joint step.
+# -fno-math-errno: sqrt becomes the sqrtsd instruction alone, without the branch to
+# libm that sets errno for a negative argument (the values are the same, IEEE sqrt
+# either way; nothing reads errno): measured ≈ 3 % on the three-tank interval ensemble.
+# Retried with plain FLAGS if the compiler rejects them.  Both are made size-aware (-O1
+# for large C, codegen.size_aware_flags) unless flags are given.
+TRAJ_FLAGS = FLAGS + ("-fno-semantic-interposition", "-fno-math-errno")
 
 _P = ctypes.c_void_p
+
+
+# ---- the argument block of NAME_batch: one 8-byte field each (C struct and Python index
+# are generated from this one table; pointers, integers, the seed, and TOL as a double)
+_BATCH_FIELDS = (
+    ("R", "casadi_int"), ("N", "casadi_int"), ("t", "const casadi_real*"),
+    ("BASE", "const casadi_real*"), ("SU", "const casadi_real*"), ("SN", "const casadi_real*"),
+    ("KIND", "const int*"), ("SEED", "uint64_t"), ("SAMPLES", "const int64_t*"),
+    ("P", "const casadi_real*"), ("S0", "const casadi_real*"),
+    ("T", "casadi_real*"), ("TR", "casadi_int"),
+    ("S", "casadi_real*"), ("KS", "casadi_int"), ("SR", "casadi_int"), ("SC", "casadi_int"),
+    ("Y", "casadi_real*"), ("YR", "casadi_int"), ("YC", "casadi_int"),
+    ("O", "casadi_real*"), ("OR", "casadi_int"), ("OC", "casadi_int"),
+    ("DELAY", "const casadi_int*"),
+    ("V", "casadi_real*"), ("VR", "casadi_int"), ("VC", "casadi_int"),
+    ("FIN", "int*"),
+    ("IV", "const int*"), ("NI", "casadi_int"), ("I0", "casadi_int"), ("TOL", "casadi_real"),
+    ("IVOUT", "casadi_real*"), ("STORE", "casadi_int"),
+)
+_AI = {name: i for i, (name, _) in enumerate(_BATCH_FIELDS)}
+_NARGS = len(_BATCH_FIELDS)
 
 
 def loop_source(f, nv: int) -> str:
@@ -74,6 +109,22 @@ def loop_source(f, nv: int) -> str:
     npar = f.size1_in(2)
     sz_arg, sz_res = max(f.sz_arg(), 4), max(f.sz_res(), 3)
     sz_iw, sz_w = max(f.sz_iw(), 1), max(f.sz_w(), 1)
+    fields = "\n".join(f"  {ctype} {fname};" for fname, ctype in _BATCH_FIELDS)
+    # finiteness: the sum of a run's every state and output value is finite only if each
+    # of them is (NaN and ±inf propagate through a sum); a finite sum proves the run
+    # finite, an overflowing one only sends the run to the exact check.  One add per
+    # value (x - x per value cost twice as much: measured), summed pairwise per step
+    terms = [f"cur[{j}]" for j in range(ns)] + [f"yb[{j}]" for j in range(ny)] + \
+        [f"ob[{j}]" for j in range(no)]
+    while len(terms) > 1:
+        terms = [f"({terms[k]} + {terms[k + 1]})" if k + 1 < len(terms) else terms[k]
+                 for k in range(0, len(terms), 2)]
+    check = terms[0] if terms else "0.0"
+    # signals are generated a tile of steps at a time into a scratch buffer, one row per
+    # step, that the step reads in place (interleaved A/B, CPU time: rows instead of
+    # gathering from columns +5 % on the three-tank interval ensemble; 32 steps rather
+    # than 256 +2 % there and +6 % on the electric drive at 10⁵ steps; ≤ 32 KiB)
+    tile = max(8, min(32, 4096 // max(nv, 1)))
     return RANDOM_C + f"""
 /* ---- trajectory loops generated by observer_cad.codegen ---- */
 CASADI_SYMBOL_EXPORT int {name}_traj(casadi_int N, const casadi_real* t, const casadi_real* V,
@@ -102,106 +153,210 @@ CASADI_SYMBOL_EXPORT int {name}_traj(casadi_int N, const casadi_real* t, const c
   return 0;
 }}
 
-CASADI_SYMBOL_EXPORT int {name}_batch(casadi_int R, casadi_int N, const casadi_real* t,
-    const casadi_real* BASE, const casadi_real* SU, const casadi_real* SN, const int* KIND,
-    const uint64_t* KEYS, const casadi_real* P, const casadi_real* S0,
-    casadi_real* S, casadi_real* Y, casadi_real* O, casadi_real* V, int* FIN,
-    const int* IV, int nI, casadi_int I0, casadi_real TOL, casadi_real* IVOUT, int STORE) {{
+/* the arguments of {name}_batch (TrajectoryEngine fills them: every field 8 bytes) */
+typedef struct {{
+{fields}
+}} {name}_batch_args;
+
+CASADI_SYMBOL_EXPORT int {name}_batch_fields(void) {{ return {_NARGS}; }}
+
+CASADI_SYMBOL_EXPORT int {name}_batch(const {name}_batch_args* A) {{
+  const casadi_int R = A->R, N = A->N, KS = A->KS, NI = A->NI, I0 = A->I0, STORE = A->STORE;
+  const casadi_int SC = A->SC, YC = A->YC, OC = A->OC, VC = A->VC;
+  const casadi_real *t = A->t, *BASE = A->BASE, *SU = A->SU, *SN = A->SN;
+  const int* KIND = A->KIND;
+  const casadi_int* DELAY = A->DELAY;
+  const int* IV = A->IV;
+  const casadi_real TOL = A->TOL;
+  const uint64_t seed_key = oc_mix(A->SEED + UINT64_C(0x9E3779B97F4A7C15));
   const casadi_real* arg[{sz_arg}];
   casadi_real* res[{sz_res}];
   casadi_int iw[{sz_iw}];
   casadi_real w[{sz_w}];
-  casadi_real sa[{max(ns, 1)}], sb[{max(ns, 1)}], yb[{max(ny, 1)}], ob[{max(no, 1)}], v[{max(nv, 1)}];
+  casadi_real sa[{max(ns, 1)}], sb[{max(ns, 1)}], yb[{max(ny, 1)}], ob[{max(no, 1)}];
+  /* the signals of a tile of {tile} steps, one row per step (step i reads row i − i0 in
+     place); rj: the random signals, dj: the others */
+  casadi_real scr[{max(nv, 1) * tile}];
+  const casadi_real* v;
+  int rj[{max(nv, 1)}], dj[{max(nv, 1)}], nr = 0, nd = 0, q;
+  uint64_t k1[{max(nv, 1)}], k2[{max(nv, 1)}], z[{max(nv, 1)}];
   casadi_real *cur, *nxt, *tmp;
-  /* finiteness of the run: x - x is 0 for a finite x, NaN for NaN and ±inf (the
-     signals are finite whenever the program is: the caller checks it once) */
-  int bad;
-  int rj[{max(nv, 1)}], nr = 0, q, m;
-  casadi_real h;
-  casadi_int r, i, j;
+  casadi_real h, chk;
+  /* at most {max(no, 1)} intervals (run_batch checks): truth a signal?, its index, lower,
+     upper; violations, smallest slack, largest width, first violation */
+  int ivs[{max(no, 1)}], ivx[{max(no, 1)}], ivl[{max(no, 1)}], ivh[{max(no, 1)}];
+  casadi_real ivc[{max(no, 1)}], ivm[{max(no, 1)}], ivw[{max(no, 1)}], ivf[{max(no, 1)}];
+  casadi_int r, i, i0, i1, j, m;
   for (i = 0; i < {sz_arg}; ++i) arg[i] = 0;
   for (i = 0; i < {sz_res}; ++i) res[i] = 0;
-  for (j = 0; j < {nv}; ++j) if (KIND[j]) rj[nr++] = (int)j;
+  for (j = 0; j < {nv}; ++j) {{ if (KIND[j]) rj[nr++] = (int)j; else dj[nd++] = (int)j; }}
+  if (NI > {max(no, 1)}) return -1;
+  for (m = 0; m < NI; ++m) {{
+    ivs[m] = IV[4 * m]; ivx[m] = IV[4 * m + 1]; ivl[m] = IV[4 * m + 2]; ivh[m] = IV[4 * m + 3];
+  }}
   for (r = 0; r < R; ++r) {{
-    /* run r: arrays (R, k, N), one contiguous time series per column */
-    const uint64_t* key = KEYS + r * {2 * nv};
-    casadi_real* Sr = S + r * N * {ns};
-    casadi_real* Yr = Y + r * N * {ny};
-    casadi_real* Or = O + r * N * {no};
-    casadi_real* Vr = V + r * N * {nv};
+    /* run r (sample SAMPLES[r]); output X of run r, column j, step i at
+       X[r * XR + j * XC + i] (only with STORE) */
+    const uint64_t run_key = oc_mix(seed_key + (uint64_t)A->SAMPLES[r]);
+    casadi_real* Sr = A->S + r * A->SR;
+    casadi_real* Yr = A->Y + r * A->YR;
+    casadi_real* Or = A->O + r * A->OR;
+    casadi_real* Vr = A->V + r * A->VR;
     cur = sa;
     nxt = sb;
-    for (j = 0; j < {ns}; ++j) cur[j] = S0[r * {ns} + j];
-    bad = 0;
-    arg[2] = P + r * {npar};
-    /* interval summaries of the run (summarise's operations, while the samples are in
-       registers): violations, smallest slack, largest width, first violation */
-    for (m = 0; m < nI; ++m) {{
-      casadi_real* o4 = IVOUT + (r * nI + m) * 4;
-      o4[0] = 0; o4[1] = INFINITY; o4[2] = -INFINITY; o4[3] = -1;
+    for (j = 0; j < {ns}; ++j) cur[j] = A->S0[r * {ns} + j];
+    arg[2] = A->P + r * {npar};
+    /* the intervals' summaries so far, in locals (nothing else can write them: the
+       compiler keeps them out of memory; measured +4 %) */
+    for (m = 0; m < NI; ++m) {{
+      ivc[m] = 0; ivm[m] = INFINITY; ivw[m] = -INFINITY; ivf[m] = -1;
     }}
-    /* the run's signals, column by column (BASE, SU, SN are (nv, N)): the deterministic
-       part, then the random ones — the arithmetic and order of SignalProgram.values */
-    for (j = 0; j < {nv}; ++j) {{
-      casadi_real* col = Vr + j * N;
-      const casadi_real* b = BASE + j * N;
-      for (i = 0; i < N; ++i) col[i] = b[i];
-    }}
+    /* the keys of stream_keys(seed, run, (2j, 2j + 1)) */
     for (q = 0; q < nr; ++q) {{
-      const uint64_t k1 = key[2 * rj[q]], k2 = key[2 * rj[q] + 1];
-      casadi_real* col = Vr + rj[q] * N;
-      if (KIND[rj[q]] & 1) {{
+      k1[q] = oc_mix(run_key + (uint64_t)(2 * rj[q]));
+      k2[q] = oc_mix(run_key + (uint64_t)(2 * rj[q] + 1));
+      z[q] = k1[q];
+    }}
+    if (STORE && A->T) {{
+      casadi_real* Tr = A->T + r * A->TR;
+      for (i = 0; i < N; ++i) Tr[i] = t[i];
+    }}
+    chk = 0;
+    for (i0 = 0; i0 < N; i0 = i1) {{
+      i1 = i0 + {tile} < N ? i0 + {tile} : N;
+      /* the signals of steps i0 … i1 − 1 (BASE, SU, SN are (nv, N)): the arithmetic and
+         order of SignalProgram.values — base + su·U, then + sn·Z where sn ≠ 0; sample i
+         of a stream from the hash state key + (i + 1) G */
+      for (q = 0; q < nr; ++q) {{
+        const casadi_real* b = BASE + rj[q] * N;
         const casadi_real* su = SU + rj[q] * N;
-        for (i = 0; i < N; ++i) col[i] += su[i] * oc_uniform(k1, (long long)i);
+        casadi_real* col = scr + rj[q];
+        uint64_t zq = z[q];
+        for (i = i0; i < i1; ++i) {{
+          zq += UINT64_C(0x9E3779B97F4A7C15);
+          col[(i - i0) * {nv}] = b[i] + su[i] * oc_unit(zq);
+        }}
+        z[q] = zq;
+        if (KIND[rj[q]] & 2) {{
+          const casadi_real* sn = SN + rj[q] * N;
+          for (i = i0; i < i1; ++i)
+            if (sn[i] != 0) col[(i - i0) * {nv}] += sn[i] * oc_normal(k1[q], k2[q], (long long)i);
+        }}
       }}
-      if (KIND[rj[q]] & 2) {{
-        const casadi_real* sn = SN + rj[q] * N;
-        for (i = 0; i < N; ++i)
-          if (sn[i] != 0) col[i] += sn[i] * oc_normal(k1, k2, (long long)i);
+      for (q = 0; q < nd; ++q) {{
+        const casadi_real* b = BASE + dj[q] * N;
+        casadi_real* col = scr + dj[q];
+        for (i = i0; i < i1; ++i) col[(i - i0) * {nv}] = b[i];
+      }}
+      for (i = i0; i < i1; ++i) {{
+        v = scr + (i - i0) * {nv};
+        h = (i + 1 < N) ? t[i + 1] - t[i] : 0.0;
+        arg[0] = cur;
+        arg[1] = v;
+        arg[3] = &h;
+        res[0] = nxt;
+        res[1] = yb;
+        res[2] = ob;
+        if ({name}(arg, res, iw, w, 0)) return (int)(1 + r * N + i);
+        if (STORE) {{
+          for (j = 0; j < KS; ++j) Sr[j * SC + i] = cur[j];
+          for (j = 0; j < {ny}; ++j) Yr[j * YC + i] = yb[j];
+          /* observer output j is produced DELAY[j] steps late: stored where it belongs */
+          for (j = 0; j < {no}; ++j) if (i >= DELAY[j]) Or[j * OC + i - DELAY[j]] = ob[j];
+          for (j = 0; j < {nv}; ++j) Vr[j * VC + i] = v[j];
+        }}
+        chk += {check};
+        /* interval summaries of the run (summarise's operations, while the samples are
+           in registers): violations, smallest slack, largest width, first violation */
+        if (i >= I0) for (m = 0; m < NI; ++m) {{
+          casadi_real zt = ivs[m] ? v[ivx[m]] : cur[ivx[m]], lo = ob[ivl[m]], hi = ob[ivh[m]];
+          casadi_real a = zt - lo, b = hi - zt, sl = b < a ? b : a, wd = hi - lo;
+          if (!(sl >= -TOL)) {{ if (ivf[m] < 0) ivf[m] = (casadi_real)i; ivc[m] += 1; }}
+          if (sl < ivm[m]) ivm[m] = sl;
+          if (wd > ivw[m]) ivw[m] = wd;
+        }}
+        tmp = cur; cur = nxt; nxt = tmp;
       }}
     }}
-    for (i = 0; i < N; ++i) {{
-      for (j = 0; j < {nv}; ++j) v[j] = Vr[j * N + i];
-      h = (i + 1 < N) ? t[i + 1] - t[i] : 0.0;
-      arg[0] = cur;
-      arg[1] = v;
-      arg[3] = &h;
-      res[0] = nxt;
-      res[1] = yb;
-      res[2] = ob;
-      if ({name}(arg, res, iw, w, 0)) return (int)(1 + r * N + i);
-      if (STORE) {{
-        for (j = 0; j < {ns}; ++j) Sr[j * N + i] = cur[j];
-        for (j = 0; j < {ny}; ++j) Yr[j * N + i] = yb[j];
-        for (j = 0; j < {no}; ++j) Or[j * N + i] = ob[j];
-      }}
-      for (j = 0; j < {ns}; ++j) bad |= !(cur[j] - cur[j] == 0);
-      for (j = 0; j < {ny}; ++j) bad |= !(yb[j] - yb[j] == 0);
-      for (j = 0; j < {no}; ++j) bad |= !(ob[j] - ob[j] == 0);
-      if (i >= I0) for (m = 0; m < nI; ++m) {{
-        const int* iv = IV + 4 * m;
-        casadi_real* o4 = IVOUT + (r * nI + m) * 4;
-        casadi_real z = iv[0] ? v[iv[1]] : cur[iv[1]], lo = ob[iv[2]], hi = ob[iv[3]];
-        casadi_real a = z - lo, b = hi - z, sl = b < a ? b : a, wd = hi - lo;
-        if (!(sl >= -TOL)) {{ if (o4[3] < 0) o4[3] = (casadi_real)i; o4[0] += 1; }}
-        if (sl < o4[1]) o4[1] = sl;
-        if (wd > o4[2]) o4[2] = wd;
-      }}
-      tmp = cur; cur = nxt; nxt = tmp;
+    if (STORE)  /* the last DELAY[j] samples of a delayed output are not available */
+      for (j = 0; j < {no}; ++j)
+        for (i = (DELAY[j] < N ? N - DELAY[j] : 0); i < N; ++i) Or[j * OC + i] = NAN;
+    /* finite: every state, output and observer output of the run (the signals are
+       finite whenever the program is: the caller checks it once) */
+    A->FIN[r] = chk - chk == 0;
+    for (m = 0; m < NI; ++m) {{
+      casadi_real* o4 = A->IVOUT + (r * NI + m) * 4;
+      o4[0] = ivc[m]; o4[1] = ivm[m]; o4[2] = ivw[m]; o4[3] = ivf[m];
     }}
-    FIN[r] = !bad;
   }}
   return 0;
 }}
 """
 
 
-def _buf(a):
-    return a.ctypes.data if a.size else _DUMMY.ctypes.data
-
-
 _DUMMY = np.zeros(8)
+_DUMMY_PTR = _DUMMY.ctypes.data
 _NO_INTERVALS = np.zeros(4, dtype=np.intc)
+_NO_INTERVALS_PTR = _NO_INTERVALS.ctypes.data
+#: the fields of the argument block that point at per-run data, and the step from one run
+#: to the next (bytes; ``ns``/``np``: per joint state / parameter, a name: that field × 8)
+_PER_RUN = (("SAMPLES", 8, None), ("P", 8, "np"), ("S0", 8, "ns"), ("T", 8, "TR"),
+            ("S", 8, "SR"), ("Y", 8, "YR"), ("O", 8, "OR"), ("V", 8, "VR"), ("FIN", 4, None),
+            ("IVOUT", 32, "NI"))
+
+
+def _pointer(a) -> int:
+    return a.ctypes.data if a.size else _DUMMY_PTR
+
+
+class _Args:
+    """One argument block of ``NAME_batch`` (the C struct ``NAME_batch_args``: a uint64
+    per entry of ``_BATCH_FIELDS``, ``TOL`` a double) in ctypes-owned memory, followed by
+    room for the runs' finiteness flags (``FIN`` points there).  ``keep`` holds the arrays
+    the pointers refer to."""
+
+    __slots__ = ("buf", "ptr", "keep", "runs")
+
+    def __init__(self, runs: int, template: "_Args | None" = None):
+        self.runs = runs
+        self.buf = (ctypes.c_uint64 * (_NARGS + (runs + 1) // 2))()
+        self.ptr = ctypes.addressof(self.buf)
+        self.keep = ()
+        if template is not None:
+            ctypes.memmove(self.ptr, template.ptr, 8 * _NARGS)
+            self.keep = template.keep
+        self.buf[_AI["R"]] = runs
+        self.buf[_AI["FIN"]] = self.ptr + 8 * _NARGS
+
+    def set(self, **fields) -> None:
+        buf = self.buf
+        for k, v in fields.items():
+            buf[_AI[k]] = v
+
+    def set_float(self, name: str, x: float) -> None:
+        ctypes.c_double.from_address(self.ptr + 8 * _AI[name]).value = x
+
+    def finite(self) -> np.ndarray:
+        """(R,) bool: the runs whose states and outputs were all finite."""
+        return np.frombuffer(self.buf, dtype=np.intc, count=self.runs, offset=8 * _NARGS) != 0
+
+    def all_finite(self) -> bool:
+        if self.runs == 1:
+            return ctypes.c_int.from_address(self.ptr + 8 * _NARGS).value != 0
+        return bool(self.finite().all())
+
+    def part(self, a: int, b: int, dims: dict) -> "_Args":
+        """The block for runs a … b − 1 of this one (same outputs, same flags)."""
+        part = _Args(b - a, self)
+        buf = self.buf
+        for name, size, per in _PER_RUN:
+            k = _AI[name]
+            if buf[k]:
+                n = 1 if per is None else (dims[per] if per in dims else buf[_AI[per]])
+                part.buf[k] = buf[k] + a * size * n
+        part.buf[_AI["FIN"]] = self.ptr + 8 * _NARGS + 4 * a
+        part.keep = (self,)
+        return part
 
 
 class TrajectoryEngine:
@@ -216,6 +371,8 @@ class TrajectoryEngine:
         self.spec, self.fname, self.inputs = spec, fname, tuple(inputs)
         self.ns, self.ny, self.no, self.nv, self.np = dims
         self._batch = None
+        self._signals = {}  # id(program) → (program, its pointers and signal kinds)
+        self._lock = threading.Lock()
 
     def __getstate__(self):
         return {"spec": self.spec, "fname": self.fname, "inputs": self.inputs,
@@ -227,34 +384,53 @@ class TrajectoryEngine:
     def _function(self):
         if self._batch is None:
             lib = load_library(self.spec)
-            try:
-                fn = getattr(lib, f"{self.fname}_batch")
-            except AttributeError:
-                raise CodegenError(f"{self.fname}_batch is missing from the library") from None
-            fn.restype = ctypes.c_int
-            fn.argtypes = [ctypes.c_longlong, ctypes.c_longlong] + [_P] * 14 + [
-                ctypes.c_int, ctypes.c_longlong, ctypes.c_double, _P, ctypes.c_int]
-            self._batch = fn
+            self._batch = _batch_function(lib, self.fname)
         return self._batch
 
+    def _dims(self) -> dict:
+        return {"ns": self.ns, "np": self.np}
+
+    def _call(self, args: _Args) -> int:
+        return self._function()(args.ptr)
+
+    def program_fields(self, program) -> dict:
+        """The argument-block fields of a signal program (kept for the last few)."""
+        hit = self._signals.get(id(program))
+        if hit is not None and hit[0] is program:
+            return hit[1]
+        base, su, sn = program.columns
+        kind = np.array([(1 if program.random[j] else 0) | (2 if program.normal[j] else 0)
+                         for j in range(self.nv)], dtype=np.intc)
+        fields = {"BASE": _pointer(base), "SU": _pointer(su), "SN": _pointer(sn),
+                  "KIND": _pointer(kind), "_keep": (base, su, sn, kind)}
+        with self._lock:
+            if len(self._signals) >= 8:
+                self._signals.pop(next(iter(self._signals)))
+            self._signals[id(program)] = (program, fields)
+        return fields
+
     def run_batch(self, t, program, seed: int, samples, P, S0, *, S=None, Y=None, O=None, V=None,
-                  finite=None, intervals=None, store: bool = True):
+                  T=None, delays=None, finite=None, intervals=None, store: bool = True):
         """Runs of a scenario in one compiled call: ``program`` the
         :class:`~observer_cad.simulation.SignalProgram` on the grid ``t``, ``samples`` (R,)
         the sample indices (their random signals come from (seed, sample)), ``P`` (R, np)
-        run-time parameters, ``S0`` (R, ns) initial joint states.  Outputs ``S`` (R, ns, N),
-        ``Y`` (R, ny, N), ``O`` (R, no, N), ``V`` (R, nv, N) — one contiguous time series
-        per run and column — C-contiguous (created when None); ``finite`` (R,) bool, set
-        True for the runs whose every value is finite (False: some value may not be —
-        check exactly).  ``intervals``: ``(spec, start, tol, out)`` — ``spec`` (nI, 4)
-        ints (truth is a signal: 1 / a state: 0, its index, the lower and upper observer
-        outputs), summaries over samples ≥ ``start`` into ``out`` (R, nI, 4): violations
-        (slack < −tol), smallest slack, largest width, first violation index (−1 none).
-        ``store=False``: ``S``, ``Y``, ``O`` are not written (when the loop's summaries
-        are all that is wanted).  Returns ``(S, Y, O, V)``."""
+        run-time parameters, ``S0`` (R, ns) initial joint states.  Outputs ``S`` (R, k, N)
+        — the first k ≤ ns joint states —, ``Y`` (R, ny, N), ``O`` (R, no, N), ``V``
+        (R, nv, N) — one contiguous time series per run and column — C-contiguous
+        (created when None, S with every joint state), ``T`` (R, N) the time grid per run
+        (optional); ``delays`` (no,) the observer outputs' delays: output j is produced
+        ``delays[j]`` steps late and stored where it belongs (as
+        :func:`~observer_cad.simulation.align_delay`: its last ``delays[j]`` samples NaN;
+        default none); ``finite`` (R,) bool, set True for the runs whose every value is
+        finite (False: some value may not be — check exactly).  ``intervals``: ``(spec,
+        start, tol, out)`` — ``spec`` (nI, 4) ints (truth is a signal: 1 / a state: 0, its
+        index, the lower and upper observer outputs), summaries over samples ≥ ``start``
+        into ``out`` (R, nI, 4): violations (slack < −tol), smallest slack, largest width,
+        first violation index (−1 none).  ``store=False``: ``S``, ``Y``, ``O``, ``V``,
+        ``T`` are not written (when the loop's summaries are all that is wanted).  Returns ``(S, Y, O, V)``."""
         t = np.ascontiguousarray(t, dtype=np.float64)
         N = t.size
-        samples = np.atleast_1d(np.asarray(samples, dtype=np.int64))
+        samples = np.ascontiguousarray(np.atleast_1d(np.asarray(samples, dtype=np.int64)))
         R = samples.size
         if program.base.shape != (N, self.nv) or tuple(program.names) != self.inputs:
             raise UsageError("the signal program does not match this simulator's grid and signals")
@@ -264,17 +440,24 @@ class TrajectoryEngine:
         Y = np.empty((R, self.ny, N)) if Y is None else Y
         O = np.empty((R, self.no, N)) if O is None else O
         V = np.empty((R, self.nv, N)) if V is None else V
-        for a, k, what in ((S, self.ns, "S"), (Y, self.ny, "Y"), (O, self.no, "O"), (V, self.nv, "V")):
+        ks = S.shape[1] if S.ndim == 3 else -1
+        for a, k, what in ((S, ks, "S"), (Y, self.ny, "Y"), (O, self.no, "O"), (V, self.nv, "V")):
             if a.shape != (R, k, N) or a.dtype != np.float64 or not a.flags.c_contiguous \
                     or not a.flags.writeable:
                 raise UsageError(f"{what} must be a writeable C-contiguous float64 ({R}, {k}, {N}) array")
+        if not 0 <= ks <= self.ns:
+            raise UsageError(f"S must have at most {self.ns} states (R, k, N), got {S.shape}")
+        if T is not None and (T.shape != (R, N) or T.dtype != np.float64
+                              or not T.flags.c_contiguous or not T.flags.writeable):
+            raise UsageError(f"T must be a writeable C-contiguous float64 ({R}, {N}) array")
+        delay = np.zeros(max(self.no, 1), dtype=np.int64)
+        if delays is not None:
+            delays = np.asarray(delays, dtype=np.int64).reshape(-1)
+            if delays.shape != (self.no,) or (delays < 0).any():
+                raise UsageError(f"delays must be {self.no} whole numbers ≥ 0")
+            delay[:self.no] = delays
         if N == 0 or R == 0:
             return S, Y, O, V
-        keys = stream_keys(seed, samples, np.arange(2 * self.nv))
-        kind = np.array([(1 if program.random[j] else 0) | (2 if program.normal[j] else 0)
-                         for j in range(self.nv)], dtype=np.intc)
-        fin = np.empty(R, dtype=np.intc)
-        base, su, sn = program.columns
         if intervals is None:
             iv, n_iv, start, tol, ivout = _NO_INTERVALS, 0, 0, 0.0, _DUMMY
         else:
@@ -284,21 +467,122 @@ class TrajectoryEngine:
             if ivout.shape != (R, n_iv, 4) or ivout.dtype != np.float64 \
                     or not ivout.flags.c_contiguous:
                 raise UsageError(f"intervals: out must be a C-contiguous float64 ({R}, {n_iv}, 4) array")
+            if n_iv > max(self.no, 1):
+                raise UsageError(f"intervals: at most {max(self.no, 1)} (one per observer"
+                                 f" output), got {n_iv}")
             if n_iv and (iv[:, 1].min() < 0 or iv[:, 2:].min() < 0 or iv[:, 2:].max() >= self.no
                          or iv[:, 1][iv[:, 0] == 0].max(initial=-1) >= self.ns
                          or iv[:, 1][iv[:, 0] != 0].max(initial=-1) >= self.nv):
                 raise UsageError("intervals: an index is out of range")
-        rc = self._function()(R, N, _buf(t), _buf(base), _buf(su), _buf(sn),
-                              _buf(kind), _buf(keys), _buf(P), _buf(S0),
-                              _buf(S), _buf(Y), _buf(O), _buf(V), _buf(fin),
-                              _buf(iv), int(n_iv), int(start), float(tol), _buf(ivout),
-                              1 if store else 0)
+        prog = self.program_fields(program)
+        args = _Args(R)
+        args.keep = (t, samples, P, S0, S, Y, O, V, T, delay, iv, ivout, prog["_keep"])
+        args.set(N=N, t=_pointer(t), BASE=prog["BASE"], SU=prog["SU"], SN=prog["SN"],
+                 KIND=prog["KIND"], SEED=int(seed) % 2 ** 64, SAMPLES=_pointer(samples),
+                 P=_pointer(P), S0=_pointer(S0),
+                 T=0 if T is None else _pointer(T), TR=N,
+                 S=_pointer(S), KS=ks, SR=ks * N, SC=N,
+                 Y=_pointer(Y), YR=self.ny * N, YC=N,
+                 O=_pointer(O), OR=self.no * N, OC=N, DELAY=_pointer(delay),
+                 V=_pointer(V), VR=self.nv * N, VC=N,
+                 IV=_pointer(iv), NI=int(n_iv), I0=int(start), IVOUT=_pointer(ivout),
+                 STORE=1 if store else 0)
+        args.set_float("TOL", float(tol))
+        rc = self._call(args)
         if finite is not None:
-            finite[:] = (fin != 0) & program.finite
+            finite[:] = args.finite() & program.finite
         if rc:
-            r, i = divmod(rc - 1, N)
-            raise CodegenError(f"{self.fname} failed at step {i} of run {int(samples[r])}")
+            raise self._failure(rc, N, samples)
         return S, Y, O, V
+
+    def _failure(self, rc: int, N: int, samples) -> CodegenError:
+        """The error of a batch over ``samples`` that returned ``rc`` ≠ 0."""
+        if rc < 0:
+            return CodegenError(f"{self.fname}_batch refused its arguments")
+        r, i = divmod(rc - 1, N)
+        return CodegenError(f"{self.fname} failed at step {i} of run {int(samples[r])}")
+
+
+def _batch_function(lib, fname):
+    """``NAME_batch`` of a loaded library, checked to take this module's argument block."""
+    try:
+        fn = getattr(lib, f"{fname}_batch")
+        nfields = getattr(lib, f"{fname}_batch_fields")
+    except AttributeError:
+        raise CodegenError(f"{fname}_batch is missing from the library") from None
+    nfields.restype = ctypes.c_int
+    nfields.argtypes = []
+    if nfields() != _NARGS:
+        raise CodegenError(f"{fname}_batch takes another argument block ({nfields()} fields,"
+                           f" not {_NARGS}): a library of another version")
+    fn.restype = ctypes.c_int
+    fn.argtypes = [_P]
+    return fn
+
+
+#: result memory a :class:`CompiledSimulator` keeps for reuse after its results are gone
+RECYCLE_BYTES = 64 * 1024 ** 2
+
+
+class _Blocks:
+    """The memory of :meth:`CompiledSimulator.simulate`'s results, reused once every array
+    of a result has been dropped.
+
+    Writing a fresh array first touches its pages, one page fault per 4 KiB; on a VM
+    that costs about as much as simulating the samples that fill them (measured:
+    benchmarks/README.md, scenario-in, result-out).  A result's columns are views of one
+    block; when none is left — CPython's reference count of the block is then that of
+    this list alone — the block serves the next result of the same size.  At most
+    ``limit`` bytes are kept (the oldest free blocks go first)."""
+
+    def __init__(self, limit: int):
+        self.limit = limit
+        self.blocks = []  # [array, its address]
+        self.lock = threading.Lock()
+        probe = [np.empty(0)]
+        self.free_refs = sys.getrefcount(probe[0])  # a block only this list holds
+
+    def _free(self, k) -> bool:
+        return sys.getrefcount(self.blocks[k][0]) == self.free_refs
+
+    def take(self, n: int) -> tuple:
+        """``(view, address)``: a view of a block of n float64 (hold the view: while it or
+        any view of it lives, the block is not handed out again)."""
+        with self.lock:
+            for k in range(len(self.blocks)):
+                if self.blocks[k][0].size == n and self._free(k):
+                    return self.blocks[k][0][:], self.blocks[k][1]
+            blk = np.empty(n)
+            ptr = _pointer(blk)
+            if 8 * n <= self.limit:
+                held = sum(b[0].nbytes for b in self.blocks)
+                k = 0
+                while held + 8 * n > self.limit and k < len(self.blocks):
+                    if self._free(k):
+                        held -= self.blocks.pop(k)[0].nbytes
+                    else:
+                        k += 1
+                while held + 8 * n > self.limit:  # in use: their results keep them
+                    held -= self.blocks.pop(0)[0].nbytes
+                self.blocks.append([blk, ptr])
+            return blk[:], ptr
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class _Runs:
+    """Runs of a scenario's case as :meth:`CompiledSimulator.simulate` runs them: grid,
+    program, sizes, the argument block without its outputs, where the outputs go in the
+    result's block (elements), the sampled plant parameters (name → (R,))."""
+
+    t: np.ndarray
+    program: object
+    R: int
+    N: int
+    ncols: int
+    bytes: int
+    args: _Args
+    offsets: dict
+    plant: dict
 
 
 class CompiledSimulator:
@@ -328,10 +612,14 @@ class CompiledSimulator:
         self._step = None
         self._source = None
         self._programs = {}
+        self._lock = threading.Lock()
+        self._blocks = _Blocks(RECYCLE_BYTES)
         self._engine = None
         self._local = None
         self._units = None
-        self._ys = None
+        self._names = None
+        self._outputs = tuple(observer.outputs) if observer is not None else ()
+        self._delays = {name: int(observer.delays.get(name, 0)) for name, _ in self._outputs}
         self._cc = cc
         self.translated = False
         self.inputs = list(m.inputs) + list(m.faults) + list(m.disturbances) + list(m.noise)
@@ -348,8 +636,9 @@ class CompiledSimulator:
         fname = joint_step_name(m, observer, name)
         lib_name = f"{fname}_traj"
         flag_sets = [TRAJ_FLAGS, FLAGS] if flags is None else [tuple(flags)]
+        # RANDOM_C is pasted into the loops but lives in simulation: part of the identity
         ident = ("trajectory", joint_identity(m, observer, name=name, parameters=True),
-                 "auto" if flags is None else tuple(flags))
+                 "auto" if flags is None else tuple(flags), RANDOM_C)
         fp = fingerprint(ident, cc=cc, flags=None if flags is None else flag_sets[0])
         rec = lookup_fingerprint(fp, lib_name, cache=cache)
         if rec is not None:
@@ -373,7 +662,7 @@ class CompiledSimulator:
             def check(path):
                 lib = ctypes.CDLL(str(path))
                 getattr(lib, f"{fname}_traj")
-                getattr(lib, f"{fname}_batch")
+                _batch_function(lib, fname)
 
             try:
                 res = compile_source(src, lib_name, cache=cache, cc=cc, flags=flag_sets[0],
@@ -394,14 +683,11 @@ class CompiledSimulator:
         try:
             lib = ctypes.CDLL(str(path))
             fn = getattr(lib, f"{fname}_traj")
-            batch = getattr(lib, f"{fname}_batch")
         except (OSError, AttributeError) as exc:
             raise CodegenError(f"cannot load {path}: {exc}") from None
+        batch = _batch_function(lib, fname)
         fn.restype = ctypes.c_int
         fn.argtypes = [ctypes.c_longlong, _P, _P, _P, _P, _P, _P]
-        batch.restype = ctypes.c_int
-        batch.argtypes = [ctypes.c_longlong, ctypes.c_longlong] + [_P] * 14 + [
-            ctypes.c_int, ctypes.c_longlong, ctypes.c_double, _P, ctypes.c_int]
         self._lib, self._fn, self._batch, self._fname = lib, fn, batch, fname
 
     @property
@@ -455,7 +741,8 @@ class CompiledSimulator:
         if s0 is not None:
             S[0] = s0
         if N:
-            rc = self._fn(N, _buf(t), _buf(V), _buf(p), _buf(S), _buf(Y), _buf(O))
+            rc = self._fn(N, _pointer(t), _pointer(V), _pointer(p), _pointer(S), _pointer(Y),
+                              _pointer(O))
             if rc:
                 raise CodegenError(f"{self._fname} failed at step {rc - 1}")
         return S, Y, O
@@ -510,9 +797,12 @@ class CompiledSimulator:
         return hit[1] if hit is not None and hit[0] is scenario else None
 
     def _keep(self, scenario, what, value):
-        if len(self._programs) >= 16:
-            self._programs.pop(next(iter(self._programs)))
-        self._programs[(id(scenario),) + what] = (scenario, value)
+        # a scenario is a frozen value: what is derived from it is kept with it (the
+        # entry holds the scenario, so its id is not reused while the entry lives)
+        with self._lock:
+            if len(self._programs) >= 16:
+                self._programs.pop(next(iter(self._programs)))
+            self._programs[(id(scenario),) + what] = (scenario, value)
         return value
 
     def prepare(self, scenario: Scenario, runs: int | None = None, *, first_run: int = 0,
@@ -531,80 +821,108 @@ class CompiledSimulator:
         ks = np.arange(first_run, first_run + int(runs))
         return self.plan(scenario).draw(ks, total=samples or first_run + int(runs))
 
+    def _runs(self, scenario: Scenario, case, first_run: int, R: int, samples) -> "_Runs":
+        """What :meth:`simulate` needs of runs ``first_run …`` of a scenario's case: the
+        grid, the draws, the argument block's inputs (kept like programs: a repeated call
+        draws nothing and converts nothing)."""
+        what = ("runs", case, first_run, R, samples)
+        hit = self._cached(scenario, what)
+        if hit is not None:
+            return hit
+        m = self.model
+        ncols = 1 + len(m.states) + self.ny + self.nv + self.no
+        check_memory(scenario, m.time, runs=R, columns=ncols)
+        t, prog = self.program(scenario, case)
+        N = t.size
+        d = self.draws(scenario, R, first_run=first_run, samples=samples)
+        samples_ = np.ascontiguousarray(d.samples, dtype=np.int64)
+        P = np.ascontiguousarray(d.P, dtype=np.float64)
+        S0 = np.ascontiguousarray(np.concatenate([d.x0, d.xi0], axis=1), dtype=np.float64)
+        eng = self.local_engine()
+        sig = eng.program_fields(prog)
+        delay = np.zeros(max(self.no, 1), dtype=np.int64)
+        delay[:self.no] = [self._delays[name] for name, _ in self._outputs]
+        args = _Args(R)
+        args.keep = (t, samples_, P, S0, delay, sig["_keep"])
+        # the result's block: columns (t, states, outputs, signals, observer outputs) of
+        # (R, N) each; a column is contiguous, run r's samples at r·N
+        RN = R * N
+        nx = len(m.states)
+        args.set(N=N, t=_pointer(t), BASE=sig["BASE"], SU=sig["SU"], SN=sig["SN"],
+                 KIND=sig["KIND"], SEED=int(scenario.seed) % 2 ** 64, SAMPLES=_pointer(samples_),
+                 P=_pointer(P), S0=_pointer(S0), TR=N, KS=nx, SR=N, SC=RN, YR=N, YC=RN,
+                 OR=N, OC=RN, DELAY=_pointer(delay), VR=N, VC=RN, IV=_NO_INTERVALS_PTR,
+                 NI=0, I0=0, IVOUT=_DUMMY_PTR, STORE=1)
+        offsets = {"T": 0, "S": RN, "Y": (1 + nx) * RN, "V": (1 + nx + self.ny) * RN,
+                   "O": (1 + nx + self.ny + self.nv) * RN}
+        plant = {name: np.array(v) for name, v in d.plant.items()}
+        runs = _Runs(t, prog, R, N, ncols, ncols * RN * 8, args, offsets, plant)
+        return self._keep(scenario, what, runs)
+
+    def _columns(self):
+        """The result's column names in block order, its CSV order, its delays."""
+        if self._names is None:
+            m = self.model
+            ys = [str(y) for y in output_symbols(len(m.outputs))]
+            names = (["t"] + [s.name for s in m.states] + ys + [s.name for s in self.inputs]
+                     + [name for name, _ in self._outputs])
+            order = tuple(["t"] + [s.name for s in m.states] + ys
+                          + [s.name for s in self.inputs if s not in m.noise]
+                          + [name for name, _ in self._outputs])
+            self._names = (tuple(names), order)
+        return self._names
+
     def simulate(self, scenario: Scenario, *, runs: int | None = None,
                  threads: int | None = None, keep_nonfinite: bool = False, first_run: int = 0,
                  case: str | None = None, samples: int | None = None) -> SimulationResult:
         """As :func:`observer_cad.simulation.simulate` (same columns, same order, the same
         samples, memory limit and finiteness check); with ``runs=R`` the runs are split
-        over ``threads`` threads (default: every core)."""
+        over ``threads`` threads (default: every core).
+
+        The columns of a result are views of one block of memory, reused for a later
+        result once every column of this one has been dropped (``RECYCLE_BYTES``)."""
         R = 1 if runs is None else int(runs)
         if R < 1:
             raise UsageError(f"runs must be at least 1, got {runs}")
         first_run = int(first_run)
         if first_run < 0:
             raise UsageError(f"first_run must be ≥ 0, got {first_run}")
-        # V twice (signals and the result's copies), S, Y, O and t
-        check_memory(scenario, self.model.time, runs=R,
-                     columns=2 * self.nv + self.ns + self.ny + self.no + 1)
         if case is None and scenario.cases:  # the first case, as the reference simulator
             case = scenario.case_names[0]
-        t, prog = self.program(scenario, case)
-        N = t.size
-        d = self.draws(scenario, R, first_run=first_run, samples=samples)
-        S0 = np.concatenate([d.x0, d.xi0], axis=1)
-        S = np.empty((R, self.ns, N))
-        Y = np.empty((R, self.ny, N))
-        O = np.empty((R, self.no, N))
-        V = np.empty((R, self.nv, N))
-        ks = d.samples
-
-        fin = np.zeros(R, dtype=bool)
-
-        def block(a, b):
-            self.run_batch(t, prog, scenario.seed, ks[a:b], d.P[a:b], S0[a:b],
-                           S=S[a:b], Y=Y[a:b], O=O[a:b], V=V[a:b], finite=fin[a:b])
-
-        nthreads = min(R, threads or os.cpu_count() or 1)
+        rs = self._runs(scenario, case, first_run, R, samples)
+        if rs.bytes > memory_limit():  # the limit is read again: it may have changed
+            check_memory(scenario, self.model.time, runs=R, columns=rs.ncols)
+        N = rs.N
+        view, ptr = self._blocks.take(rs.ncols * R * N)
+        args = _Args(R, rs.args)
+        off = rs.offsets
+        args.set(T=ptr + 8 * off["T"], S=ptr + 8 * off["S"], Y=ptr + 8 * off["Y"],
+                 O=ptr + 8 * off["O"], V=ptr + 8 * off["V"])
+        engine = self.local_engine()
+        nthreads = 1 if R == 1 else min(R, threads or os.cpu_count() or 1)
         if nthreads > 1:
             edges = np.linspace(0, R, nthreads + 1).astype(int)
+            parts = [args.part(int(a), int(b), engine._dims()) for a, b in zip(edges[:-1], edges[1:])]
             with ThreadPoolExecutor(nthreads) as ex:
-                list(ex.map(lambda ab: block(*ab), zip(edges[:-1], edges[1:])))
+                rcs = list(ex.map(engine._call, parts))
+            rc = next((c if c < 0 else c + int(a) * N for c, a in zip(rcs, edges) if c), 0)
         else:
-            block(0, R)
-        finite = bool(fin.all())  # the loop's column sums (else the exact search)
-        res = self._result(t, R, N, V, S, Y, O, runs, keep_nonfinite, where=scenario.source,
-                           finite=finite)
-        if d.plant:
-            import dataclasses
-            res = dataclasses.replace(res, parameters={
-                k: (v if runs is not None else v[0]) for k, v in d.plant.items()})
-        return res
-
-    def _result(self, t, R, N, V, S, Y, O, runs, keep_nonfinite=False, where=None, finite=None):
-        """The SimulationResult of arrays (R, k, N) (columns are views)."""
-        m, observer = self.model, self.observer
-        cols = {"t": np.broadcast_to(t, (R, N)).copy()}
-        for j, s in enumerate(m.states):
-            cols[s.name] = S[:, j, :]
-        if self._ys is None:
-            self._ys = output_symbols(len(m.outputs))
-        ys = self._ys
-        for j, y in enumerate(ys):
-            cols[str(y)] = Y[:, j, :]
-        for j, s in enumerate(self.inputs):
-            cols[s.name] = V[:, j, :]
-        order = ["t"] + [s.name for s in m.states] + [str(y) for y in ys] + \
-            [s.name for s in self.inputs if s not in m.noise]
-        delays = {}
-        if observer is not None:
-            for j, (name, _) in enumerate(observer.outputs):
-                delays[name] = int(observer.delays.get(name, 0))
-                cols[name] = align_delay(O[:, j, :], delays[name])
-                order.append(name)
+            rc = engine._call(args)
+        if rc:
+            raise engine._failure(rc, N, range(first_run, first_run + R))
+        finite = rs.program.finite and args.all_finite()
+        names, order = self._columns()
+        block = view.reshape(len(names), R, N)
+        cols = {name: block[c] for c, name in enumerate(names)}
         if self._units is None:  # the units depend on the names only
-            self._units = column_units(m, observer, cols)
-        return finish_result(cols, order, delays, t, m, observer, runs, keep_nonfinite,
-                             where=where, units=self._units, finite=finite)
+            self._units = column_units(self.model, self.observer, cols)
+        res = finish_result(cols, order, dict(self._delays), rs.t, self.model, self.observer, runs,
+                            keep_nonfinite, where=scenario.source, units=self._units,
+                            finite=finite)
+        if rs.plant:
+            res = dataclasses.replace(res, parameters={
+                k: (v.copy() if runs is not None else v[0]) for k, v in rs.plant.items()})
+        return res
 
     def simulate_many(self, scenarios, *, threads: int | None = None) -> list:
         """Many scenarios at once on threads (ctypes releases the GIL)."""

@@ -29,8 +29,7 @@ from ..errors import UsageError
 from ..model import PlantModel
 from ..observers import DecisionRule, Observer, output_symbols
 from ..simulation import (DrawPlan, EnsembleStatistics, Monitors, RunSummaries, Scenario,
-                          align_delay, check_memory, monitors, signal_program, simulate,
-                          summarise)
+                          check_memory, monitors, signal_program, simulate, summarise)
 from ._backends import Backend, Interrupted, map_chunks
 
 __all__ = ["Chunk", "EnsembleResult", "run_ensemble", "replay", "replay_worst", "ReplayError", "ENGINES",
@@ -85,7 +84,7 @@ def _layout(model: PlantModel, observer: Observer | None) -> _Layout:
 
 def _columns(layout: _Layout, S, Y, O, V) -> dict:
     """The columns of a chunk, (R, N) views of the batch's (R, k, N) arrays (contiguous
-    rows; delayed outputs shifted)."""
+    rows; the batch stores delayed outputs shifted already)."""
     cols = {}
     for j, name in enumerate(layout.states):
         cols[name] = S[:, j, :]
@@ -93,8 +92,8 @@ def _columns(layout: _Layout, S, Y, O, V) -> dict:
         cols[name] = Y[:, j, :]
     for j, name in enumerate(layout.inputs):
         cols[name] = V[:, j, :]
-    for j, (name, k) in enumerate(zip(layout.observer, layout.delays)):
-        cols[name] = align_delay(O[:, j, :], k)
+    for j, name in enumerate(layout.observer):
+        cols[name] = O[:, j, :]
     return cols
 
 
@@ -116,13 +115,14 @@ class _Payload:
 _BUFFERS = threading.local()
 
 
-def _buffers(R, N, engine):
+def _buffers(R, N, engine, nx):
     """Per-thread trajectory buffers (R, k, N), reused from chunk to chunk (allocating
-    and page-faulting megabytes per chunk costs as much as simulating it)."""
-    shape = (R, N, engine.ns, engine.ny, engine.no, engine.nv)
+    and page-faulting megabytes per chunk costs as much as simulating it); S holds the
+    plant's nx states (the observer's are not columns)."""
+    shape = (R, N, nx, engine.ny, engine.no, engine.nv)
     got = getattr(_BUFFERS, "arrays", None)
     if got is None or got[0] != shape:
-        got = (shape, np.empty((R, engine.ns, N)), np.empty((R, engine.ny, N)),
+        got = (shape, np.empty((R, nx, N)), np.empty((R, engine.ny, N)),
                np.empty((R, engine.no, N)), np.empty((R, engine.nv, N)))
         _BUFFERS.arrays = got
     return got[1:]
@@ -133,7 +133,7 @@ def _compiled_chunk(payload: _Payload, chunk: Chunk) -> RunSummaries:
     N = payload.t.size
     d = payload.plan.draw(chunk.samples(), total=payload.runs)
     S0 = np.concatenate([d.x0, d.xi0], axis=1)
-    S, Y, O, V = _buffers(chunk.count, N, payload.engine)
+    S, Y, O, V = _buffers(chunk.count, N, payload.engine, len(payload.layout.states))
     finite = np.zeros(chunk.count, dtype=bool)
     given = ivs = None
     if payload.intervals:
@@ -147,10 +147,11 @@ def _compiled_chunk(payload: _Payload, chunk: Chunk) -> RunSummaries:
     store = not (ivs is not None and not mon.estimates and not mon.residuals
                  and mon.rule is None and len(payload.intervals[0]) == len(mon.intervals))
     run = (payload.t, payload.programs[chunk.case], payload.seed, d.samples, d.P, S0)
-    payload.engine.run_batch(*run, S=S, Y=Y, O=O, V=V, finite=finite, intervals=ivs,
-                             store=store)
+    buffers = dict(S=S, Y=Y, O=O, V=V, delays=payload.layout.delays, finite=finite,
+                   intervals=ivs)
+    payload.engine.run_batch(*run, store=store, **buffers)
     if not store and not finite.all():
-        payload.engine.run_batch(*run, S=S, Y=Y, O=O, V=V, finite=finite, intervals=ivs)
+        payload.engine.run_batch(*run, **buffers)
     if ivs is not None:
         given = {sig: tuple(out[:, m, q] for q in range(4)) for m, sig in enumerate(signals)}
     return summarise(payload.monitors, _columns(payload.layout, S, Y, O, V), payload.t,

@@ -19,9 +19,11 @@ sequence seeded with the key.  Normal samples use the Box–Muller transform of 
 uniform streams 2j and 2j + 1: z = √(−2 ln(1 − u₁)) · cos(2π u₂).
 
 The compiled trajectory loop (:mod:`observer_cad.codegen`) implements the same
-arithmetic in C (:data:`RANDOM_C`): uniform samples are the same bits (tested); normal
-samples agree to the last bits of the C library's ``log1p``/``cos`` against numpy's
-(tested to 1e-14).
+arithmetic in C (:data:`RANDOM_C`: ``oc_key`` the keys, ``oc_uniform`` / ``oc_normal``
+sample i of a stream; the loop walks a stream with the running sum key + (i + 1) · G,
+the same numbers): keys and uniform samples are the same bits (tested); normal samples
+agree to the last bits of the C library's ``log1p``/``cos`` against numpy's (tested to
+1e-14).
 """
 from __future__ import annotations
 
@@ -94,10 +96,17 @@ static inline uint64_t oc_mix(uint64_t z) {
   z = (z ^ (z >> 27)) * UINT64_C(0x94D049BB133111EB);
   return z ^ (z >> 31);
 }
-static inline double oc_uniform(uint64_t key, long long i) {
+/* key(seed, run, stream) of stream_keys; seed already reduced mod 2^64 */
+static inline uint64_t oc_key(uint64_t seed, int64_t run, uint64_t stream) {
+  return oc_mix(oc_mix(oc_mix(seed + UINT64_C(0x9E3779B97F4A7C15)) + (uint64_t)run) + stream);
+}
+/* the uniform sample of the hash state z = key + (i + 1) G */
+static inline double oc_unit(uint64_t z) {
   /* < 2^53: exact as a signed conversion (cheaper than unsigned on x86-64) */
-  return (double)(int64_t)(oc_mix(key + (uint64_t)(i + 1) * UINT64_C(0x9E3779B97F4A7C15)) >> 11)
-         * 0x1.0p-53;
+  return (double)(int64_t)(oc_mix(z) >> 11) * 0x1.0p-53;
+}
+static inline double oc_uniform(uint64_t key, long long i) {
+  return oc_unit(key + (uint64_t)(i + 1) * UINT64_C(0x9E3779B97F4A7C15));
 }
 static inline double oc_normal(uint64_t key1, uint64_t key2, long long i) {
   double u1 = oc_uniform(key1, i), u2 = oc_uniform(key2, i);
