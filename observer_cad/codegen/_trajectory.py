@@ -73,9 +73,12 @@ __all__ = ["CompiledSimulator", "simulate_compiled", "loop_source", "TRAJ_FLAGS"
 # -fno-math-errno: sqrt becomes the sqrtsd instruction alone, without the branch to
 # libm that sets errno for a negative argument (the values are the same, IEEE sqrt
 # either way; nothing reads errno): measured ≈ 3 % on the three-tank interval ensemble.
-# Retried with plain FLAGS if the compiler rejects them.  Both are made size-aware (-O1
+# -ffp-contract=off: base + su·U must round as numpy rounds it (the signals are
+# bit-identical to the reference); where the target has FMA by default (aarch64) gcc
+# would otherwise fuse the multiply-add.
+# Retried with plain FLAGS if the compiler rejects them.  They are made size-aware (-O1
 # for large C, codegen.size_aware_flags) unless flags are given.
-TRAJ_FLAGS = FLAGS + ("-fno-semantic-interposition", "-fno-math-errno")
+TRAJ_FLAGS = FLAGS + ("-fno-semantic-interposition", "-fno-math-errno", "-ffp-contract=off")
 
 _P = ctypes.c_void_p
 
