@@ -46,9 +46,10 @@ degree can take minutes). Two variables, a variable in a denominator or an expon
 functions, constants (``pi``, ``I``) and a nested ``CRootOf`` inside ``poly`` are
 refused. The number is built node by node like the rest (``sympy.Poly`` of the built
 polynomial, then its real roots; the text is never evaluated). Isolating the real roots
-is sympy's work, and its time grows with the degree, the size of the coefficients and how
-close the roots lie: a crafted polynomial of modest degree can still keep it busy
-(``x**16 - 2*(256*x - 1)**2``, two roots 3·10⁻²² apart: over five minutes).
+is sympy's work, and its time grows with how close the roots lie (``x**16 - 2*(256*x -
+1)**2``, two roots 3·10⁻²² apart: over five minutes), so a polynomial with two distinct
+roots closer than :data:`MIN_ROOT_SEPARATION` (relative) is refused first, from FLINT's
+enclosures of all its complex roots (milliseconds).
 """
 from __future__ import annotations
 
@@ -105,6 +106,29 @@ _ROOT_VARIABLE = sp.Symbol("x")
 _IN_POLY = "in CRootOf's polynomial"
 _POLY_GRAMMAR = ("allowed: integers, one variable, + - * /, ** with an integer exponent ≥ 0;"
                  " e.g. CRootOf(x**3 - 3*x + 1, 0)")
+
+
+#: CRootOf's polynomial is refused when two of its distinct roots are closer than this,
+#: relative to max(1, |largest root|): sympy's exact real-root isolation takes 0.5 s at a
+#: separation of 7e-7 and 12 s at 5e-9 (degree 12), minutes below; a design's λ are never
+#: that close
+MIN_ROOT_SEPARATION = 1e-6
+
+
+def _check_separation(poly) -> None:
+    """Refuse a CRootOf polynomial with nearly coincident roots, cheaply (FLINT's ball
+    arithmetic finds every complex root in milliseconds) before sympy isolates them."""
+    import flint
+    _, ints = poly.clear_denoms()
+    roots = [complex(r.mid()) for r, _m in
+             flint.fmpz_poly([int(c) for c in reversed(ints.all_coeffs())]).complex_roots()]
+    scale = max([1.0] + [abs(r) for r in roots])
+    for i, a in enumerate(roots):
+        for b in roots[i + 1:]:
+            if abs(a - b) < MIN_ROOT_SEPARATION * scale:
+                raise _Reject(f"CRootOf's polynomial {poly.as_expr()} has two roots closer than"
+                              f" {MIN_ROOT_SEPARATION:g} (relative): refused, isolating them"
+                              " exactly could take minutes")
 
 
 class _Reject(Exception):
@@ -312,6 +336,7 @@ class _Builder:
         if not -deg <= index < deg:
             raise _Reject(f"CRootOf index {index} is out of range for degree {deg}"
                           f" (−{deg} ≤ index < {deg})")
+        _check_separation(poly)
         reals = poly.real_roots(radicals=False)  # ascending, with multiplicity: sympy's order
         i = index % deg
         if i >= len(reals):

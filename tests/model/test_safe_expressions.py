@@ -372,3 +372,18 @@ def test_keyword_lambda_is_a_name_only_where_crootof_is_read():
             _crootof(text)
     with pytest.raises(ExpressionError, match="not a valid expression"):
         parse_expression("CRootOf(lambda**3 - 3*lambda + 1, 0)", where="x")
+
+
+@pytest.mark.parametrize("text", ["CRootOf(x**16 - 2*(256*x - 1)**2, 0)",
+                                  "CRootOf(x**12 - 2*(16*x - 1)**2, 1)"])
+def test_crootof_nearly_coincident_roots_refused_quickly(text):
+    """Roots 3e-22 / 5e-9 apart: sympy's exact isolation would take minutes (or 12 s);
+    refused from FLINT's root enclosures instead, naming the reason."""
+    with pytest.raises(ExpressionError, match="two roots closer than"):
+        parse_expression(text, [], where="design.json", allow_crootof=True)
+
+
+def test_crootof_well_separated_roots_still_read():
+    r = parse_expression("CRootOf(x**12 - 2*(4*x - 1)**2, 1)", [], where="t", allow_crootof=True)
+    assert isinstance(r, sp.CRootOf)
+    assert abs(float(r.evalf(30)) ** 12 - 2 * (4 * float(r.evalf(30)) - 1) ** 2) < 1e-9
