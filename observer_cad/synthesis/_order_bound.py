@@ -293,12 +293,12 @@ def _pencil_order(m, p0, p1, lam, time, roots_ok) -> ChainOrder:
     crit = sp.Mul(disc, *[pt.subs(lam, e) for e in edges])
     crit = sp.Poly(sp.expand(crit), t)
     pts = []
-    if crit.degree() > 0:
-        ends = _separated_roots(crit.sqf_part())
+    ends = _separated_roots(crit.sqf_part()) if crit.degree() > 0 else []
+    if ends:
         pts.append(ends[0][0] - 1)
         pts += [(ends[i][1] + ends[i + 1][0]) / 2 for i in range(len(ends) - 1)]
         pts.append(ends[-1][1] + 1)
-    else:
+    else:  # no real root in t (or none at all): one interval, the whole line
         pts.append(sp.Integer(0))
     for v in pts:
         p = sp.expand(pt.subs(t, v))

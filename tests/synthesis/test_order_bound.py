@@ -218,3 +218,30 @@ def test_vector_z_proven_by_the_subspace_bound():
     A = np.vstack([Mn, Mn @ Fn, Hn, Hn @ Fn])
     B = np.vstack([Hn, Hn @ Fn])
     assert np.linalg.matrix_rank(A) - np.linalg.matrix_rank(B) == 3
+
+
+def _pencil_plant_matrices():
+    """Discrete time, z = x1: the chain polynomials of degree 3 are the line
+    λ³ − 10λ + t(λ² − 1), whose critical polynomial in t (discriminant × p(1) p(−1)) has no
+    real root at all (the discriminant 4t⁴ + 253t² + 4000 > 0, p(±1) = ∓9)."""
+    F = sp.zeros(6, 6)
+    F[0, 1] = F[1, 0] = F[1, 2] = F[3, 2] = F[4, 3] = F[5, 4] = 1
+    F[2, 1] = 9
+    return F, sp.Matrix([[0, 0, 0, 0, 0, 1]]), sp.Matrix([[1, 0, 0, 0, 0, 0]])
+
+
+def test_line_without_real_critical_t_is_decided():
+    """Before: IndexError (no isolating interval to place the test points around)."""
+    F, H, M = _pencil_plant_matrices()
+    c = chain_order(F, H, M, 3, LAM, "discrete", [sp.Rational(1, 2)])
+    assert c.verdict == "line" and c.impossible
+    # independent: M p(F) ∈ rowspace [H; …; H F³] for p on the line, and no sampled t
+    # gives three real roots inside the unit disc
+    W = sp.Matrix.vstack(*[H * F ** j for j in range(4)])
+    rng = np.random.default_rng(5)
+    for tv in [sp.Rational(int(v), 7) for v in rng.integers(-400, 400, 40)]:
+        p = sp.Poly(LAM ** 3 - 10 * LAM + tv * (LAM ** 2 - 1), LAM)
+        row = M * sum((cf * F ** (3 - i) for i, cf in enumerate(p.all_coeffs())), sp.zeros(6, 6))
+        assert sp.Matrix.vstack(W, row).rank() == W.rank()
+        r = np.roots([float(v) for v in p.all_coeffs()])
+        assert np.max(np.abs(r)) >= 1
