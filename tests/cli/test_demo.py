@@ -164,6 +164,7 @@ def test_report_has_the_diagnosability_section(demo_run):
     assert "### Model `three_tank_faults`" in report and "### Model `three_tank_isolation`" in report
 
 
+@pytest.mark.slow  # a demo run (~8 s): in the slow step, keeping the default run < 3 min
 def test_fallback_without_a_compiler(models_dir, tmp_path, monkeypatch):
     """No C compiler: the demo says so and simulates with the reference simulator."""
     keys = {"lin_vs_jordan", "drive_diag"}
@@ -185,6 +186,7 @@ def test_fallback_without_a_compiler(models_dir, tmp_path, monkeypatch):
         " reference simulator (numpy)." in report
 
 
+@pytest.mark.slow  # a demo run (~8 s): in the slow step, keeping the default run < 3 min
 def test_a_failing_diagnosability_step_is_reported(models_dir, tmp_path, monkeypatch):
     """A broken diagnosability example fails the demo (exit 1) with one line naming the
     step, and the rest of the report is still written."""
@@ -202,6 +204,7 @@ def test_a_failing_diagnosability_step_is_reported(models_dir, tmp_path, monkeyp
     assert "### Analysis of `three_tank_faults`" in report and "**FAILED** (residual bank:" in report
 
 
+@pytest.mark.slow  # a demo run (~8 s): in the slow step, keeping the default run < 3 min
 def test_no_compile_option(models_dir, tmp_path, monkeypatch):
     monkeypatch.setattr(demo, "CASES", tuple(c for c in demo.CASES if c.key == "drive_diag"))
     buf = io.StringIO()
