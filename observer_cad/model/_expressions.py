@@ -54,7 +54,9 @@ enclosures of all its complex roots (milliseconds).
 from __future__ import annotations
 
 import ast
+import io
 import math
+import tokenize
 import re
 from decimal import Decimal, InvalidOperation
 from typing import Iterable, Mapping
@@ -477,6 +479,21 @@ def _keyword_lambda_as_name(source: str):
         return None
 
 
+def _xor_as_power(source: str) -> str:
+    """``^`` read as ``**`` at the token level, as sympy's parser does (``convert_xor``):
+    Python's ``^`` binds more loosely than ``+`` and ``*``, so the tree of ``t^2 + 1`` is
+    t ^ (2 + 1) and of ``2*t^2`` is (2·t) ^ 2 — replacing the operator in the tree would
+    read them as t³ and 4t². The text is only split into tokens, never run."""
+    if "^" not in source:
+        return source
+    try:
+        toks = [(tok.type, "**" if tok.type == tokenize.OP and tok.string == "^" else tok.string)
+                for tok in tokenize.generate_tokens(io.StringIO(source).readline)]
+        return tokenize.untokenize(toks).strip()
+    except (tokenize.TokenError, IndentationError, SyntaxError, ValueError):
+        return source  # not tokenizable: ast.parse reports it
+
+
 def parse_expression(text, names=None, *, where: str, allow_complex: bool = False,
                      condition: bool = False, any_name: bool = False,
                      exact_floats: bool = True, allow_crootof: bool = False) -> sp.Basic:
@@ -532,7 +549,7 @@ def parse_expression(text, names=None, *, where: str, allow_complex: bool = Fals
         raise fail("empty")
     if "\x00" in text:
         raise fail("a NUL character")
-    source, keyword_lambda = text.strip(), False
+    source, keyword_lambda = _xor_as_power(text.strip()), False
     try:
         tree = ast.parse(source, mode="eval")
     except SyntaxError as exc:

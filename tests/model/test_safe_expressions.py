@@ -387,3 +387,16 @@ def test_crootof_well_separated_roots_still_read():
     r = parse_expression("CRootOf(x**12 - 2*(4*x - 1)**2, 1)", [], where="t", allow_crootof=True)
     assert isinstance(r, sp.CRootOf)
     assert abs(float(r.evalf(30)) ** 12 - 2 * (4 * float(r.evalf(30)) - 1) ** 2) < 1e-9
+
+
+_T = sp.Symbol("t")
+
+
+@pytest.mark.parametrize("text,expected", [("t^2 + 1", _T**2 + 1), ("2*t^2", 2 * _T**2),
+                                           ("-t^2", -_T**2), ("(t + 1)^2/2", (_T + 1)**2 / 2),
+                                           ("t^2^2", _T**4)])
+def test_caret_is_power_with_powers_precedence(text, expected):
+    """^ is ** (as sympy's parser reads it) with **'s precedence: Python's own ^ binds
+    more loosely than + and *, so t^2 + 1 once read as t³ and 2*t^2 as 4t²."""
+    got = parse_expression(text, {"t": _T}, where="scenario")
+    assert sp.expand(got - expected) == 0
