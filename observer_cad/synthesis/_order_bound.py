@@ -44,7 +44,7 @@ import itertools
 import numpy as np
 import sympy as sp
 
-from ..numerics import echelon_rows, exact_rank, left_null_echelon, left_null_space, solve_left
+from ..numerics import exact_rank, left_null_echelon, left_null_space, solve_left
 from ._canonical import krylov_blocks, member_to_phi
 from ._lambda_search import exact_real_roots
 from ._reduced import is_stable
@@ -214,7 +214,7 @@ def chain_order(F, H, M, m: int, lam, time: str, tries) -> ChainOrder:
                           f" M F^{m - 1}; H, …, H F^{m}]: no model of order {m}")
     a0 = [X0[0, i] for i in range(m)]
     basis, _ = left_null_space(A)
-    dirs = [list(r) for r in echelon_rows([v[:, :m] for v in basis])]
+    dirs = _independent([[v[0, i] for i in range(m)] for v in basis])
     d = len(dirs)
 
     def poly(a):
@@ -390,3 +390,14 @@ def spread_lambdas(time: str) -> list:
                                          "-30", "-100")]
     return [sp.Rational(v) for v in ("0", "3/4", "9/10", "-1/2", "-1/4", "-3/4", "1/10",
                                      "-9/10", "99/100")]
+
+
+def _independent(vectors) -> list:
+    """A maximal independent subset (exact) of nonzero coefficient vectors."""
+    out: list = []
+    for v in vectors:
+        if all(e == 0 for e in v):
+            continue
+        if exact_rank(sp.Matrix(out + [v])).rank == len(out) + 1:
+            out.append(v)
+    return out
