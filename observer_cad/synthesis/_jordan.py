@@ -260,7 +260,8 @@ def design_jordan(model: PlantModel, *, observer: str, estimate=None,
         for v in (one_row.stable if one_row else ()) + jumps.stable:
             if not any(_same_number(v, w) for w in lam_list):
                 lam_list.append(v)
-        chains = _chain_orders(observer, F, H, M, work.time, n, lam_list)
+        chains = _chain_orders(observer, F, H, M, L if decoupled else None, work.time, n,
+                               lam_list, dict(work.parameters))
         extra = []  # the chain polynomials' roots: tried as whole sets, not in combinations
         for c in chains:
             extra += [v for v in c.lambdas if not any(_same_number(v, w)
@@ -712,19 +713,22 @@ def _searched(observer, k, lam_list, one_row, jumps) -> tuple:
     return k1 + more, proven
 
 
-def _chain_orders(observer, F, H, M, time, n, tries) -> list:
-    """:func:`chain_order` for m = 1, 2, … (one row z, numeric, not diagnostic) until every
-    monic p of degree m qualifies (the default λ then suffice) or m = n − 1."""
-    if observer == "diagnostic" or M is None or M.rows != 1 or \
-            set().union(*(X.free_symbols for X in (F, H, M))):
+def _chain_orders(observer, F, H, M, L, time, n, tries, defaults) -> list:
+    """:func:`chain_order` for m = 1, 2, … (one row z, not diagnostic; ``L`` the decoupled
+    inputs or None; ``defaults`` the parameter defaults) until every monic p of degree m
+    qualifies (the default λ then suffice) or m = n − 1; with symbolic parameters until the
+    first member is found."""
+    if observer == "diagnostic" or M is None or M.rows != 1:
         return []
+    symbolic = bool(set().union(*(X.free_symbols for X in (F, H, M)
+                                  + ((L,) if L is not None else ()))))
     out = []
     tries = list(tries) + [v for v in spread_lambdas(time)
                            if not any(_same_number(v, w) for w in tries)]
     for m in range(1, n):
-        c = chain_order(F, H, M, m, LAMBDA, time, tries)
+        c = chain_order(F, H, M, m, LAMBDA, time, tries, L, defaults)
         out.append(c)
-        if c.verdict == "free" and c.dim >= m:
+        if (c.verdict == "free" and c.dim >= m) or (symbolic and c.lambdas):
             break
     return out
 

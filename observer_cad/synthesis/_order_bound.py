@@ -50,7 +50,8 @@ from ._lambda_search import exact_real_roots
 from ._reduced import is_stable
 
 __all__ = ["OrderBound", "ChainOrder", "estimation_order_bound", "residual_order_bound",
-           "chain_order", "spread_lambdas", "MAX_SUBSETS"]
+           "chain_order", "chain_system", "hyperplane_functional", "hyperplane_corners",
+           "hyperplane_member", "spread_lambdas", "MAX_SUBSETS"]
 
 #: at most this many subsets of the tried λ are used to pin a member of a family of p
 MAX_SUBSETS = 60
@@ -171,15 +172,19 @@ def _blind_columns(members, F, H, D, k) -> list:
 
 @dataclasses.dataclass(frozen=True)
 class ChainOrder:
-    """What the monic polynomials p of degree m with M p(F) ∈ W_m say about order m.
+    """What the monic polynomials p of degree m with M p(F) ∈ W_m (and, decoupled, the
+    quotient condition r(s) L = 0) say about order m.
 
     ``verdict``: "empty" (no such p: no model of order m), "unique" (one p; its roots are
-    every model's eigenvalues), "line" (a one-parameter family, decided exactly), "signed"
-    (a hyperplane of p none of which has only negative roots, continuous time), "free" (an
-    affine family of dimension ``dim``, searched, undecided when nothing is found);
-    ``polynomial``: the unique p, or the member found with ``lambdas`` as its roots;
-    ``lambdas``: m distinct real stable roots of a member (exact), () when none was found;
-    ``evidence``: one line."""
+    every model's eigenvalues), "line" (a one-parameter family, decided exactly),
+    "hyperplane" (one linear condition on p, decided exactly), "free" (an affine family of
+    dimension ``dim`` ≥ 2, searched; undecided when nothing is found, unless ``dim`` ≥ m:
+    every monic p), "symbolic" (parameters: a member whose roots are rational functions of
+    them was looked for; undecided when none is found); ``polynomial``: the unique p, or
+    the member found with ``lambdas`` as its roots; ``lambdas``: m distinct real stable
+    roots of a member (exact; with parameters, stable at their defaults), () when none was
+    found; ``evidence``: one line; ``conditions``: with parameters, the pivots (``Ne(f, 0)``)
+    the generic ranks rest on."""
 
     m: int
     verdict: str
@@ -187,31 +192,73 @@ class ChainOrder:
     polynomial: sp.Expr | None
     lambdas: tuple
     evidence: str
+    conditions: frozenset = frozenset()
 
     @property
     def impossible(self) -> bool:
         """No member has m distinct real stable roots (decided exactly)."""
-        return self.verdict in ("empty", "signed") or (self.verdict in ("unique", "line")
-                                                         and not self.lambdas)
+        return self.verdict == "empty" or (self.verdict in ("unique", "line", "hyperplane")
+                                           and not self.lambdas)
+
+    @property
+    def decided(self) -> bool:
+        """Whether some member has m distinct real stable roots is known exactly."""
+        return self.verdict not in ("free", "symbolic") or bool(self.lambdas)
 
 
-def chain_order(F, H, M, m: int, lam, time: str, tries) -> ChainOrder:
-    """The affine family of monic p (degree m) with M p(F) ∈ W_m, for one row M and numeric
-    F, H, and a member with m distinct real stable roots: the unique one's roots, or, for a
-    family of dimension d, the member through d values of ``tries`` (each d-subset in turn)
-    whose other roots are real, distinct and stable. By :func:`estimation_order_bound`'s
-    chain argument each member is the characteristic polynomial of a model of order m (no
-    decoupling), and a Jordan design of m rows with λ_1, …, λ_m has p = Π (s − λ_i) here."""
-    F, H, M = (sp.Matrix(X) for X in (F, H, M))
+def chain_system(F, H, M, m: int, L=None):
+    """The linear system X A = B of the order-m chain polynomials: X = (a_0, …, a_{m−1},
+    b_0, …, b_m), p(λ) = λᵐ − Σ a_i λⁱ, M p(F) = Σ b_i H Fⁱ (n columns) and, for
+    decoupled inputs L, the quotient r(s) = Σ_j r_j sʲ of b(s) H − p(s) M = r(s)(sI − F)
+    with r_j L = 0 (q columns for each j = 0, …, m − 1):
+    Σ_{i>j} (a_i M + b_i H) F^{i−j−1} L = M F^{m−j−1} L (a_m = 0)."""
     MF, HF = [M], [H]
     for _ in range(m):
         MF.append(MF[-1] * F)
         HF.append(HF[-1] * F)
     A = sp.Matrix.vstack(*MF[:m], *HF)
-    X0 = solve_left(A, MF[m])
+    B = MF[m]
+    if L is not None and L.cols:
+        ML = [X * L for X in MF]
+        HL = [X * L for X in HF]
+        zero = sp.zeros(1, L.cols)
+        blocks, rhs = [], []
+        for j in range(m):
+            rows = [ML[i - j - 1] if i > j else zero for i in range(m)]
+            rows += [HL[i - j - 1] if i > j else sp.zeros(H.rows, L.cols) for i in range(m + 1)]
+            blocks.append(sp.Matrix.vstack(*rows))
+            rhs.append(ML[m - j - 1])
+        A = sp.Matrix.hstack(A, *blocks)
+        B = sp.Matrix.hstack(B, *rhs)
+    return A, B
+
+
+def chain_order(F, H, M, m: int, lam, time: str, tries, L=None, defaults=None) -> ChainOrder:
+    """The affine family of monic p (degree m) with M p(F) ∈ W_m — and, when ``L`` has
+    columns (decoupled inputs), with the quotient r(s) of b(s) H − p(s) M = r(s)(sI − F)
+    satisfying r(s) L = 0 — for one row M and numeric F, H, and a member with m distinct
+    real stable roots.
+
+    Every Jordan design of m rows with λ_1, …, λ_m (Φ_i L = 0 when decoupled) gives
+    p = Π (s − λ_i) here (r(s) = −Σ c_i Φ_i Π_{j≠i} (s − λ_j)); conversely a member with m
+    distinct roots gives the rows Φ_i = r(λ_i) (Φ_i (F − λ_i I) = −b(λ_i) H, Φ_i L = 0) and
+    M = b_m H − Σ Φ_i / p'(λ_i): a linear model of order m with those λ (METHOD §2b).
+
+    With symbolic parameters in F, H, M, L the ranks are generic (``conditions``) and a
+    member is accepted only when it splits into linear factors over QQ(parameters), with
+    distinct roots that are stable at the ``defaults`` (symbol -> value): see
+    :func:`_symbolic_chain`."""
+    F, H, M = (sp.Matrix(X) for X in (F, H, M))
+    L = sp.Matrix(L) if L is not None else None
+    dec = L is not None and L.cols > 0
+    A, B = chain_system(F, H, M, m, L)
+    if A.free_symbols | B.free_symbols:
+        return _symbolic_chain(A, B, m, lam, tries, dec, defaults or {}, time)
+    X0 = solve_left(A, B)
     if X0 is None:
         return ChainOrder(m, "empty", -1, None, (), f"m = {m}: M F^{m} ∉ rowspace [M, …,"
-                          f" M F^{m - 1}; H, …, H F^{m}]: no model of order {m}")
+                          f" M F^{m - 1}; H, …, H F^{m}]" + (" with r(s) L = 0" if dec else "")
+                          + f": no model of order {m}")
     a0 = [X0[0, i] for i in range(m)]
     basis, _ = left_null_space(A)
     dirs = _independent([[v[0, i] for i in range(m)] for v in basis])
@@ -221,13 +268,7 @@ def chain_order(F, H, M, m: int, lam, time: str, tries) -> ChainOrder:
         return sp.expand(lam ** m - sum(a[i] * lam ** i for i in range(m)))
 
     def roots_ok(p):
-        if sp.degree(sp.gcd(p, sp.diff(p, lam)), lam) > 0:
-            return ()  # a repeated root
-        _, facs = sp.factor_list(p, lam)
-        rts = exact_real_roots([f for f, _ in facs], lam)
-        if len(rts) == m and all(is_stable(r, time) for r in rts):
-            return tuple(rts)
-        return ()
+        return _stable_distinct_roots(p, lam, m, time)
 
     if d == 0:
         p = poly(a0)
@@ -239,13 +280,6 @@ def chain_order(F, H, M, m: int, lam, time: str, tries) -> ChainOrder:
                              f" order {m}"))
     if d >= m:  # every monic p: the default λ already give order m
         return ChainOrder(m, "free", d, None, (), f"m = {m}: every monic p of degree {m}")
-    if d == m - 1 and time == "continuous":
-        sign = _one_sign(m, a0, dirs)
-        if sign:
-            return ChainOrder(m, "signed", d, None, (),
-                              f"m = {m}: the p form a hyperplane Σ c_i e_i(−λ) = 0 with every c_i"
-                              f" {sign} and e_i(−λ) > 0 for λ < 0: no p has only negative roots")
-
     if d == 1:
         return _pencil_order(m, poly(a0), sp.expand(-sum(dirs[0][i] * lam ** i
                                                           for i in range(m))), lam, time,
@@ -254,26 +288,223 @@ def chain_order(F, H, M, m: int, lam, time: str, tries) -> ChainOrder:
     def pinned(subset):
         """The member with p(v) = 0 for each v of the subset (d linear equations in the d
         directions' weights), exactly; None when they do not determine it."""
-        B = sp.Matrix([[sum(dirs[r][i] * v ** i for i in range(m)) for r in range(d)]
-                       for v in subset])
-        if exact_rank(B).rank < d:
+        Bm = sp.Matrix([[sum(dirs[r][i] * v ** i for i in range(m)) for r in range(d)]
+                        for v in subset])
+        if exact_rank(Bm).rank < d:
             return None
-        w = B.LUsolve(sp.Matrix([poly(a0).subs(lam, v) for v in subset]))
+        w = Bm.LUsolve(sp.Matrix([poly(a0).subs(lam, v) for v in subset]))
         return poly([a0[i] + sum(w[r] * dirs[r][i] for r in range(d)) for i in range(m)])
 
     subsets = itertools.chain(itertools.islice(itertools.combinations(tries, d), MAX_SUBSETS),
                               _sampled_subsets(m, d, a0, dirs, time))
+    ell = hyperplane_functional(m, a0, dirs) if d == m - 1 else None
+    hyper = hyperplane_corners(ell, time) if ell is not None else None
+    if hyper is not None and not hyper[0]:
+        return ChainOrder(m, "hyperplane", d, None, (), f"m = {m}: {hyper[1]}")
     for subset in subsets:
         p = pinned(subset)
         rts = roots_ok(p) if p is not None else ()
         if rts:
-            return ChainOrder(m, "free", d, p, rts,
-                              f"m = {m}: a {d}-parameter family of p; through λ ="
-                              f" {', '.join(map(str, subset))}: p(λ) = {sp.factor(p)}")
+            return ChainOrder(m, "hyperplane" if hyper else "free", d, p, rts,
+                              f"m = {m}: " + (hyper[1] + "; " if hyper else
+                                              f"a {d}-parameter family of p; ")
+                              + f"through λ = {', '.join(map(str, subset))}: p(λ) ="
+                              f" {sp.factor(p)}")
+    if hyper is not None:  # a member exists: build it near the vertices of opposite sign
+        p = hyperplane_member(ell, time, lam, roots_ok)
+        if p is not None:
+            return ChainOrder(m, "hyperplane", d, p, roots_ok(p),
+                              f"m = {m}: {hyper[1]}; p(λ) = {sp.factor(p)}")
     return ChainOrder(m, "free", d, None, (),
                       f"m = {m}: a {d}-parameter family of p; none through {d} of the tried λ"
                       f" nor of {SAMPLES} sampled sets has only real, distinct, stable roots"
                       " (undecided)")
+
+
+def _symbolic_chain(A, B, m, lam, tries, dec, defaults, time) -> ChainOrder:
+    """:func:`chain_order` over QQ(parameters): "empty" (generically), or the unique member
+    / a member through ``d`` of the ``tries`` whose numerator splits into distinct linear
+    factors in λ, each root stable at the defaults; otherwise "symbolic" (undecided)."""
+    X0 = solve_left(A, B)
+    rk = exact_rank(A)
+    conds = frozenset(rk.conditions)
+    where = (f" (for parameters with {', '.join(sorted(str(c.lhs) for c in conds))} nonzero)"
+             if conds else "")
+    if X0 is None:
+        return ChainOrder(m, "empty", -1, None, (), f"m = {m}: M F^{m} ∉ rowspace [M, …,"
+                          f" M F^{m - 1}; H, …, H F^{m}]" + (" with r(s) L = 0" if dec else "")
+                          + f"{where}: no model of order {m}", conds)
+    a0 = [sp.cancel(X0[0, i]) for i in range(m)]
+    basis, _ = left_null_space(A)
+    dirs = _independent([[sp.cancel(v[0, i]) for i in range(m)] for v in basis])
+    d = len(dirs)
+
+    def poly(a):
+        return sp.expand(lam ** m - sum(a[i] * lam ** i for i in range(m)))
+
+    def split(p):
+        num, _ = sp.fraction(sp.cancel(sp.together(p)))
+        _, facs = sp.factor_list(num, lam)
+        rts = []
+        for f, mult in facs:
+            deg = sp.degree(f, lam)
+            if deg == 0:
+                continue
+            if deg > 1 or mult > 1:
+                return ()
+            c1, c0 = sp.Poly(f, lam).all_coeffs()
+            rts.append(sp.cancel(-c0 / c1))
+        if len(rts) != m or any(sp.cancel(r - q) == 0 for r, q in itertools.combinations(rts, 2)):
+            return ()
+        try:
+            nominal = [r.subs(defaults) for r in rts]
+        except (TypeError, ValueError):
+            return ()
+        if any(v.free_symbols or not v.is_real or not is_stable(v, time) for v in nominal):
+            return ()  # no defaults, or not stable at them: not used
+        return tuple(rts)
+
+    if d >= m:
+        return ChainOrder(m, "free", d, None, (), f"m = {m}: every monic p of degree {m}"
+                          f"{where}", conds)
+    cands = [poly(a0)] if d == 0 else []
+    for subset in itertools.islice(itertools.combinations(tries, d), MAX_SUBSETS) if d else ():
+        Bm = sp.Matrix([[sum(dirs[r][i] * v ** i for i in range(m)) for r in range(d)]
+                        for v in subset])
+        if exact_rank(Bm).rank < d:
+            continue
+        w = Bm.LUsolve(sp.Matrix([poly(a0).subs(lam, v) for v in subset]))
+        cands.append(poly([sp.cancel(a0[i] + sum(w[r] * dirs[r][i] for r in range(d)))
+                           for i in range(m)]))
+    for p in cands:
+        rts = split(p)
+        if rts:
+            return ChainOrder(m, "symbolic", d, p, rts,
+                              f"m = {m}: " + ("one p" if d == 0 else f"a {d}-parameter family"
+                                              " of p; a member") + f"{where}: p(λ) ="
+                              f" {sp.factor(p)}, roots {', '.join(map(str, rts))} (stable at the"
+                              " parameter defaults)", conds)
+    return ChainOrder(m, "symbolic", d, cands[0] if d == 0 else None, (),
+                      f"m = {m}: " + (f"one p(λ) = {sp.factor(cands[0])}" if d == 0 else
+                                      f"a {d}-parameter family of p") + f"{where}; no member"
+                      " splits into distinct linear factors over the parameters with roots"
+                      " stable at their defaults (undecided for symbolic parameters)", conds)
+
+
+def hyperplane_functional(m, a0, dirs) -> list:
+    """The hyperplane of monic p as a linear form ℓ on polynomials of degree ≤ m with
+    ℓ(p) = 0 exactly for its members: ``[ℓ(1), ℓ(λ), …, ℓ(λᵐ)]``.
+
+    p = λᵐ − Σ a_i λⁱ with a ∈ a0 + span(dirs); for the normal ν of span(dirs) the members
+    are ν·a = ν·a0, i.e. Σ_{i<m} ν_i q_i + (ν·a0) q_m = 0 for p = Σ q_i λⁱ."""
+    normal = sp.Matrix(dirs).nullspace()
+    nv = list(normal[0])
+    return [nv[i] for i in range(m)] + [sum(nv[i] * a0[i] for i in range(m))]
+
+
+def hyperplane_corners(ell, time: str) -> tuple:
+    """Decide a hyperplane of monic p of degree m = len(ell) − 1 (ℓ(p) = 0, ``ell`` =
+    [ℓ(1), ℓ(λ), …, ℓ(λᵐ)]) exactly: (a member has m distinct real stable roots, evidence).
+
+    With p = Π (λ − λ_i), ℓ(p) is multi-affine and symmetric in the roots. Map the stable
+    region onto (−1, 1) by λ_i = (μ_i + 1)/(μ_i − 1) (continuous) or λ_i = μ_i (discrete):
+    N(μ) = ℓ(Π_i ((μ_i − 1) λ − (μ_i + 1))) = ℓ(p) Π (μ_i − 1) is multi-affine in μ and
+    Π (μ_i − 1) keeps one sign on the box. A non-constant multi-affine function has no
+    interior extremum (it is affine in each μ_i), so it maps the open box — and, by symmetry
+    and density, the convex chamber μ_1 < … < μ_m — onto the open interval between its
+    least and greatest corner value. Corner j (j roots at 0 and m − j at −∞) gives
+    N = (−2)ᵐ ℓ(λʲ) (continuous); discrete, j roots at 1 and m − j at −1:
+    ℓ((λ − 1)ʲ (λ + 1)^{m−j}). So a member exists iff the corner values take both strict
+    signs."""
+    vals = _corner_values(ell, time)
+    corner = ("ℓ(λʲ), j = 0…m" if time == "continuous" else
+              "ℓ((λ − 1)ʲ (λ + 1)^(m−j)), j = 0…m")
+    text = (f"the p form a hyperplane ℓ(p) = 0 (one linear condition); at the corners of the"
+            f" stable region {corner} = {', '.join(map(str, vals))}")
+    if any(v > 0 for v in vals) and any(v < 0 for v in vals):
+        return True, text + ": both signs, so ℓ(p) = 0 for some m distinct stable real roots"
+    return False, (text + ": one sign, so ℓ(Π (λ − λ_i)) never vanishes for distinct stable"
+                   " real λ_i (ℓ is multi-affine in the roots: no interior extremum)")
+
+
+def _corner_values(ell, time) -> list:
+    m = len(ell) - 1
+    if time == "continuous":
+        return list(ell)
+    out = []
+    for j in range(m + 1):
+        q = sp.Poly((_LAM - 1) ** j * (_LAM + 1) ** (m - j), _LAM).all_coeffs()[::-1]
+        out.append(sum(ell[i] * q[i] for i in range(m + 1)))
+    return out
+
+
+_LAM = sp.Symbol("lambda")
+
+
+def hyperplane_member(ell, time: str, lam, accept=None):
+    """A member of the hyperplane ℓ(p) = 0 with m distinct real stable roots, exactly, when
+    :func:`hyperplane_corners` says one exists (else None): walk from a corner of one sign
+    to one of the other, moving one root at a time from near one end of the stable region
+    to near the other (ε = 10⁻¹, 10⁻², …); ℓ is affine in the moving root, so where the
+    sign changes the root solving ℓ = 0 is rational and lies between its two ends.
+    ``accept(p)`` (default: m distinct real stable roots) checks each candidate."""
+    m = len(ell) - 1
+    vals = _corner_values(ell, time)
+    if not (any(v > 0 for v in vals) and any(v < 0 for v in vals)):
+        return None
+    if accept is None:
+        def accept(p):
+            return _stable_distinct_roots(p, lam, m, time)
+    first = next(j for j, v in enumerate(vals) if v != 0)
+    hi = next(j for j in range(m + 1) if vals[j] != 0 and (vals[j] > 0) != (vals[first] > 0))
+    lo = max(j for j in range(hi) if vals[j] != 0)  # the last strict sign before hi
+
+    def ellp(roots):
+        q = sp.Poly(sp.Mul(*[(lam - r) for r in roots]), lam).all_coeffs()[::-1]
+        return sum(ell[i] * q[i] for i in range(m + 1))
+
+    for e in range(1, 13):
+        eps = sp.Rational(1, 10 ** e)
+        if time == "continuous":
+            near0 = [-eps * (i + 1) for i in range(m)]  # the corner end "root at 0"
+            far = [-(i + 1) / eps for i in range(m)]  # "root at −∞"
+        else:
+            near0 = [1 - eps * (i + 1) for i in range(m)]  # "root at 1"
+            far = [-1 + eps * (i + 1) for i in range(m)]  # "root at −1"
+        path = [near0[:j] + far[j:] for j in range(lo, hi + 1)]
+        signs = [ellp(r) for r in path]
+        if 0 in (signs[0], signs[-1]) or (signs[0] > 0) == (signs[-1] > 0):
+            continue  # ε not yet small enough for the corners' signs
+        for s in range(len(path) - 1):
+            a, b = signs[s], signs[s + 1]
+            if b == 0:
+                cand = path[s + 1]
+            elif (a > 0) != (b > 0):
+                c = lo + s  # root c moves from far[c] to near0[c]
+                rest = path[s][:c] + path[s][c + 1:]
+                q = sp.Poly(sp.Mul(*[(lam - r) for r in rest]), lam).all_coeffs()[::-1]
+                lq = sum(ell[i] * q[i] for i in range(m))  # ℓ(q)
+                lqx = sum(ell[i + 1] * q[i] for i in range(m))  # ℓ(λ q)
+                if lq == 0:
+                    continue
+                cand = rest + [lqx / lq]
+            else:
+                continue
+            p = sp.expand(sp.Mul(*[(lam - r) for r in cand]))
+            if accept(p):
+                return p
+    return None
+
+
+def _stable_distinct_roots(p, lam, m, time) -> tuple:
+    """The m distinct real stable roots of p (exact), or ()."""
+    if sp.degree(sp.gcd(p, sp.diff(p, lam)), lam) > 0:
+        return ()  # a repeated root
+    _, facs = sp.factor_list(p, lam)
+    rts = exact_real_roots([f for f, _ in facs], lam)
+    if len(rts) == m and all(is_stable(r, time) for r in rts):
+        return tuple(rts)
+    return ()
 
 
 def _pencil_order(m, p0, p1, lam, time, roots_ok) -> ChainOrder:
@@ -358,28 +589,6 @@ def _sampled_subsets(m, d, a0, dirs, time):
                 (time != "continuous" and np.abs(r).max() >= 1 - 1e-9)):
             continue
         yield tuple(sp.Rational(f"{v:.2g}") for v in vals)
-
-
-def _one_sign(m, a0, dirs) -> str:
-    """For a hyperplane of monic p (one linear condition on its coefficients): "≥ 0" or
-    "≤ 0" when, written as Σ_j c_j e_j(μ) = 0 in μ = −λ (e_j the elementary symmetric
-    polynomials, e_0 = 1), every c_j has that sign (not all 0); "" otherwise.
-
-    p = Σ_i q_i λ^i with q_m = 1, q_i = −a_i; the members are a = a0 + span(dirs), so the
-    condition is n·(a − a0) = 0 for the normal n of span(dirs). With λ_i = −μ_i,
-    q_i = e_{m−i}(μ): the condition reads Σ_i n_i (−e_{m−i}(μ)) − n·a0 = 0."""
-    N = sp.Matrix(dirs)
-    normal = N.nullspace()
-    if len(normal) != 1:
-        return ""
-    nv = list(normal[0])
-    c = [-nv[i] for i in range(m)] + [0]  # coefficient of e_{m−i}(μ) for i = 0..m−1
-    c[m] = -sum(nv[i] * a0[i] for i in range(m))  # the constant: coefficient of e_0
-    if all(v >= 0 for v in c) and any(v != 0 for v in c):
-        return "≥ 0"
-    if all(v <= 0 for v in c) and any(v != 0 for v in c):
-        return "≤ 0"
-    return ""
 
 
 def spread_lambdas(time: str) -> list:

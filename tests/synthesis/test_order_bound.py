@@ -9,8 +9,10 @@ import sympy as sp
 from observer_cad import PlantModel
 from observer_cad.model import extract_structure, random_model
 from observer_cad.synthesis import design_jordan
-from observer_cad.synthesis._order_bound import (chain_order, estimation_order_bound,
-                                                 residual_order_bound)
+from observer_cad.numerics import solve_left
+from observer_cad.synthesis._order_bound import (chain_order, chain_system,
+                                                 estimation_order_bound, hyperplane_corners,
+                                                 hyperplane_member, residual_order_bound)
 from observer_cad.synthesis._poles import default_eigenvalues
 
 LAM = sp.Symbol("lambda")
@@ -44,8 +46,8 @@ def test_three_rows_proven_minimal_by_the_bound():
 
 
 def test_decoupled_three_rows_proven():
-    """With a decoupled input the chain polynomials still rule out fewer rows (a necessary
-    condition), and the bound over every F* agrees."""
+    """With a decoupled input the chain polynomials (with the quotient condition r(s) L = 0)
+    rule out fewer rows, and the bound over every F* agrees."""
     x5, rho = sp.symbols("x5 rho")
     m = PlantModel(name="companion_d", time="continuous", states=[x1, x2, x3, x4, x5],
                    inputs=[u], outputs=[x4, x5], disturbances=[rho],
@@ -142,14 +144,14 @@ def test_bound_never_exceeds_a_design_found():
     assert checked >= 40
 
 
-def test_signed_hyperplane_has_no_negative_roots():
-    """A "signed" order: sampled negative roots never satisfy the chain condition (its
-    residual against W_m keeps one sign along the hyperplane's normal)."""
+def test_one_signed_hyperplane_has_no_negative_roots():
+    """A hyperplane whose corner values have one sign: sampled negative roots never satisfy
+    the chain condition (its residual against W_m keeps one sign along the normal)."""
     m = random_model(6, 1, 1, seed=10, time="continuous", density=0.5)
     F, H, _ = _matrices(m)
     M = sp.Matrix([[1, 0, 0, 0, 0, 0]])
     c = chain_order(F, H, M, 4, LAM, "continuous", [sp.Integer(-1)])
-    assert c.verdict == "signed" and c.impossible
+    assert c.verdict == "hyperplane" and c.impossible
     Fn, Hn, Mn = (np.array(X.tolist(), dtype=float) for X in (F, H, M))
     W = np.vstack([Hn @ np.linalg.matrix_power(Fn, j) for j in range(5)])
     P = np.eye(6) - np.linalg.pinv(W) @ W  # projector onto the complement of rowspace W
@@ -243,3 +245,124 @@ def test_line_without_real_critical_t_is_decided():
         assert sp.Matrix.vstack(W, row).rank() == W.rank()
         r = np.roots([float(v) for v in p.all_coeffs()])
         assert np.max(np.abs(r)) >= 1
+
+
+def _decoupled(m):
+    st = extract_structure(m)
+    return sp.Matrix(st.F), sp.Matrix(st.H), sp.Matrix(st.L)
+
+
+@pytest.mark.parametrize("seed,density,k_before", [(5, 1.0, 3), (0, 1.0, 3)])
+def test_decoupled_chain_finds_fewer_rows(seed, density, k_before):
+    """Decoupled virtual sensors: the chain polynomials with r(s) L = 0 are exact, so their
+    roots give a design with fewer rows than the default λ allowed (``k_before``, the
+    previous result), proven minimal. Checked independently in floating point: Φ L = 0,
+    Φ_i (F − λ_i I) ∈ rowspace H, M ∈ rowspace [Φ; H]."""
+    m = random_model(5, 2, 1, seed=seed, time="continuous", density=density)
+    d = design_jordan(m, observer="virtual-sensor", estimate="x1")
+    assert d.certificate.passed and d.k == k_before - 1 == 2
+    assert any(v not in default_eigenvalues("continuous", 5) for v in d.lambdas)
+    assert _minimal(d).holds  # k = 1 ruled out exactly for every λ
+    F, H, L = (np.array(X.tolist(), dtype=float) for X in _decoupled(m))
+    Phi = np.array(d.matrices.Phi.evalf(30).tolist(), dtype=float)
+    assert np.abs(Phi @ L).max() < 1e-9 * np.abs(Phi).max()
+    for i, lam in enumerate(d.lambdas):
+        row = Phi[i] @ (F - float(lam) * np.eye(5))
+        res = row - np.linalg.lstsq(H.T, row, rcond=None)[0] @ H
+        assert np.abs(res).max() < 1e-9 * (1 + np.abs(row).max())
+    B = np.vstack([Phi, H])
+    M = np.eye(5)[:1]
+    assert np.linalg.matrix_rank(np.vstack([B, M])) == np.linalg.matrix_rank(B)
+
+
+def test_decoupled_chain_member_builds_the_rows():
+    """The converse used above, checked on a member: for p in the decoupled family, solve
+    for b, form r(s) from b(s) H − p(s) M = r(s)(sI − F) and the rows Φ_i = r(λ_i); then
+    Φ_i (F − λ_i I) = −b(λ_i) H, Φ_i L = 0 and M = b_m H − Σ Φ_i / p'(λ_i), exactly."""
+    m = random_model(5, 2, 1, seed=5, time="continuous", density=1.0)
+    F, H, L = _decoupled(m)
+    M = sp.Matrix([[1, 0, 0, 0, 0]])
+    c = chain_order(F, H, M, 2, LAM, "continuous", [sp.Integer(-1)], L)
+    assert c.lambdas and not c.impossible
+    m_ = 2
+    pc = sp.Poly(c.polynomial, LAM).all_coeffs()[::-1]  # p_0, …, p_m (p_m = 1)
+    A, B = chain_system(F, H, M, m_, L)
+    a = sp.Matrix([[-pc[i] for i in range(m_)]])
+    X = solve_left(A[m_:, :], B - a * A[:m_, :])  # the b part, with p fixed
+    assert X is not None
+    l = H.rows  # noqa: E741
+    b = [X[:, i * l:(i + 1) * l] for i in range(m_ + 1)]
+    r = [sp.zeros(1, 5) for _ in range(m_)]
+    for j in range(m_):
+        for i in range(j + 1, m_ + 1):
+            r[j] += (b[i] * H - pc[i] * M) * F ** (i - j - 1)
+    dp = sp.diff(c.polynomial, LAM)
+    total = sp.zeros(1, 5)
+    for lam in c.lambdas:
+        phi = sum((r[j] * lam ** j for j in range(m_)), sp.zeros(1, 5))
+        bl = sum((b[i] * lam ** i for i in range(m_ + 1)), sp.zeros(1, l))
+        assert (phi * (F - lam * sp.eye(5)) + bl * H).applyfunc(sp.simplify) == sp.zeros(1, 5)
+        assert (phi * L).applyfunc(sp.simplify) == sp.zeros(1, L.cols)
+        total += phi / dp.subs(LAM, lam)
+    assert (b[m_] * H - total - M).applyfunc(sp.simplify) == sp.zeros(1, 5)
+
+
+def test_hyperplane_decision_against_sampling():
+    """Random hyperplanes ℓ(p) = 0 (integer ℓ): when the corner values have one sign,
+    sampled distinct stable roots never make ℓ(Π (λ − λ_i)) change sign; when they have
+    both, an exact member is built and satisfies ℓ(p) = 0 with m distinct stable roots."""
+    rng = np.random.default_rng(1)
+    seen = {True: 0, False: 0}
+    for trial in range(120):
+        m = int(rng.integers(2, 6))
+        time = ("continuous", "discrete")[trial % 2]
+        ell = [sp.Integer(int(v)) for v in rng.integers(-3, 4, m + 1)]
+        if all(v == 0 for v in ell):
+            continue
+        exists, _ = hyperplane_corners(ell, time)
+        p = hyperplane_member(ell, time, LAM)
+        assert (p is not None) == exists
+        seen[exists] += 1
+        if exists:
+            q = sp.Poly(p, LAM).all_coeffs()[::-1]
+            assert sum(e * c for e, c in zip(ell, q)) == 0
+            r = np.roots([float(v) for v in sp.Poly(p, LAM).all_coeffs()])
+            assert np.abs(r.imag).max() == 0 and len(set(r.real)) == m
+            assert (r.real < 0).all() if time == "continuous" else (np.abs(r.real) < 1).all()
+            continue
+        signs = set()
+        for _ in range(300):
+            roots = -10 ** rng.uniform(-3, 3, m) if time == "continuous" else rng.uniform(-1, 1, m)
+            coef = np.poly(roots)[::-1]
+            signs.add(np.sign(sum(float(e) * c for e, c in zip(ell, coef))))
+        assert len(signs - {0.0}) == 1
+    assert seen[True] > 20 and seen[False] > 10
+
+
+def test_symbolic_parameters_give_parameter_lambdas():
+    """z = x1 with unmeasured modes −a and −b: the reduced model must contain both, so its
+    λ are −a and −b. With the parameters kept symbolic the chain polynomial (a single one,
+    (λ + a)(λ + b)) gives them exactly; before, only the numeric defaults were searched
+    and no design with fewer than n rows was found."""
+    a, b = sp.symbols("a b")
+    m = PlantModel(name="modes", time="continuous", states=[x1, x2, x3], inputs=[u],
+                   outputs=[x3], parameters={a: 2, b: 3},
+                   dynamics=[-a * x1 + x2, -b * x2 + u, -x3 + u])
+    d = design_jordan(m, observer="virtual-sensor", estimate="x1", symbolic=True)
+    assert d.certificate.passed and d.k == 2
+    assert set(d.lambdas) == {-a, -b}
+    assert sp.Ne(a - b, 0) in d.assumptions
+    assert _minimal(d).holds
+    num = design_jordan(m, observer="virtual-sensor", estimate="x1")
+    assert num.k == 2 and set(num.lambdas) == {-2, -3}
+    # independent: at random parameter values the symbolic Φ is a reduced model for z
+    F = sp.Matrix([[-a, 1, 0], [0, -b, 0], [0, 0, -1]])
+    H = sp.Matrix([[0, 0, 1]])
+    rng = np.random.default_rng(3)
+    for av, bv in rng.uniform(0.1, 5, (3, 2)):
+        sub = {a: sp.Rational(str(round(av, 3))), b: sp.Rational(str(round(bv, 3)))}
+        Phi = d.matrices.Phi.subs(sub)
+        Fs, Js = d.matrices.F_star.subs(sub), d.matrices.J_star.subs(sub)
+        assert (Phi * F.subs(sub) - Fs * Phi - Js * H).applyfunc(sp.simplify) == sp.zeros(2, 3)
+        assert sp.Matrix.vstack(Phi, H, sp.Matrix([[1, 0, 0]])).rank() == \
+            sp.Matrix.vstack(Phi, H).rank()
