@@ -51,7 +51,7 @@ from ._reduced import is_stable
 
 __all__ = ["OrderBound", "ChainOrder", "estimation_order_bound", "residual_order_bound",
            "chain_order", "chain_system", "hyperplane_functional", "hyperplane_corners",
-           "hyperplane_member", "spread_lambdas", "MAX_SUBSETS"]
+           "hyperplane_member", "plane_order", "spread_lambdas", "MAX_SUBSETS"]
 
 #: at most this many subsets of the tried λ are used to pin a member of a family of p
 MAX_SUBSETS = 60
@@ -177,9 +177,9 @@ class ChainOrder:
 
     ``verdict``: "empty" (no such p: no model of order m), "unique" (one p; its roots are
     every model's eigenvalues), "line" (a one-parameter family, decided exactly),
-    "hyperplane" (one linear condition on p, decided exactly), "free" (an affine family of
-    dimension ``dim`` ≥ 2, searched; undecided when nothing is found, unless ``dim`` ≥ m:
-    every monic p), "symbolic" (parameters: a member whose roots are rational functions of
+    "hyperplane" (one linear condition on p, decided exactly), "plane" (a two-parameter
+    family, decided exactly), "free" (an affine family of dimension 3 … m − 2, searched;
+    undecided when nothing is found; or ``dim`` ≥ m: every monic p), "symbolic" (parameters: a member whose roots are rational functions of
     them was looked for; undecided when none is found); ``polynomial``: the unique p, or
     the member found with ``lambdas`` as its roots; ``lambdas``: m distinct real stable
     roots of a member (exact; with parameters, stable at their defaults), () when none was
@@ -197,8 +197,8 @@ class ChainOrder:
     @property
     def impossible(self) -> bool:
         """No member has m distinct real stable roots (decided exactly)."""
-        return self.verdict == "empty" or (self.verdict in ("unique", "line", "hyperplane")
-                                           and not self.lambdas)
+        return self.verdict == "empty" or (self.verdict in ("unique", "line", "hyperplane",
+                                                            "plane") and not self.lambdas)
 
     @property
     def decided(self) -> bool:
@@ -315,6 +315,9 @@ def chain_order(F, H, M, m: int, lam, time: str, tries, L=None, defaults=None) -
         if p is not None:
             return ChainOrder(m, "hyperplane", d, p, roots_ok(p),
                               f"m = {m}: {hyper[1]}; p(λ) = {sp.factor(p)}")
+    if d == 2:  # a plane: exact cell decomposition in (t1, t2)
+        return plane_order(m, poly(a0), [sp.expand(-sum(v[i] * lam ** i for i in range(m)))
+                                          for v in dirs], lam, time, roots_ok)
     return ChainOrder(m, "free", d, None, (),
                       f"m = {m}: a {d}-parameter family of p; none through {d} of the tried λ"
                       f" nor of {SAMPLES} sampled sets has only real, distinct, stable roots"
@@ -541,6 +544,67 @@ def _pencil_order(m, p0, p1, lam, time, roots_ok) -> ChainOrder:
                       f"m = {m}: {fam}; no t gives only real, distinct, stable roots (checked"
                       f" at one t in each of the {len(pts)} intervals cut by the"
                       f" {len(pts) - 1} t where roots collide or cross the stability boundary)")
+
+
+def plane_order(m, p0, dirs, lam, time: str, roots_ok=None) -> ChainOrder:
+    """Decide the plane p0 + t1 p1 + t2 p2 (p1, p2 of degree < m) exactly by a cylindrical
+    decomposition: whether p_t has m distinct real stable roots can change only on the
+    curve crit(t1, t2) = 0 (discriminant in λ times p(0), or p(1) p(−1)). Over an interval
+    of t1 free of the real roots of R(t1) — the leading coefficients and discriminants in
+    t2 of crit's factors, their pairwise resultants, and its factors free of t2 — the real
+    roots in t2 of crit(t1, ·) move continuously without meeting, so the sectors between
+    them keep the property. The set of good t is open: if it is not empty it meets a
+    sector over some such interval, and the line at one rational t1 per interval
+    (:func:`_pencil_order`, exact) finds it."""
+    if roots_ok is None:
+        def roots_ok(p):
+            return _stable_distinct_roots(p, lam, m, time)
+    t1, t2 = sp.symbols("t1 t2")
+    p1, p2 = dirs
+    pt = sp.expand(p0 + t1 * p1 + t2 * p2)
+    fam = (f"the p form the plane p0 + t1 p1 + t2 p2, p0 = {sp.factor(p0)}, p1 ="
+           f" {sp.factor(p1)}, p2 = {sp.factor(p2)}")
+    disc = sp.expand(sp.discriminant(sp.Poly(pt, lam)).as_expr())
+    if disc == 0:
+        return ChainOrder(m, "plane", 2, None, (), f"m = {m}: {fam}; every member has a"
+                          " repeated root")
+    edges = [0] if time == "continuous" else [1, -1]
+    crit = sp.expand(sp.Mul(disc, *[pt.subs(lam, e) for e in edges]))
+    _, facs = sp.factor_list(crit, t1, t2)
+    curves = [sp.Poly(f, t2) for f, _ in facs if sp.degree(f, t2) > 0]
+    R = [sp.Poly(f, t1) for f, _ in facs if sp.degree(f, t2) == 0 and sp.degree(f, t1) > 0]
+    for i, f in enumerate(curves):
+        R.append(sp.Poly(f.LC(), t1))
+        if f.degree() > 1:
+            R.append(sp.Poly(sp.discriminant(f.as_expr(), t2), t1))
+        for g in curves[i + 1:]:
+            R.append(sp.Poly(sp.resultant(f.as_expr(), g.as_expr(), t2), t1))
+    R = [r for r in R if r.degree() > 0]
+    pts = []
+    if R:
+        prod = R[0]
+        for r in R[1:]:
+            prod = prod * r
+        ends = _separated_roots(prod.sqf_part())
+    else:
+        ends = []
+    if ends:
+        pts.append(ends[0][0] - 1)
+        pts += [(ends[i][1] + ends[i + 1][0]) / 2 for i in range(len(ends) - 1)]
+        pts.append(ends[-1][1] + 1)
+    else:
+        pts.append(sp.Integer(0))
+    for v in pts:
+        line = _pencil_order(m, sp.expand(p0 + v * p1), p2, lam, time, roots_ok)
+        if line.lambdas:
+            return ChainOrder(m, "plane", 2, line.polynomial, line.lambdas,
+                              f"m = {m}: {fam}; at t1 = {v}: p(λ) = {sp.factor(line.polynomial)}")
+    return ChainOrder(m, "plane", 2, None, (),
+                      f"m = {m}: {fam}; no t gives only real, distinct, stable roots (decided"
+                      f" exactly on the line t1 = c for one rational c in each of the"
+                      f" {len(pts)} intervals cut by the {len(pts) - 1} real roots of the"
+                      " projection polynomial of the curve where roots collide or cross the"
+                      " stability boundary)")
 
 
 def _separated_roots(poly) -> list:
