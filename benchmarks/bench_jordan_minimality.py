@@ -5,12 +5,14 @@ real λ, against the default λ lists, side by side in one run.
     python3 benchmarks/bench_jordan_minimality.py            # measure, print the table
     python3 benchmarks/bench_jordan_minimality.py --write    # ... and update README.md
 
-The plants are those of tests/synthesis/test_jordan_minimality.py: z = M x with M a left
-eigenvector direction of F (eigenvalue −3/2, continuous; 1/3, discrete), an unmeasured
-block with modes −2 ± √2 (k = 2 with irrational λ) and an unmeasured companion block with
-an irreducible cubic (three CRootOf λ, k = 3). For each: ``design_jordan`` with the default
-λ list requested (what the search did before: −1, −2, … / 1/2, 1/4, …) and with the new
-search (defaults plus the exact special λ). Reported: k (or "none" when the defaults give
+The plants are those of tests/synthesis/test_jordan_minimality.py and
+test_order_bound.py: z = M x with M a left eigenvector direction of F (eigenvalue −3/2,
+continuous; 1/3, discrete), an unmeasured block with modes −2 ± √2 (k = 2 with irrational
+λ), an unmeasured companion block with an irreducible cubic (three CRootOf λ, k = 3),
+random plants (one with a decoupled disturbance, one with seven states) and a plant with
+symbolic parameters whose λ are −a and −b (designed with the parameters kept symbolic).
+For each: ``design_jordan`` with the default λ list requested (what the search did before:
+−1, −2, … / 1/2, 1/4, …) and with the new search (defaults plus the exact special λ). Reported: k (or "none" when the defaults give
 no design), the λ found, median wall and CPU time of ``--runs`` calls. Target: the new
 search reaches the minimal k (known by construction) — met/MISSED.
 """
@@ -67,6 +69,18 @@ def cases(slow: bool):
         6, 1, 0, seed=11, time="continuous", density=0.5), "x1", 2))
     out.append(("`random_model(6, 1, 0, seed=3, density=0.5)`, z = x1", random_model(
         6, 1, 0, seed=3, time="continuous", density=0.5), "x1", 3))
+    # decoupled (one disturbance): the chain polynomials with r(s) L = 0 are exact
+    out.append(("`random_model(5, 2, 1, seed=5)`, z = x1, disturbance decoupled", random_model(
+        5, 2, 1, seed=5, time="continuous"), "x1", 2))
+    # seven states: order 4 is a plane of chain polynomials with no good member (decided
+    # by the cylindrical decomposition), so the minimal k is 5
+    out.append(("`random_model(7, 1, 0, seed=13)`, z = x1", random_model(
+        7, 1, 0, seed=13, time="continuous"), "x1", 5))
+    # symbolic parameters: the λ are −a and −b (kept symbolic, --symbolic)
+    a, b = sp.symbols("a b")
+    out.append(("unmeasured modes −a, −b, parameters kept symbolic", PlantModel(
+        name="modes", time="continuous", states=[x1, x2, x3], inputs=[u], outputs=[x3],
+        parameters={a: 2, b: 3}, dynamics=[-a * x1 + x2, -b * x2 + u, -x3 + u]), "x1", 2))
     if slow:
         out.append(("unmeasured companion block, λ³ + 6λ² + 8λ + 1", PlantModel(
             name="cubic", time="continuous", states=[x1, x2, x3, x4], inputs=[u], outputs=[x4],
@@ -77,7 +91,8 @@ def cases(slow: bool):
 def _timed(model, z, lambdas):
     t, c = time.perf_counter(), time.process_time()
     try:
-        d = design_jordan(model, observer="virtual-sensor", estimate=z, lambdas=lambdas)
+        d = design_jordan(model, observer="virtual-sensor", estimate=z, lambdas=lambdas,
+                          symbolic=bool(model.parameters))
     except InfeasibleDesignError:
         d = None
     return time.perf_counter() - t, time.process_time() - c, d

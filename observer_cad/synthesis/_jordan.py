@@ -321,6 +321,14 @@ def design_jordan(model: PlantModel, *, observer: str, estimate=None,
     if M is not None:  # directed: M ∈ rowspace(H) + Σ_λ rowspace(N_λ L0), one row per λ
         chosen = _directed_rows(fam, lam_list, H, M, n, observer, D, st, tried, names,
                                 tuple(c.lambdas for c in chains if c.lambdas))
+        if chosen is not None and len(chosen) > len({r[0] for r in chosen}):
+            # several rows share a λ (z has several components): more λ with one row
+            # each may need fewer rows in all
+            for size in range(len({r[0] for r in chosen}), len(chosen)):
+                alt = _combination_rows(pool, n, observer, H, D, M, st, tried, names, (size,))
+                if alt is not None:
+                    chosen = alt
+                    break
     for size in range(1, n) if chosen is None else ():  # fewest rows first, every strategy
         chosen = _combination_rows(pool, n, observer, H, D, M, st, tried, names, (size,))
         if chosen is None and sums:  # the basis rows alone do not do it: generic members too
@@ -629,11 +637,12 @@ def _minimality(observer, k, n, lams, lam_list, adm, requested, one_row, jumps, 
                 bound, chains=()) -> Condition:
     """Why fewer rows are impossible, as far as it is proven (METHOD §2b). ``bound(k)``
     gives the :class:`OrderBound` of every reduced model of the task (any F*); ``chains``
-    the :class:`ChainOrder` of each order m (one row z, every λ admissible). A Jordan
-    design of m rows (decoupled or not, linear or not) needs a chain polynomial of degree
-    m with m real, distinct, stable roots (its λ; members nest: q of degree m − 1 times
-    (λ − c) is a member of degree m), so order k − 1 ruled out proves k minimal; without
-    decoupling in a linear model such a polynomial is also enough."""
+    the :class:`ChainOrder` of each order m (z = M x, every λ admissible). A Jordan
+    design of at most m rows (decoupled or not, linear or not) has at most m distinct λ,
+    the roots of a chain polynomial (shared by every row of M) of that degree; members
+    nest (q of degree m − 1 times (λ − c) is a member of degree m), so order k − 1 ruled
+    out proves k minimal; for one row z in a linear model such a polynomial is also
+    enough."""
     ref = "METHOD §2b; seed 002 §2"
     name = "k is minimal over λ"
     special = [v for v in lams if not any(_same_number(v, w)
@@ -657,9 +666,10 @@ def _minimality(observer, k, n, lams, lam_list, adm, requested, one_row, jumps, 
     below = [c for c in chains if c.m < k]
     if not requested and below and below[-1].m == k - 1 and below[-1].impossible:
         return Condition(name, True, found + "no Jordan model of fewer rows: a model of m rows"
-                         " has its λ as the roots of a monic p of degree m with M p(F) ∈"
-                         " rowspace [H; …; H Fᵐ] (every λ of a Jordan model real, distinct,"
-                         " stable), and such a p of degree m − 1 times (λ − c) is one of"
+                         " has its distinct λ (at most m, real, stable) as the roots of a"
+                         " monic p with M p(F) ∈ rowspace [H; …; H Fᵐ] (and r(s) L = 0 for"
+                         " decoupled inputs, METHOD §2b), and such a p of degree m − 1 times"
+                         " (λ − c) is one of"
                          f" degree m, so order {k - 1} ruling it out rules out every lower"
                          " order; " + "; ".join(c.evidence for c in below), ref,
                          required=False)
@@ -714,11 +724,11 @@ def _searched(observer, k, lam_list, one_row, jumps) -> tuple:
 
 
 def _chain_orders(observer, F, H, M, L, time, n, tries, defaults) -> list:
-    """:func:`chain_order` for m = 1, 2, … (one row z, not diagnostic; ``L`` the decoupled
+    """:func:`chain_order` for m = 1, 2, … (z = M x, not diagnostic; ``L`` the decoupled
     inputs or None; ``defaults`` the parameter defaults) until every monic p of degree m
     qualifies (the default λ then suffice) or m = n − 1; with symbolic parameters until the
     first member is found."""
-    if observer == "diagnostic" or M is None or M.rows != 1:
+    if observer == "diagnostic" or M is None:
         return []
     symbolic = bool(set().union(*(X.free_symbols for X in (F, H, M)
                                   + ((L,) if L is not None else ()))))

@@ -211,38 +211,60 @@ def chain_system(F, H, M, m: int, L=None):
     b_0, …, b_m), p(λ) = λᵐ − Σ a_i λⁱ, M p(F) = Σ b_i H Fⁱ (n columns) and, for
     decoupled inputs L, the quotient r(s) = Σ_j r_j sʲ of b(s) H − p(s) M = r(s)(sI − F)
     with r_j L = 0 (q columns for each j = 0, …, m − 1):
-    Σ_{i>j} (a_i M + b_i H) F^{i−j−1} L = M F^{m−j−1} L (a_m = 0)."""
+    Σ_{i>j} (a_i M + b_i H) F^{i−j−1} L = M F^{m−j−1} L (a_m = 0).
+
+    Several rows of M share p (the polynomial whose roots are the model's distinct λ) and
+    have their own b: X = (a, b⁽¹⁾, …, b⁽ʳ⁾), one column block per row."""
+    parts = [_row_system(F, H, M[j, :], m, L) for j in range(M.rows)]
+    if len(parts) == 1:
+        Aa, Ab, B = parts[0]
+        return sp.Matrix.vstack(Aa, Ab), B
+    cols = [P[0].cols for P in parts]
+    Aa = sp.Matrix.hstack(*[P[0] for P in parts])
+    blocks = []
+    for j, P in enumerate(parts):
+        blocks.append(sp.Matrix.hstack(*[P[1] if i == j else sp.zeros(P[1].rows, c)
+                                         for i, c in enumerate(cols)]))
+    return sp.Matrix.vstack(Aa, *blocks), sp.Matrix.hstack(*[P[2] for P in parts])
+
+
+def _row_system(F, H, M, m, L):
+    """For one row M: the rows of X A = B for a (m rows) and for b ((m + 1) l rows), and B."""
     MF, HF = [M], [H]
     for _ in range(m):
         MF.append(MF[-1] * F)
         HF.append(HF[-1] * F)
-    A = sp.Matrix.vstack(*MF[:m], *HF)
+    Aa, Ab = sp.Matrix.vstack(*MF[:m]), sp.Matrix.vstack(*HF)
     B = MF[m]
     if L is not None and L.cols:
         ML = [X * L for X in MF]
         HL = [X * L for X in HF]
         zero = sp.zeros(1, L.cols)
-        blocks, rhs = [], []
+        ba, bb, rhs = [], [], []
         for j in range(m):
-            rows = [ML[i - j - 1] if i > j else zero for i in range(m)]
-            rows += [HL[i - j - 1] if i > j else sp.zeros(H.rows, L.cols) for i in range(m + 1)]
-            blocks.append(sp.Matrix.vstack(*rows))
+            ba.append(sp.Matrix.vstack(*[ML[i - j - 1] if i > j else zero for i in range(m)]))
+            bb.append(sp.Matrix.vstack(*[HL[i - j - 1] if i > j else sp.zeros(H.rows, L.cols)
+                                         for i in range(m + 1)]))
             rhs.append(ML[m - j - 1])
-        A = sp.Matrix.hstack(A, *blocks)
+        Aa, Ab = sp.Matrix.hstack(Aa, *ba), sp.Matrix.hstack(Ab, *bb)
         B = sp.Matrix.hstack(B, *rhs)
-    return A, B
+    return Aa, Ab, B
 
 
 def chain_order(F, H, M, m: int, lam, time: str, tries, L=None, defaults=None) -> ChainOrder:
     """The affine family of monic p (degree m) with M p(F) ∈ W_m — and, when ``L`` has
     columns (decoupled inputs), with the quotient r(s) of b(s) H − p(s) M = r(s)(sI − F)
-    satisfying r(s) L = 0 — for one row M and numeric F, H, and a member with m distinct
-    real stable roots.
+    satisfying r(s) L = 0 — and a member with m distinct real stable roots.
 
     Every Jordan design of m rows with λ_1, …, λ_m (Φ_i L = 0 when decoupled) gives
     p = Π (s − λ_i) here (r(s) = −Σ c_i Φ_i Π_{j≠i} (s − λ_j)); conversely a member with m
     distinct roots gives the rows Φ_i = r(λ_i) (Φ_i (F − λ_i I) = −b(λ_i) H, Φ_i L = 0) and
     M = b_m H − Σ Φ_i / p'(λ_i): a linear model of order m with those λ (METHOD §2b).
+
+    Several rows of M: p has the *distinct* λ of the model as roots (each row of M is a
+    combination of its rows, so each satisfies its own chain condition with that p). A
+    model of k rows has at most k distinct λ, so "impossible" at order m still rules out
+    every model of ≤ m rows; a member gives the λ, with up to one row per row of M each.
 
     With symbolic parameters in F, H, M, L the ranks are generic (``conditions``) and a
     member is accepted only when it splits into linear factors over QQ(parameters), with

@@ -204,16 +204,18 @@ def test_lower_orders_ruled_out_exactly(seed, k, why):
 
 
 def test_vector_z_proven_by_the_subspace_bound():
-    """z = (x1, x2) of an unmeasured chain: three rows, proven by the subspace bound
-    (rank [M; M F; H; H F] − rank [H; H F] = 3), which covers several components."""
+    """z = (x1, x2) of an unmeasured chain: three rows, and the subspace bound
+    (rank [M; M F; H; H F] − rank [H; H F] = 3), which covers several components, says so
+    for every F*."""
     m = PlantModel(name="vector_z", time="continuous", states=[x1, x2, x3, x4], inputs=[u],
                    outputs=[x4], dynamics=[-x1 + x2, -2 * x2 + x3, -3 * x3 + u, -x4 + u])
     M = sp.Matrix([[1, 0, 0, 0], [0, 1, 0, 0]])
     d = design_jordan(m, observer="interval", estimate=M)
     assert d.k == 3 and d.certificate.passed
-    cond = _minimal(d)
-    assert cond.holds and "subspace bound" in cond.detail and "k = 3 is a lower bound" in cond.detail
+    assert _minimal(d).holds  # (the joint chain polynomials of both rows also rule out 2)
     F, H, _ = _matrices(m)
+    b = estimation_order_bound(F, H, M)
+    assert b.k == 3 and "subspace bound" in b.evidence
     # independent: the rank difference by floating-point SVD
     Fn, Hn, Mn = (np.array(X.tolist(), dtype=float) for X in (F, H, M))
     A = np.vstack([Mn, Mn @ Fn, Hn, Hn @ Fn])
@@ -450,3 +452,39 @@ def test_seven_states_proven_by_the_plane(seed, density):
     p0 = LAM ** 4 - sum(X0[0, i] * LAM ** i for i in range(4))
     p1, p2 = (-sum(dirs[j, i] * LAM ** i for i in range(4)) for j in range(2))
     assert _sampled_members(p0, p1, p2, "continuous", np.random.default_rng(seed), 40000) == 0
+
+
+def test_vector_z_joint_chain_proves_minimal():
+    """z = (x1, x2): both rows share the chain polynomial (its roots are the model's
+    distinct λ), so order 3 ruled out for the pair proves the four rows minimal (the
+    subspace bound alone says less). Independently, in floating point: with one output a
+    row for λ is H (F − λI)⁻¹ up to scale, and for 300 random triples of distinct negative
+    λ the rows and H never span both components of z."""
+    m = random_model(5, 1, 0, seed=0, time="continuous")
+    M = sp.Matrix([[1, 0, 0, 0, 0], [0, 1, 0, 0, 0]])
+    d = design_jordan(m, observer="interval", estimate=M)
+    assert d.k == 4 and d.certificate.passed
+    cond = _minimal(d)
+    assert cond.holds and "no Jordan model of fewer rows" in cond.detail
+    F, H, _ = _matrices(m)
+    assert estimation_order_bound(F, H, M).k < 4
+    Fn, Hn, Mn = (np.array(X.tolist(), dtype=float) for X in (F, H, M))
+    rng = np.random.default_rng(2)
+    for _ in range(300):
+        lams = -10 ** rng.uniform(-2, 2, 3)
+        rows = [Hn @ np.linalg.inv(Fn - v * np.eye(5)) for v in lams]
+        B = np.vstack(rows + [Hn])  # 4 rows: rank ≤ 4
+        s = np.linalg.svd(np.vstack([B, Mn]), compute_uv=False)
+        assert s[4] > 1e-9 * s[0]  # rank 5 with M: M ∉ rowspace B
+
+
+def test_vector_z_more_lambdas_fewer_rows():
+    """z = (x1, x2) with two outputs: two λ need two rows each (four), three λ one row
+    each (three); the search now keeps looking when rows share a λ."""
+    m = random_model(5, 2, 0, seed=0, time="continuous")
+    M = sp.Matrix([[1, 0, 0, 0, 0], [0, 1, 0, 0, 0]])
+    d = design_jordan(m, observer="interval", estimate=M)
+    assert d.k == 3 and len(set(d.lambdas)) == 3 and d.certificate.passed
+    # independent: z is reached, [Φ; H] spans M
+    PH = sp.Matrix.vstack(d.matrices.Phi, sp.Matrix(extract_structure(m).H))
+    assert sp.Matrix.vstack(PH, M).rank() == PH.rank()
