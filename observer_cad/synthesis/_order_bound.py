@@ -308,14 +308,8 @@ def chain_order(F, H, M, m: int, lam, time: str, tries, L=None, defaults=None) -
                              roots_ok)
 
     def pinned(subset):
-        """The member with p(v) = 0 for each v of the subset (d linear equations in the d
-        directions' weights), exactly; None when they do not determine it."""
-        Bm = sp.Matrix([[sum(dirs[r][i] * v ** i for i in range(m)) for r in range(d)]
-                        for v in subset])
-        if exact_rank(Bm).rank < d:
-            return None
-        w = Bm.LUsolve(sp.Matrix([poly(a0).subs(lam, v) for v in subset]))
-        return poly([a0[i] + sum(w[r] * dirs[r][i] for r in range(d)) for i in range(m)])
+        a = _pinned(a0, dirs, subset, poly(a0), lam)
+        return poly(a) if a is not None else None
 
     subsets = itertools.chain(itertools.islice(itertools.combinations(tries, d), MAX_SUBSETS),
                               _sampled_subsets(m, d, a0, dirs, time))
@@ -351,7 +345,7 @@ def _symbolic_chain(A, B, m, lam, tries, dec, defaults, time) -> ChainOrder:
     / a member through ``d`` of the ``tries`` whose numerator splits into distinct linear
     factors in λ, each root stable at the defaults; otherwise "symbolic" (undecided)."""
     X0 = solve_left(A, B)
-    rk = exact_rank(A)
+    basis, rk = left_null_space(A)
     conds = frozenset(rk.conditions)
     where = (f" (for parameters with {', '.join(sorted(str(c.lhs) for c in conds))} nonzero)"
              if conds else "")
@@ -360,7 +354,6 @@ def _symbolic_chain(A, B, m, lam, tries, dec, defaults, time) -> ChainOrder:
                           f" M F^{m - 1}; H, …, H F^{m}]" + (" with r(s) L = 0" if dec else "")
                           + f"{where}: no model of order {m}", conds)
     a0 = [sp.cancel(X0[0, i]) for i in range(m)]
-    basis, _ = left_null_space(A)
     dirs = _independent([[sp.cancel(v[0, i]) for i in range(m)] for v in basis])
     d = len(dirs)
 
@@ -381,10 +374,7 @@ def _symbolic_chain(A, B, m, lam, tries, dec, defaults, time) -> ChainOrder:
             rts.append(sp.cancel(-c0 / c1))
         if len(rts) != m or any(sp.cancel(r - q) == 0 for r, q in itertools.combinations(rts, 2)):
             return ()
-        try:
-            nominal = [r.subs(defaults) for r in rts]
-        except (TypeError, ValueError):
-            return ()
+        nominal = [r.subs(defaults) for r in rts]
         if any(v.free_symbols or not v.is_real or not is_stable(v, time) for v in nominal):
             return ()  # no defaults, or not stable at them: not used
         return tuple(rts)
@@ -394,13 +384,9 @@ def _symbolic_chain(A, B, m, lam, tries, dec, defaults, time) -> ChainOrder:
                           f"{where}", conds)
     cands = [poly(a0)] if d == 0 else []
     for subset in itertools.islice(itertools.combinations(tries, d), MAX_SUBSETS) if d else ():
-        Bm = sp.Matrix([[sum(dirs[r][i] * v ** i for i in range(m)) for r in range(d)]
-                        for v in subset])
-        if exact_rank(Bm).rank < d:
-            continue
-        w = Bm.LUsolve(sp.Matrix([poly(a0).subs(lam, v) for v in subset]))
-        cands.append(poly([sp.cancel(a0[i] + sum(w[r] * dirs[r][i] for r in range(d)))
-                           for i in range(m)]))
+        a = _pinned(a0, dirs, subset, poly(a0), lam)
+        if a is not None:
+            cands.append(poly([sp.cancel(v) for v in a]))
     for p in cands:
         rts = split(p)
         if rts:
@@ -414,6 +400,19 @@ def _symbolic_chain(A, B, m, lam, tries, dec, defaults, time) -> ChainOrder:
                                       f"a {d}-parameter family of p") + f"{where}; no member"
                       " splits into distinct linear factors over the parameters with roots"
                       " stable at their defaults (undecided for symbolic parameters)", conds)
+
+
+def _pinned(a0, dirs, subset, p0, lam):
+    """The coefficients a (p = λᵐ − Σ a_i λⁱ) of the member of a0 + span(dirs) with
+    p(v) = 0 for each v of the subset (d linear equations in the d directions' weights),
+    exactly; None when they do not determine it. ``p0`` is the polynomial of a0."""
+    m, d = len(a0), len(dirs)
+    Bm = sp.Matrix([[sum(dirs[r][i] * v ** i for i in range(m)) for r in range(d)]
+                    for v in subset])
+    if exact_rank(Bm).rank < d:
+        return None
+    w = Bm.LUsolve(sp.Matrix([p0.subs(lam, v) for v in subset]))
+    return [a0[i] + sum(w[r] * dirs[r][i] for r in range(d)) for i in range(m)]
 
 
 def hyperplane_functional(m, a0, dirs) -> list:
@@ -547,15 +546,7 @@ def _pencil_order(m, p0, p1, lam, time, roots_ok) -> ChainOrder:
                           " repeated root")
     edges = [0] if time == "continuous" else [1, -1]
     crit = sp.Mul(disc, *[pt.subs(lam, e) for e in edges])
-    crit = sp.Poly(sp.expand(crit), t)
-    pts = []
-    ends = _separated_roots(crit.sqf_part()) if crit.degree() > 0 else []
-    if ends:
-        pts.append(ends[0][0] - 1)
-        pts += [(ends[i][1] + ends[i + 1][0]) / 2 for i in range(len(ends) - 1)]
-        pts.append(ends[-1][1] + 1)
-    else:  # no real root in t (or none at all): one interval, the whole line
-        pts.append(sp.Integer(0))
+    pts = _cell_points([sp.Poly(sp.expand(crit), t)])
     for v in pts:
         p = sp.expand(pt.subs(t, v))
         rts = roots_ok(p)
@@ -601,21 +592,7 @@ def plane_order(m, p0, dirs, lam, time: str, roots_ok=None) -> ChainOrder:
             R.append(sp.Poly(sp.discriminant(f.as_expr(), t2), t1))
         for g in curves[i + 1:]:
             R.append(sp.Poly(sp.resultant(f.as_expr(), g.as_expr(), t2), t1))
-    R = [r for r in R if r.degree() > 0]
-    pts = []
-    if R:
-        prod = R[0]
-        for r in R[1:]:
-            prod = prod * r
-        ends = _separated_roots(prod.sqf_part())
-    else:
-        ends = []
-    if ends:
-        pts.append(ends[0][0] - 1)
-        pts += [(ends[i][1] + ends[i + 1][0]) / 2 for i in range(len(ends) - 1)]
-        pts.append(ends[-1][1] + 1)
-    else:
-        pts.append(sp.Integer(0))
+    pts = _cell_points(R)
     for v in pts:
         line = _pencil_order(m, sp.expand(p0 + v * p1), p2, lam, time, roots_ok)
         if line.lambdas:
@@ -627,6 +604,22 @@ def plane_order(m, p0, dirs, lam, time: str, roots_ok=None) -> ChainOrder:
                       f" {len(pts)} intervals cut by the {len(pts) - 1} real roots of the"
                       " projection polynomial of the curve where roots collide or cross the"
                       " stability boundary)")
+
+
+def _cell_points(polys) -> list:
+    """One rational point in each open interval of the line cut by the real roots of the
+    product of ``polys`` (univariate); [0] when there is no real root (one interval)."""
+    polys = [q for q in polys if q.degree() > 0]
+    if not polys:
+        return [sp.Integer(0)]
+    prod = polys[0]
+    for q in polys[1:]:
+        prod = prod * q
+    ends = _separated_roots(prod.sqf_part())
+    if not ends:
+        return [sp.Integer(0)]
+    return ([ends[0][0] - 1] + [(ends[i][1] + ends[i + 1][0]) / 2 for i in range(len(ends) - 1)]
+            + [ends[-1][1] + 1])
 
 
 def _separated_roots(poly) -> list:
