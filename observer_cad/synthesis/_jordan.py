@@ -39,7 +39,7 @@ from ..errors import ExpressionError, InfeasibleDesignError, ModelError, UsageEr
 from ..model import ObserverKind, PlantModel, Task, parse_expression
 from ._nonlinear import substitute_arguments
 from ._poles import default_eigenvalues
-from ._lambda_search import family_jump_lambdas, one_row_lambdas
+from ._lambda_search import family_jump_lambdas, one_row_lambdas, span_rows
 from ._order_bound import chain_order, estimation_order_bound, residual_order_bound, spread_lambdas
 from ._reduced import is_stable, jordan_equations, observer_symbols, output_symbols
 from ._signature import residual_response
@@ -279,6 +279,13 @@ def design_jordan(model: PlantModel, *, observer: str, estimate=None,
                 f"{where}: {lead}no stable admissible λ: {adm.describe()} ({adm.evidence})",
                 (adm.evidence,))
 
+    # z with several components: can q = rank [M; H] − rank H rows (the least any model
+    # has) do it for some real stable λ? Decided exactly; the λ it needs are tried.
+    span = None
+    if M is not None and M.rows > 1 and not lambdas and not work.parameters:
+        span = span_rows(F, H, L if decoupled else sp.zeros(n, 0), M, LAMBDA, work.time)
+        lam_list += [v for v in span.stable if not any(_same_number(v, w) for w in lam_list)]
+
     # Step 3: for every λ the whole family of rows: Φ = c N_λ L0, J* = c J_λ
     fam = {}
     pool = []
@@ -318,7 +325,9 @@ def design_jordan(model: PlantModel, *, observer: str, estimate=None,
     CA = [(j, sp.Matrix(t.row)) for j, t in enumerate(st.terms)]
     tried = []
     chosen = None
-    if M is not None:  # directed: M ∈ rowspace(H) + Σ_λ rowspace(N_λ L0), one row per λ
+    if M is not None and M.rows > 1 and (span is None or span.possible):
+        chosen = _span_design(fam, lam_list + extra, H, M, observer, D, st, tried, names)
+    if M is not None and chosen is None:  # directed: M ∈ rowspace(H) + Σ_λ rowspace(N_λ L0)
         chosen = _directed_rows(fam, lam_list, H, M, n, observer, D, st, tried, names,
                                 tuple(c.lambdas for c in chains if c.lambdas))
         if chosen is not None and len(chosen) > len({r[0] for r in chosen}):
@@ -329,6 +338,12 @@ def design_jordan(model: PlantModel, *, observer: str, estimate=None,
                 if alt is not None:
                     chosen = alt
                     break
+    if (chosen is not None and M is not None and M.rows > 1
+            and not (span is not None and span.analysed and not span.possible
+                     and len(chosen) == span.q + 1)):
+        alt = _extended_span_design(fam, lam_list + extra, pool, H, M, observer, D, st, tried,
+                                    names, len(chosen))
+        chosen = alt or chosen
     for size in range(1, n) if chosen is None else ():  # fewest rows first, every strategy
         chosen = _combination_rows(pool, n, observer, H, D, M, st, tried, names, (size,))
         if chosen is None and sums:  # the basis rows alone do not do it: generic members too
@@ -389,7 +404,7 @@ def design_jordan(model: PlantModel, *, observer: str, estimate=None,
     conds.append(Condition("certificate", cert.passed, cert.summary(), "METHOD §2"))
     minimal = _minimality(observer, k, n, lams, lam_list, adm, bool(lambdas), one_row, jumps,
                           work.time, lambda k_: _order_bound(observer, F, H, L, D, M, st, k_,
-                                                             decoupled), chains)
+                                                             decoupled), chains, span)
     conds.append(minimal)
     choice = (f"k = {k}: rows with λ = ({', '.join(map(str, lams))}) chosen from"
               f" {len(pool)} candidate row(s) for λ in {{{', '.join(map(str, lam_list))}}};"
@@ -534,6 +549,59 @@ def _directed_rows(fam, lam_list, H, M, n, observer, D, st, tried, names=(), set
     return None
 
 
+def _span_design(fam, lam_list, H, M, observer, D, st, tried, names=(), extra=()):
+    """Rows spanning T = [M; extra rows] modulo H with nothing to spare, rank [T; H] − rank H
+    of them: with no extra rows the fewest any model of z = M x can have, when the rows
+    inside rowspace [M; H] of the λ tried span z modulo H (:func:`span_rows`). At each λ
+    the rows c N_λ L0 ∈ rowspace [T; H] (left null space of [N_λ L0; T; H]), taken greedily
+    while they add rank to [H; rows so far] (a basis of a sum of subspaces)."""
+    T = sp.Matrix.vstack(M, *extra)
+    rH = _rank(H)
+    rows, have, r_have = [], sp.Matrix(H), rH
+    target = _rank(sp.Matrix.vstack(H, T))
+    for lam in lam_list:
+        if lam not in fam or lam.has(sp.CRootOf) and not _maybe_in_rowspace(
+                sp.Matrix.vstack(fam[lam][0], H), M):
+            continue
+        PhiB, JB = fam[lam]
+        basis, _ = left_null_space(sp.Matrix.vstack(PhiB, T, H))
+        for v in basis:
+            c = v[:, :PhiB.rows]
+            row = (c * PhiB).applyfunc(sp.cancel)
+            if row == sp.zeros(1, row.cols):
+                continue
+            trial = sp.Matrix.vstack(have, row)
+            r_trial = _rank(trial)
+            if r_trial > r_have:
+                rows.append((lam, row, (c * JB).applyfunc(sp.cancel)))
+                have, r_have = trial, r_trial
+        if r_have == target:
+            break
+    if r_have != target or len(rows) != target - rH:
+        return None
+    return rows if _check_rows(rows, len(rows), observer, H, D, M, st, tried, names) else None
+
+
+def _extended_span_design(fam, lam_list, pool, H, M, observer, D, st, tried, names, k):
+    """Fewer than k rows for z with several components: rows spanning [M; e rows of the
+    pool] modulo H (one or two pool rows, a bounded number of choices each): a model of
+    q + e rows whose rows lie in rowspace [M; extra; H] (METHOD §2b)."""
+    q = _rank(sp.Matrix.vstack(H, M)) - _rank(H)
+    for e in range(1, min(k - q, 3)):
+        for combo in itertools.islice(itertools.combinations(pool, e), _EXTENDED_TRIES):
+            if len({r[0] for r in combo}) < e:
+                continue
+            rows = _span_design(fam, lam_list, H, M, observer, D, st, tried, names,
+                                tuple(r[1] for r in combo))
+            if rows is not None and len(rows) < k:
+                return rows
+    return None
+
+
+#: extra-row choices tried per e by :func:`_extended_span_design`
+_EXTENDED_TRIES = 24
+
+
 def _combination_rows(pool, n, observer, H, D, M, st, tried, names=(), sizes=None):
     """Fewest rows from the pool; sets with distinct λ before sets that repeat one."""
     for size in sizes or range(1, n):
@@ -634,7 +702,7 @@ def _special_lambdas(observer, F, H, L0, L, M, time):
 
 
 def _minimality(observer, k, n, lams, lam_list, adm, requested, one_row, jumps, time,
-                bound, chains=()) -> Condition:
+                bound, chains=(), span=None) -> Condition:
     """Why fewer rows are impossible, as far as it is proven (METHOD §2b). ``bound(k)``
     gives the :class:`OrderBound` of every reduced model of the task (any F*); ``chains``
     the :class:`ChainOrder` of each order m (z = M x, every λ admissible). A Jordan
@@ -652,8 +720,19 @@ def _minimality(observer, k, n, lams, lam_list, adm, requested, one_row, jumps, 
     if k == 1:
         return Condition(name, True, found + "k = 1: one row, the fewest possible", ref,
                          required=False)
+    if span is not None and span.analysed and not span.possible and k == span.q + 1:
+        return Condition(name, True, found + f"every model of z has at least {span.q} rows"
+                         " (rank [M; H] − rank H), and exactly that many is impossible for"
+                         f" every real stable λ: {span.evidence}", ref, required=False)
     if requested:
         why = f"k = {k} for the requested λ only; other λ were not searched"
+        proven = False
+    elif not adm.generic and span is not None and k > span.q + 1:
+        # z with several components: the search takes one combination of each λ's rows
+        # (a particular solution), so fewer rows through another combination are not
+        # ruled out
+        why = (f"every stable admissible λ ({', '.join(map(str, lam_list))}; {adm.describe()})"
+               " was searched, with one combination of each λ's rows per set of λ")
         proven = False
     elif not adm.generic:
         return Condition(name, True, f"every stable admissible λ ({', '.join(map(str, lam_list))};"

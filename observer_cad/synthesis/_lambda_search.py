@@ -39,10 +39,11 @@ import sympy as sp
 
 from sympy.polys.matrices import DomainMatrix
 
-from ..numerics import solve_left
+from ..numerics import exact_rank_value, left_null_space, solve_left
 from ._reduced import is_stable
 
-__all__ = ["SpecialLambdas", "one_row_lambdas", "family_jump_lambdas", "exact_real_roots"]
+__all__ = ["SpecialLambdas", "SpanRows", "one_row_lambdas", "family_jump_lambdas",
+           "rank_drop_lambdas", "span_rows", "span_pencil", "exact_real_roots"]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -151,20 +152,29 @@ def one_row_lambdas(F, H, L, M, lam, time: str) -> SpecialLambdas:
 
 
 def family_jump_lambdas(F, H, L0, lam, time: str) -> SpecialLambdas:
-    """The λ where P(λ) = [L0(F − λI); H] drops below its rank r for λ a free symbol.
+    """The λ where P(λ) = [L0(F − λI); H] drops below its rank r for λ a free symbol
+    (see :func:`rank_drop_lambdas`)."""
+    F, H, L0 = (sp.Matrix(X) for X in (F, H, L0))
+    if set().union(*(X.free_symbols for X in (F, H, L0))):
+        return SpecialLambdas(False, False, sp.Integer(1), (), (),
+                              "not analysed: symbolic parameters")
+    P = sp.Matrix.vstack(L0 * (F - lam * sp.eye(F.rows)), H)
+    return rank_drop_lambdas(P, lam, time, "P(λ)", "a larger family of rows")[1]
+
+
+def rank_drop_lambdas(P, lam, time: str, name: str, meaning: str) -> tuple:
+    """``(r, SpecialLambdas)``: the rank r of the numeric matrix P(λ) for λ a free symbol
+    and the real λ where P drops below r.
 
     Candidates: the roots of gcd(det(U₁ P V₁), det(U₂ P V₂)) for random integer U_i (r × rows),
     V_i (n × r) — by Cauchy–Binet each is a combination of the r × r minors, so divisible by
     their gcd: the drop points are among the roots (a superset, never fewer); the roots
     where P keeps rank r are then removed by a singular-value check.
     """
-    F, H, L0 = (sp.Matrix(X) for X in (F, H, L0))
-    if set().union(*(X.free_symbols for X in (F, H, L0))):
-        return SpecialLambdas(False, False, sp.Integer(1), (), (),
-                              "not analysed: symbolic parameters")
-    P = sp.Matrix.vstack(L0 * (F - lam * sp.eye(F.rows)), H)
     dm = DomainMatrix.from_Matrix(P).convert_to(sp.QQ[lam])
     r = dm.convert_to(sp.QQ.frac_field(lam)).rank()
+    if r == 0:
+        return 0, SpecialLambdas(True, True, sp.Integer(1), (), (), f"{name} = 0")
     rng = random.Random(20261122)
     g, tries = None, 0
     while tries < 6 and (g is None or tries < 2):
@@ -178,19 +188,108 @@ def family_jump_lambdas(F, H, L0, lam, time: str) -> SpecialLambdas:
             continue
         g = d if g is None else sp.gcd(g, d)
     if g is None:  # pragma: no cover - every compression singular (probability 0)
-        return SpecialLambdas(False, False, sp.Integer(1), (), (), "not analysed: singular compressions")
+        return r, SpecialLambdas(False, False, sp.Integer(1), (), (),
+                                 "not analysed: singular compressions")
     _, facs = sp.factor_list(g, lam)
     conds = [sp.Ne(f, 0) for f, _m in facs if f.has(lam)]
     sp_ = _special(conds, lam, time, not conds,
-                   f"rank P(λ) = {r} for λ a free symbol; it drops (a larger family of rows)"
+                   f"rank {name} = {r} for λ a free symbol; it drops ({meaning})"
                    " only at roots of gcd(det(U P V)) over two random compressions")
     # keep the roots where P really drops rank (an exact root of a true drop leaves σ_r at
     # rounding level; a spurious one a clear σ_r)
     keep = tuple(v for v in sp_.stable if _drops(P, lam, v, r))
     dropped = [v for v in sp_.stable if v not in keep]
-    ev = sp_.evidence + (f"; P(λ) keeps rank {r} at {', '.join(map(str, dropped))}"
+    ev = sp_.evidence + (f"; {name} keeps rank {r} at {', '.join(map(str, dropped))}"
                          f" (σ_{r}/σ_1 > {_DROP_RTOL:.0e})" if dropped else "")
-    return dataclasses.replace(sp_, stable=keep, evidence=ev)
+    return r, dataclasses.replace(sp_, stable=keep, evidence=ev)
+
+
+@dataclasses.dataclass(frozen=True)
+class SpanRows:
+    """Can q = rank [M; H] − rank H rows — the fewest any model of z = M x has — do it?
+
+    Such rows span z modulo the outputs with nothing to spare, so each lies in
+    rowspace [M; H]: Φ = a M + b H with Φ (F − λI) ∈ rowspace H (and Φ L = 0). ``A(λ)``
+    is the space of those a at λ; q rows exist iff the A(λ) over the real stable λ sum to
+    all of Rᵐ (m = rows of M; the a with a M ∈ rowspace H lie in every A(λ)).
+
+    ``analysed``: False when not decided (``evidence`` says why); ``possible``: q rows
+    exist for some real stable λ (the linear conditions; the task may add more);
+    ``stable``: the stable λ where A(λ) is larger than for λ generic and adds a direction
+    (they must be among the λ tried); ``q``: the number of rows.
+    """
+
+    analysed: bool
+    possible: bool
+    q: int
+    stable: tuple
+    evidence: str
+
+
+def span_pencil(F, H, L, M, lam):
+    """E(λ) with (a, b, g) E(λ) = 0 ⇔ Φ = a M + b H has Φ L = 0 and Φ (F − λI) = (g − λ b) H:
+    E(λ) = [M (F − λI), M L; H F, H L; −H, 0]."""
+    n = F.rows
+    return sp.Matrix.vstack(sp.Matrix.hstack(M * (F - lam * sp.eye(n)), M * L),
+                            sp.Matrix.hstack(H * F, H * L),
+                            sp.Matrix.hstack(-H, sp.zeros(H.rows, L.cols)))
+
+
+def span_rows(F, H, L, M, lam, time: str) -> SpanRows:
+    """Decide exactly whether q = rank [M; H] − rank H rows give z = M x for some real stable λ.
+
+    For λ a free symbol, A(λ) is the a-part of the left null space of E(λ)
+    (:func:`span_pencil`), a basis of rational vectors v(λ); the span of v(λ) over
+    infinitely many λ is the span of the coefficient vectors of its numerator (a Vandermonde
+    argument). The space {(0, b, g)} of the null space does not depend on λ, so A(λ) is
+    larger than generically exactly where E(λ) drops rank: those real roots are computed
+    exactly (:func:`rank_drop_lambdas`) and A(λ) there is added.
+    """
+    F, H, L, M = (sp.Matrix(X) for X in (F, H, L, M))
+    if set().union(*(X.free_symbols for X in (F, H, L, M))):
+        return SpanRows(False, False, 0, (), "not analysed: symbolic parameters")
+    mrows = M.rows
+    rH = exact_rank_value(H) if H.rows else 0
+    q = exact_rank_value(sp.Matrix.vstack(M, H)) - rH
+    E = span_pencil(F, H, L, M, lam)
+    basis, _ = left_null_space(E)
+    coef = []
+    for v in basis:
+        a = sp.Matrix([[sp.together(e) for e in v[:, :mrows]]])
+        den = sp.lcm_list([sp.fraction(e)[1] for e in a]) if mrows > 1 else sp.fraction(a[0])[1]
+        polys = [sp.Poly(sp.cancel(e * den), lam) for e in a]
+        deg = max(p.degree() for p in polys)
+        for j in range(max(deg, 0) + 1):
+            row = [p.coeff_monomial(lam ** j) for p in polys]
+            if any(row):
+                coef.append(row)
+    gen = exact_rank_value(sp.Matrix(coef)) if coef else 0
+    how = ("q rows span z modulo the outputs with nothing to spare, so each lies in rowspace"
+           " [M; H]: Φ = a M + b H with Φ (F − λI) ∈ rowspace H" + (" and Φ L = 0" if L.cols else "")
+           + f"; the a of such rows for λ generic span a space of dimension {gen} of {mrows}")
+    if gen == mrows:
+        return SpanRows(True, True, q, (), f"{how}: {q} rows exist for all but finitely many"
+                                           " choices of λ")
+    _, drop = rank_drop_lambdas(E, lam, time, "E(λ) = [M (F − λI), M L; H F, H L; −H, 0]",
+                                "more rows inside rowspace [M; H]")
+    if not drop.analysed:  # pragma: no cover - singular compressions (probability 0)
+        return SpanRows(False, False, q, (), f"{how}; the special λ: {drop.evidence}")
+    adds, total = [], list(coef)
+    for v in drop.stable:
+        Ev = E.subs(lam, v)
+        extra = [list(b[:, :mrows]) for b in left_null_space(Ev)[0]]
+        if extra and exact_rank_value(sp.Matrix(total + extra)) > (
+                exact_rank_value(sp.Matrix(total)) if total else 0):
+            adds.append(v)
+            total += extra
+    got = exact_rank_value(sp.Matrix(total)) if total else 0
+    txt = (f"{how}; {drop.evidence}" + (f"; at λ = {', '.join(map(str, adds))} the space grows"
+                                          if adds else "") + f"; with every real stable λ: {got}")
+    if got == mrows:
+        return SpanRows(True, True, q, tuple(adds), f"{txt}, so {q} rows exist only with"
+                        f" λ = {', '.join(map(str, adds))} among them")
+    return SpanRows(True, False, q, (), f"{txt} < {mrows}, so no choice of real stable λ gives"
+                    f" {q} rows")
 
 
 #: P(λ0) drops below its generic rank r when σ_r / σ_1 ≤ this (λ0 an exact root)

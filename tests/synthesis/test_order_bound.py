@@ -476,15 +476,3 @@ def test_vector_z_joint_chain_proves_minimal():
         B = np.vstack(rows + [Hn])  # 4 rows: rank ≤ 4
         s = np.linalg.svd(np.vstack([B, Mn]), compute_uv=False)
         assert s[4] > 1e-9 * s[0]  # rank 5 with M: M ∉ rowspace B
-
-
-def test_vector_z_more_lambdas_fewer_rows():
-    """z = (x1, x2) with two outputs: two λ need two rows each (four), three λ one row
-    each (three); the search now keeps looking when rows share a λ."""
-    m = random_model(5, 2, 0, seed=0, time="continuous")
-    M = sp.Matrix([[1, 0, 0, 0, 0], [0, 1, 0, 0, 0]])
-    d = design_jordan(m, observer="interval", estimate=M)
-    assert d.k == 3 and len(set(d.lambdas)) == 3 and d.certificate.passed
-    # independent: z is reached, [Φ; H] spans M
-    PH = sp.Matrix.vstack(d.matrices.Phi, sp.Matrix(extract_structure(m).H))
-    assert sp.Matrix.vstack(PH, M).rank() == PH.rank()
