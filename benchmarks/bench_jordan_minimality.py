@@ -9,8 +9,10 @@ The plants are those of tests/synthesis/test_jordan_minimality.py and
 test_order_bound.py: z = M x with M a left eigenvector direction of F (eigenvalue −3/2,
 continuous; 1/3, discrete), an unmeasured block with modes −2 ± √2 (k = 2 with irrational
 λ), an unmeasured companion block with an irreducible cubic (three CRootOf λ, k = 3),
-random plants (one with a decoupled disturbance, one with seven states) and a plant with
-symbolic parameters whose λ are −a and −b (designed with the parameters kept symbolic).
+random plants (one with a decoupled disturbance, one with seven states), a plant with
+symbolic parameters whose λ are −a and −b (designed with the parameters kept symbolic),
+and z with two components (test_span_rows.py): two rows that need λ = −5/2, and three
+rows where two are impossible for every λ (the defaults gave four before).
 For each: ``design_jordan`` with the default λ list requested (what the search did before:
 −1, −2, … / 1/2, 1/4, …) and with the new search (defaults plus the exact special λ). Reported: k (or "none" when the defaults give
 no design), the λ found, median wall and CPU time of ``--runs`` calls. Target: the new
@@ -81,6 +83,16 @@ def cases(slow: bool):
     out.append(("unmeasured modes −a, −b, parameters kept symbolic", PlantModel(
         name="modes", time="continuous", states=[x1, x2, x3], inputs=[u], outputs=[x3],
         parameters={a: 2, b: 3}, dynamics=[-a * x1 + x2, -b * x2 + u, -x3 + u]), "x1", 2))
+    # z with several components: two rows inside rowspace [M; H] need λ = −5/2 (x2's row
+    # is a left eigenvector); and a plant where two rows are impossible for every λ, three
+    # found through one extra direction (the defaults alone gave four before)
+    x5 = sp.Symbol("x5")
+    out.append(("z = (x1, x2), two rows need λ = −5/2", PlantModel(
+        name="special_span", time="continuous", states=[x1, x2, x3, x4, x5], inputs=[u],
+        outputs=[x3, x4], dynamics=[x3, -sp.Rational(5, 2) * x2 + u, x1 + x4, -x4 + x5 + x1,
+                                    -2 * x5 + x2]), sp.eye(5)[:2, :], 2))
+    out.append(("`random_model(6, 2, 0, seed=0)`, z = (x1, x2)", random_model(
+        6, 2, 0, seed=0, time="continuous"), sp.eye(6)[:2, :], 3))
     if slow:
         out.append(("unmeasured companion block, λ³ + 6λ² + 8λ + 1", PlantModel(
             name="cubic", time="continuous", states=[x1, x2, x3, x4], inputs=[u], outputs=[x4],
