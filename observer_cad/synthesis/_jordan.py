@@ -584,10 +584,10 @@ def _span_design(fam, lam_list, H, M, observer, D, st, tried, names=(), extra=()
 
 def _extended_span_design(fam, lam_list, pool, H, M, observer, D, st, tried, names, k):
     """Fewer than k rows for z with several components: rows spanning [M; e rows of the
-    pool] modulo H (one or two pool rows, a bounded number of choices each): a model of
+    pool] modulo H (e = 1 … k − q − 1, a bounded number of choices each): a model of
     q + e rows whose rows lie in rowspace [M; extra; H] (METHOD §2b)."""
     q = _rank(sp.Matrix.vstack(H, M)) - _rank(H)
-    for e in range(1, min(k - q, 3)):
+    for e in range(1, k - q):
         for combo in itertools.islice(itertools.combinations(pool, e), _EXTENDED_TRIES):
             if len({r[0] for r in combo}) < e:
                 continue
@@ -767,11 +767,17 @@ def _minimality(observer, k, n, lams, lam_list, adm, requested, one_row, jumps, 
                          " fault (see the observability of (F*, H*))", ref, required=False)
     least = (f"; an order-{b.k} model exists for some F* (its eigenvalues need not be real,"
              " distinct or stable)" if b.exact else "")
+    lo = b.k  # the least Jordan order: at least every bound proven
     if below:
         least += "; chain polynomials: " + "; ".join(c.evidence for c in below)
+        lo = max([lo] + [c.m + 1 for c in below if c.impossible])
+    if span is not None and span.analysed:
+        least += f"; {span.q} rows (rank [M; H] − rank H): {span.evidence}"
+        if not span.possible:
+            lo = max(lo, span.q + 1)
     return Condition(name, False, found + f"{why}; the lower bound over every F* is {b.k}{where}"
-                     f" ({b.evidence}){least}, so the least order lies in [{b.k}, {k}]", ref,
-                     required=False)
+                     f" ({b.evidence}){least}, so the least order of a Jordan model lies in"
+                     f" [{lo}, {k}]", ref, required=False)
 
 
 def _searched(observer, k, lam_list, one_row, jumps) -> tuple:
