@@ -555,12 +555,9 @@ def _cmd_design(args) -> int:
                          if args.symbolic else "--threshold: approximate designs have no observer")
     if args.json:
         out = result.to_json()
-        if observer is not None:
-            oj = observer.to_json()
-            out["observer_equations"] = oj
-            out["states"] = oj["states"]
-            out["equations"] = oj["equations"]
-            out["outputs"] = oj["outputs"]
+        if observer is not None:  # the design's own states/equations/outputs stay (what
+            # Design.from_json reads back); the built observer's are beside them
+            out["observer_equations"] = observer.to_json()
             out["observer_conditions"] = [c.to_json() for c in observer.own_conditions]
         print(json.dumps(out, indent=2))
     else:

@@ -71,7 +71,7 @@ def test_kind_designs_simulates_and_holds(models_dir, tmp_path, capsys, model, a
     out = tmp_path / "out"
     _run(capsys, ["simulate", path] + args + ["--scenario", str(sc), "--out", str(out)])
     data = _csv(out / "signals.csv")
-    for name in j["outputs"]:
+    for name in j["observer_equations"]["outputs"]:
         assert name in data, name
     assert list(out.glob("*.png"))
     if prop == "interval":
@@ -111,3 +111,20 @@ def test_drem_cli_reports_insufficient_excitation(models_dir, tmp_path, capsys):
     assert rc == 3
     assert "insufficient excitation" in err and len(err.strip().splitlines()) == 1
     assert (tmp_path / "o" / "signals.csv").exists()
+
+
+@pytest.mark.parametrize("model,args", [(c[0], c[1]) for c in CASES],
+                         ids=[f"{c[0]}-{' '.join(c[1][1:4])}" for c in CASES])
+def test_design_json_reads_back_and_builds(models_dir, capsys, model, args):
+    """What `design --json` prints is a design: Design.from_json re-certifies it against the
+    model and build_observer gives the same observer equations the command printed."""
+    from observer_cad import build_observer, load_model
+    from observer_cad.synthesis import Design
+    path = str(models_dir / model)
+    j = json.loads(_run(capsys, ["design", path] + args + ["--json"]))
+    plant = load_model(path)
+    d = Design.from_json(j, plant)
+    assert d.certificate.passed and d.k == j["k"]
+    ob = build_observer(plant, d).to_json()
+    assert ob["outputs"] == j["observer_equations"]["outputs"]
+    assert ob["equations"] == j["observer_equations"]["equations"]
