@@ -3,14 +3,72 @@ exact matrices to numpy, float arrays back to sympy, floats to rationals without
 exact numbers, and single-threaded BLAS."""
 from __future__ import annotations
 
+import contextlib
+import functools
+import sys
+
 import numpy as np
 import sympy as sp
 
 __all__ = ["np_exact", "to_sympy_float", "SingleThreadBLAS", "rationalize_floats",
-           "rational_approximation", "algebraic_to_float", "ALGEBRAIC_DIGITS"]
+           "rational_approximation", "algebraic_to_float", "ALGEBRAIC_DIGITS", "readable",
+           "READABLE_DIGITS", "full_int_text",
+           "with_full_int_text"]
 
 #: significant digits of the Float that stands for a CRootOf in numeric code
 ALGEBRAIC_DIGITS = 30
+
+#: a rational whose numerator or denominator has more digits than this is shown rounded
+READABLE_DIGITS = 40
+
+
+@contextlib.contextmanager
+def full_int_text():
+    """Within it, ``str`` of an integer of any length works: Python refuses more than
+    4,300 digits by default (a guard for *parsing* untrusted text; our readers cap an
+    expression at 2,000 characters themselves). Exact designs of large float-based
+    plants can carry rationals that long."""
+    old = sys.get_int_max_str_digits()
+    sys.set_int_max_str_digits(0)
+    try:
+        yield
+    finally:
+        sys.set_int_max_str_digits(old)
+
+
+def with_full_int_text(fn):
+    """Decorator: run ``fn`` inside :func:`full_int_text`."""
+    @functools.wraps(fn)
+    def wrapper(*args, **kwargs):
+        with full_int_text():
+            return fn(*args, **kwargs)
+    return wrapper
+
+
+def readable(obj) -> str:
+    """Text of a sympy expression or matrix (or a list of them) for messages: rationals
+    whose numerator or denominator exceed :data:`READABLE_DIGITS` digits are shown as
+    12-digit floats marked ``≈``. Exact values stay exact everywhere else; this only keeps
+    a condition's detail readable (and printable: Python refuses to convert integers of
+    more than 4,300 digits to text)."""
+    limit = int(READABLE_DIGITS * 3.3219)  # bits
+
+    def big(r):
+        return r.p.bit_length() > limit or r.q.bit_length() > limit
+
+    def one(e):
+        e = sp.sympify(e)
+        atoms = [r for r in e.atoms(sp.Rational) if big(r)]
+        if not atoms:
+            return str(e)
+        marks = {r: sp.Symbol(f"≈{sp.Float(r, 12)}") for r in atoms}
+        return str(e.xreplace(marks))
+
+    if isinstance(obj, (list, tuple)):
+        return "[" + ", ".join(readable(o) for o in obj) + "]"
+    if isinstance(obj, sp.MatrixBase):
+        return readable(obj.tolist())
+    return one(obj)
 
 
 def _to_np(M):

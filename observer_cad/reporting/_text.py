@@ -5,6 +5,7 @@ import sympy as sp
 
 from ..synthesis import Design
 from ..model import Structure
+from ..numerics import readable, with_full_int_text
 
 __all__ = ["format_matrix", "format_structure", "format_design", "structure_to_json",
            "format_observer", "format_observer_conditions", "format_signature", "format_bank"]
@@ -16,7 +17,7 @@ def format_matrix(name: str, M, indent: str = "  ") -> str:
     head = f"{indent}{name} = "
     if M.rows == 0 or M.cols == 0:
         return f"{head}(empty, {M.rows}x{M.cols})"
-    cells = [[str(M[i, j]) for j in range(M.cols)] for i in range(M.rows)]
+    cells = [[readable(M[i, j]) for j in range(M.cols)] for i in range(M.rows)]
     widths = [max(len(cells[i][j]) for i in range(M.rows)) for j in range(M.cols)]
     lines = []
     for i in range(M.rows):
@@ -95,6 +96,7 @@ def _title(d: Design) -> str:
             f" {'symbolic' if d.symbolic else 'numeric'} ({d.method} arithmetic)")
 
 
+@with_full_int_text  # equations may carry rationals of any length
 def format_design(d: Design) -> str:
     """A design as a control engineer reads it: matrices, equations, conditions."""
     out = [_title(d), ""]

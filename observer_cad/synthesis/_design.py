@@ -23,6 +23,7 @@ from ._certificate import Certificate, Identity, certify_design
 from ._conditioning import (CONDITIONING_NAME, CONDITIONING_REFERENCE, conditioning_numbers,
                             conditioning_verdict)
 from ._expr import parse_json_expression
+from ..numerics import with_full_int_text
 from ._poles import certify_poles
 from ._signature import fault_signature
 
@@ -388,6 +389,7 @@ class Design:
                              for n, M in self.matrices.items())
         return r"$\begin{aligned}" + body + r"\end{aligned}$"
 
+    @with_full_int_text  # exact rationals of any length are written in full
     def to_json(self) -> dict:
         """The JSON object the CLI prints with ``--json``."""
         def rows(M):

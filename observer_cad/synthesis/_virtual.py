@@ -35,7 +35,7 @@ from ._task import task_for
 from ..model import PlantModel, Task
 from ._nonlinear import substitute_arguments
 from ..model import extract_structure
-from ..numerics import exact_rank, solve_left
+from ..numerics import exact_rank, readable, solve_left
 
 __all__ = ["design_virtual_sensor_canonical"]
 
@@ -183,11 +183,11 @@ def design_virtual_sensor_canonical(model: PlantModel, *, estimate, variant: str
         required=False))
     if work.time == "continuous":
         metz = all(Fcl[i, j].is_nonnegative is True for i in range(k) for j in range(k) if i != j)
-        conds.append(Condition("F* − K H* Metzler", metz, f"F* − K H* = {Fcl.tolist()}",
+        conds.append(Condition("F* − K H* Metzler", metz, f"F* − K H* = {readable(Fcl)}",
                                "METHOD §3", required=False))
     else:
         nonneg = all(e.is_nonnegative is True for e in Fcl)
-        conds.append(Condition("F* − K H* nonnegative", nonneg, f"F* − K H* = {Fcl.tolist()}",
+        conds.append(Condition("F* − K H* nonnegative", nonneg, f"F* − K H* = {readable(Fcl)}",
                                "METHOD §3", required=False))
     xs, ys = observer_symbols(k), output_symbols(l)
     equations = reduced_equations(mats, work.inputs, xs, ys, nonlinear=subs, q=len(st.terms))
