@@ -40,7 +40,8 @@ from ..model import ObserverKind, PlantModel, Task, parse_expression
 from ._nonlinear import substitute_arguments
 from ._poles import default_eigenvalues
 from ._lambda_search import family_jump_lambdas, one_row_lambdas, span_rows
-from ._order_bound import chain_order, estimation_order_bound, residual_order_bound, spread_lambdas
+from ._order_bound import (chain_order, estimation_order_bound, nonlinear_jordan_bound,
+                           residual_order_bound, spread_lambdas)
 from ._reduced import is_stable, jordan_equations, observer_symbols, output_symbols
 from ._signature import residual_response
 from ._task import task_for, task_parts
@@ -404,7 +405,12 @@ def design_jordan(model: PlantModel, *, observer: str, estimate=None,
     conds.append(Condition("certificate", cert.passed, cert.summary(), "METHOD §2"))
     minimal = _minimality(observer, k, n, lams, lam_list, adm, bool(lambdas), one_row, jumps,
                           work.time, lambda k_: _order_bound(observer, F, H, L, D, M, st, k_,
-                                                             decoupled), chains, span)
+                                                             decoupled), chains, span,
+                          (lambda k_: nonlinear_jordan_bound(
+                              F, H, L if decoupled else sp.zeros(n, 0), M, C,
+                              [sp.Matrix(t.row) for t in st.terms], k_, LAMBDA, work.time,
+                              lam_list)) if st.terms and M is not None and not lambdas
+                          else None)
     conds.append(minimal)
     choice = (f"k = {k}: rows with λ = ({', '.join(map(str, lams))}) chosen from"
               f" {len(pool)} candidate row(s) for λ in {{{', '.join(map(str, lam_list))}}};"
@@ -702,7 +708,7 @@ def _special_lambdas(observer, F, H, L0, L, M, time):
 
 
 def _minimality(observer, k, n, lams, lam_list, adm, requested, one_row, jumps, time,
-                bound, chains=(), span=None) -> Condition:
+                bound, chains=(), span=None, nonlinear=None) -> Condition:
     """Why fewer rows are impossible, as far as it is proven (METHOD §2b). ``bound(k)``
     gives the :class:`OrderBound` of every reduced model of the task (any F*); ``chains``
     the :class:`ChainOrder` of each order m (z = M x, every λ admissible). A Jordan
@@ -765,6 +771,10 @@ def _minimality(observer, k, n, lams, lam_list, adm, requested, one_row, jumps, 
         return Condition(name, False, found + f"{why}; but {anyf} below {b.k} states{where}"
                          f" ({b.evidence}): this design's residual does not respond to every"
                          " fault (see the observability of (F*, H*))", ref, required=False)
+    nb = nonlinear(k) if nonlinear is not None and not requested else None
+    if nb is not None and nb.k >= k:
+        return Condition(name, True, found + f"{why}; and k = {k} is a lower bound for every"
+                         f" Jordan model: {nb.evidence}", ref, required=False)
     least = (f"; an order-{b.k} model exists for some F* (its eigenvalues need not be real,"
              " distinct or stable)" if b.exact else "")
     lo = b.k  # the least Jordan order: at least every bound proven

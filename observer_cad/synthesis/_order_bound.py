@@ -46,10 +46,11 @@ import sympy as sp
 
 from ..numerics import exact_rank, left_null_echelon, left_null_space, solve_left
 from ._canonical import krylov_blocks, member_to_phi
-from ._lambda_search import exact_real_roots
+from ._lambda_search import exact_real_roots, span_rows
 from ._reduced import is_stable
 
 __all__ = ["OrderBound", "ChainOrder", "estimation_order_bound", "residual_order_bound",
+           "nonlinear_jordan_bound",
            "chain_order", "chain_system", "hyperplane_functional", "hyperplane_corners",
            "hyperplane_member", "plane_order", "spread_lambdas", "MAX_SUBSETS"]
 
@@ -111,6 +112,64 @@ def estimation_order_bound(F, H, M, *, decoupled: bool = False, linear: bool = T
                f" at m = {m} (M p(F) ∈ W_m for a monic p of degree {m})")
         best, exact = max(best, m), not decoupled and linear
     return OrderBound(best, ev, frozenset(conds), exact)
+
+
+#: nonlinear terms beyond which :func:`nonlinear_jordan_bound` is not tried (2^t subsets)
+NONLINEAR_SUBSETS_MAX_TERMS = 4
+
+
+def nonlinear_jordan_bound(F, H, L, M, C, A_rows, k: int, lam, time: str, tries,
+                           defaults=None) -> OrderBound | None:
+    """A lower bound on the rows of a Jordan model of z = M x in a model with nonlinear
+    terms φ_j(A_j x) entering through the columns C_j (numeric F, H, L, M, C, A).
+
+    Argument substitution: a term the rows see (Φ C_j ≠ 0) needs A_j ∈ rowspace [Φ; H].
+    So a model whose rows see the terms S and no other is a linear Jordan model of
+    z_S = [M; A_j (j ∈ S)] decoupled from L_S = [L, C_j (j ∉ S)] (seeing the terms of S is
+    relaxed away, which only adds models). For each S the bound is the larger of
+    rank [M_S; H] − rank H (+ 1 when that many rows are impossible for every real stable λ,
+    :func:`span_rows`) and 1 + the largest order m < k whose joint chain polynomials with
+    r(s) L_S = 0 have no member with m distinct real stable roots (members nest, so the
+    orders ruled out are 1 … m). The bound is the least over all S; None when some S
+    gives less than k (nothing proven), when there are more than
+    :data:`NONLINEAR_SUBSETS_MAX_TERMS` terms, or when parameters are symbolic.
+    """
+    t = len(A_rows)
+    if not t or t > NONLINEAR_SUBSETS_MAX_TERMS:
+        return None
+    if set().union(*(X.free_symbols for X in (F, H, L, M, C) + tuple(A_rows))):
+        return None
+    rH = exact_rank(H).rank if H.rows else 0
+    least, parts = None, []
+    for size in range(t + 1):
+        for S in itertools.combinations(range(t), size):
+            MS = sp.Matrix.vstack(M, *[A_rows[j] for j in S])
+            LS = sp.Matrix.hstack(L, *[C[:, j] for j in range(t) if j not in S])
+            q = exact_rank(sp.Matrix.vstack(MS, H)).rank - rH
+            bound, why = q, f"q = {q}"
+            if q < k:
+                sr = span_rows(F, H, LS, MS, lam, time)
+                if sr.analysed and not sr.possible:
+                    bound, why = q + 1, f"{q} rows impossible for every λ"
+            if bound < k:
+                for m in range(1, k):
+                    c = chain_order(F, H, MS, m, lam, time, tries, LS if LS.cols else None,
+                                    defaults)
+                    if not c.impossible:
+                        break
+                    if m + 1 > bound:
+                        bound, why = m + 1, f"chain orders ≤ {m} ruled out"
+            name = "{" + ", ".join(str(j + 1) for j in S) + "}"
+            parts.append(f"S = {name}: ≥ {bound} ({why})")
+            if bound < k:  # no proof at k (the least over every S is below k)
+                return None
+            least = bound if least is None else min(least, bound)
+    return OrderBound(least, _nonlinear_evidence(parts))
+
+
+def _nonlinear_evidence(parts) -> str:
+    return ("nonlinear terms: rows seeing the terms S are a linear model of [M; A_j, j ∈ S]"
+            " decoupled from C_j, j ∉ S; " + "; ".join(parts))
 
 
 def _chain_order(F, H, M, conds: set) -> int:
