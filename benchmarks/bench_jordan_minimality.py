@@ -91,7 +91,7 @@ def cases(slow: bool):
         name="special_span", time="continuous", states=[x1, x2, x3, x4, x5], inputs=[u],
         outputs=[x3, x4], dynamics=[x3, -sp.Rational(5, 2) * x2 + u, x1 + x4, -x4 + x5 + x1,
                                     -2 * x5 + x2]), sp.eye(5)[:2, :], 2))
-    out.append(("`random_model(6, 2, 0, seed=0)`, z = (x1, x2)", random_model(
+    out.append(("`random_model(6, 2, 0, seed=0)`, z = (x1, x2) (4 rows before span_rows)", random_model(
         6, 2, 0, seed=0, time="continuous"), sp.eye(6)[:2, :], 3))
     if slow:
         out.append(("unmeasured companion block, λ³ + 6λ² + 8λ + 1", PlantModel(
