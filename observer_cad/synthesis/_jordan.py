@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import dataclasses
 import itertools
+import math
 from typing import Sequence
 
 import numpy as np
@@ -331,20 +332,24 @@ def design_jordan(model: PlantModel, *, observer: str, estimate=None,
     if M is not None and chosen is None:  # directed: M ∈ rowspace(H) + Σ_λ rowspace(N_λ L0)
         chosen = _directed_rows(fam, lam_list, H, M, n, observer, D, st, tried, names,
                                 tuple(c.lambdas for c in chains if c.lambdas))
-        if chosen is not None and len(chosen) > len({r[0] for r in chosen}):
-            # several rows share a λ (z has several components): more λ with one row
-            # each may need fewer rows in all
+    if (chosen is not None and M is not None and M.rows > 1
+            and not (span is not None and span.analysed
+                     and len(chosen) == span.q + (not span.possible))):
+        # z with several components (not already at the least): rows spanning
+        # [M; e extra rows] modulo H
+        alt = _extended_span_design(fam, lam_list + extra, pool, H, M, observer, D, st, tried,
+                                    names, len(chosen))
+        chosen = alt or chosen
+        if len(chosen) > len({r[0] for r in chosen}):
+            # rows still share a λ: more λ with one basis row each may need fewer rows
+            # (every combination of the pool, while there are not too many)
             for size in range(len({r[0] for r in chosen}), len(chosen)):
+                if math.comb(len(pool), size) > _COMBINATIONS_MAX:
+                    break
                 alt = _combination_rows(pool, n, observer, H, D, M, st, tried, names, (size,))
                 if alt is not None:
                     chosen = alt
                     break
-    if (chosen is not None and M is not None and M.rows > 1
-            and not (span is not None and span.analysed and not span.possible
-                     and len(chosen) == span.q + 1)):
-        alt = _extended_span_design(fam, lam_list + extra, pool, H, M, observer, D, st, tried,
-                                    names, len(chosen))
-        chosen = alt or chosen
     for size in range(1, n) if chosen is None else ():  # fewest rows first, every strategy
         chosen = _combination_rows(pool, n, observer, H, D, M, st, tried, names, (size,))
         if chosen is None and sums:  # the basis rows alone do not do it: generic members too
@@ -590,15 +595,23 @@ def _span_design(fam, lam_list, H, M, observer, D, st, tried, names=(), extra=()
 
 def _extended_span_design(fam, lam_list, pool, H, M, observer, D, st, tried, names, k):
     """Fewer than k rows for z with several components: rows spanning [M; e rows of the
-    pool] modulo H (e = 1 … k − q − 1, a bounded number of choices each): a model of
-    q + e rows whose rows lie in rowspace [M; extra; H] (METHOD §2b)."""
-    q = _rank(sp.Matrix.vstack(H, M)) - _rank(H)
+    pool at e distinct λ] modulo H (e = 1 … k − q − 1): a model of q + e rows whose rows lie
+    in rowspace [M; extra; H] (METHOD §2b). A space of dimension q + e meets a λ's rows
+    (f of them, modulo H in n − rank H dimensions) generically only once
+    f + q + e > n − rank H, so below that e only a few choices are tried."""
+    rH = _rank(H)
+    q = _rank(sp.Matrix.vstack(H, M)) - rH
+    first = {}
+    for r in pool:
+        first.setdefault(r[0], r)
+    lams = [lam for lam in lam_list if lam in first]
+    f = max((fam[lam][0].rows for lam in lams), default=0)
+    generic = H.cols - rH - f - q + 1
     for e in range(1, k - q):
-        for combo in itertools.islice(itertools.combinations(pool, e), _EXTENDED_TRIES):
-            if len({r[0] for r in combo}) < e:
-                continue
+        tries = _EXTENDED_TRIES if e >= generic else 3
+        for combo in itertools.islice(itertools.combinations(lams, e), tries):
             rows = _span_design(fam, lam_list, H, M, observer, D, st, tried, names,
-                                tuple(r[1] for r in combo))
+                                tuple(first[lam][1] for lam in combo))
             if rows is not None and len(rows) < k:
                 return rows
     return None
@@ -606,6 +619,9 @@ def _extended_span_design(fam, lam_list, pool, H, M, observer, D, st, tried, nam
 
 #: extra-row choices tried per e by :func:`_extended_span_design`
 _EXTENDED_TRIES = 24
+
+#: the most pool combinations tried for one size when rows share a λ
+_COMBINATIONS_MAX = 2000
 
 
 def _combination_rows(pool, n, observer, H, D, M, st, tried, names=(), sizes=None):
