@@ -162,8 +162,9 @@ def _describe(node: ast.AST) -> str:
 
 class _Builder:
     def __init__(self, text, table, allow_complex, any_name, exact_floats=True,
-                 allow_crootof=False, keyword_lambda=False):
+                 allow_crootof=False, keyword_lambda=False, big_integers=False):
         self.exact_floats = exact_floats
+        self.big_integers = big_integers
         self.text = text
         self.table = table
         self.allow_complex = allow_complex
@@ -222,7 +223,7 @@ class _Builder:
         if isinstance(v, bool) or v is None or v is Ellipsis:
             raise _Reject(f"'{v}' where a number is expected")
         if isinstance(v, int):
-            if v.bit_length() > 1024:
+            if v.bit_length() > 1024 and not self.big_integers:
                 raise _Reject("a number outside the floating-point range")
             return sp.Integer(v)
         if isinstance(v, float):
@@ -496,7 +497,8 @@ def _xor_as_power(source: str) -> str:
 
 def parse_expression(text, names=None, *, where: str, allow_complex: bool = False,
                      condition: bool = False, any_name: bool = False,
-                     exact_floats: bool = True, allow_crootof: bool = False) -> sp.Basic:
+                     exact_floats: bool = True, allow_crootof: bool = False,
+                     max_length: int = MAX_LENGTH, big_integers: bool = False) -> sp.Basic:
     """The sympy expression (or, with ``condition=True``, the sympy boolean) that
     ``text`` denotes, built from a whitelist grammar (see the module docstring).
 
@@ -521,6 +523,13 @@ def parse_expression(text, names=None, *, where: str, allow_complex: bool = Fals
     allow_crootof : bool
         Whether ``CRootOf(poly, index)`` (a real algebraic number, as sympy prints it)
         is read (design JSON, ``--lambda``); off by default. See the module docstring.
+    max_length : int
+        The longest text read (default :data:`MAX_LENGTH`; a design's JSON allows more:
+        exact designs of float-based plants carry rationals of thousands of digits).
+    big_integers : bool
+        Integer literals beyond the floating-point range are read exactly (a design's
+        JSON: exact coefficients); off by default (model and scenario values must be
+        numbers a simulation can use).
 
     Raises
     ------
@@ -543,8 +552,8 @@ def parse_expression(text, names=None, *, where: str, allow_complex: bool = Fals
         return out
     if not isinstance(text, str):
         raise fail(f"a {type(text).__name__}, not text")
-    if len(text) > MAX_LENGTH:
-        raise fail(f"longer than {MAX_LENGTH} characters")
+    if len(text) > max_length:
+        raise fail(f"longer than {max_length} characters")
     if not text.strip():
         raise fail("empty")
     if "\x00" in text:
@@ -560,7 +569,7 @@ def parse_expression(text, names=None, *, where: str, allow_complex: bool = Fals
     except (ValueError, RecursionError, MemoryError, OverflowError) as exc:
         raise fail(f"not a valid expression ({type(exc).__name__})") from None
     b = _Builder(source, _symbol_table(names), allow_complex, any_name, exact_floats,
-                 allow_crootof, keyword_lambda)
+                 allow_crootof, keyword_lambda, big_integers)
     try:
         out = b.cond(tree.body) if condition else b.expr(tree.body)
     except _Reject as exc:

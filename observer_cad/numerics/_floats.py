@@ -6,6 +6,7 @@ from __future__ import annotations
 import contextlib
 import functools
 import sys
+import threading
 
 import numpy as np
 import sympy as sp
@@ -22,18 +23,31 @@ ALGEBRAIC_DIGITS = 30
 READABLE_DIGITS = 40
 
 
+_FULL_TEXT_LOCK = threading.Lock()
+_full_text_users = 0
+_full_text_saved = 0
+
+
 @contextlib.contextmanager
 def full_int_text():
     """Within it, ``str`` of an integer of any length works: Python refuses more than
     4,300 digits by default (a guard for *parsing* untrusted text; our readers cap an
-    expression at 2,000 characters themselves). Exact designs of large float-based
-    plants can carry rationals that long."""
-    old = sys.get_int_max_str_digits()
-    sys.set_int_max_str_digits(0)
+    expression's length themselves). Exact designs of large float-based plants can carry
+    rationals that long. Threads share the limit, so it is lifted by the first block that
+    enters and restored by the last that leaves."""
+    global _full_text_users, _full_text_saved
+    with _FULL_TEXT_LOCK:
+        if _full_text_users == 0:
+            _full_text_saved = sys.get_int_max_str_digits()
+            sys.set_int_max_str_digits(0)
+        _full_text_users += 1
     try:
         yield
     finally:
-        sys.set_int_max_str_digits(old)
+        with _FULL_TEXT_LOCK:
+            _full_text_users -= 1
+            if _full_text_users == 0:
+                sys.set_int_max_str_digits(_full_text_saved)
 
 
 def with_full_int_text(fn):

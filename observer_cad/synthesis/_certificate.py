@@ -21,7 +21,7 @@ import numpy as np
 import sympy as sp
 
 from ..errors import CertificateError
-from ..numerics import as_rational, from_rational
+from ..numerics import as_rational, from_rational, readable
 
 __all__ = ["Identity", "Certificate", "certify_reduced_model", "certify_design"]
 
@@ -115,11 +115,11 @@ def _exact_identity(name: str, residual) -> Identity:
     if isinstance(residual, _Q):  # rational: zero or not, no simplification to do
         if residual.q.is_zero_matrix:
             return Identity(name, True, "0")
-        return Identity(name, False, str(next(e for e in from_rational(residual.q) if e != 0)))
+        return Identity(name, False, readable(next(e for e in from_rational(residual.q) if e != 0)))
     bad = [e for e in residual if not _is_zero(e)]
     if not bad:
         return Identity(name, True, "0")
-    return Identity(name, False, str(sp.simplify(bad[0])))
+    return Identity(name, False, readable(sp.simplify(bad[0])))
 
 
 def certify_reduced_model(*, F, G, H, C, D, L, Phi, F_star, J_star, R_star, H_star,

@@ -434,6 +434,7 @@ class Design:
         }
 
     @classmethod
+    @with_full_int_text  # messages and identities may print rationals of any length
     def from_json(cls, data, model: PlantModel) -> "Design":
         """A design from its JSON (:meth:`to_json`) for ``model``.
 

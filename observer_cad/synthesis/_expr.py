@@ -3,7 +3,11 @@ reader (:func:`observer_cad.model.parse_expression`): nothing in a design file i
 evaluated. Identifiers the design introduced (``xs1``, ``y1``, gains) become symbols;
 decimals stay floats (float designs); ``CRootOf(poly, index)`` (an irrational Jordan λ of
 degree ≥ 3, as sympy prints it) is read as that real algebraic number; the assumptions
-``Ne(a, b)`` / ``Eq(a, b)`` and comparisons are read as relations."""
+``Ne(a, b)`` / ``Eq(a, b)`` and comparisons are read as relations. A plain rational
+literal ``-p/q`` is read by a regular expression and ``int`` (up to
+:data:`MAX_RATIONAL_CHARS` characters), anything else by the whitelist reader with a
+length cap of :data:`MAX_DESIGN_CHARS` (exact designs of float-based plants carry
+rationals of thousands of digits)."""
 from __future__ import annotations
 
 import re
@@ -13,10 +17,19 @@ import sympy as sp
 
 from ..errors import UsageError
 from ..model import parse_expression
+from ..numerics import full_int_text
 
 __all__ = ["parse_json_expression"]
 
 _RELATION = re.compile(r"^\s*(Ne|Eq)\((.*)\)\s*$", re.S)
+_RATIONAL = re.compile(r"-?[0-9]+(/[0-9]+)?")
+
+#: the longest plain rational literal read (int() of 100,000 digits takes ~50 ms)
+MAX_RATIONAL_CHARS = 100_000
+
+#: the longest expression read from a design's JSON (the equations of a 12-state
+#: float-based design run to ~10⁵ characters; ast.parse of 10⁶ takes well under a second)
+MAX_DESIGN_CHARS = 1_000_000
 
 
 def _split_top_level(text: str) -> list:
@@ -40,8 +53,15 @@ def parse_json_expression(text, names: Mapping, where: str) -> sp.Basic:
     if isinstance(text, bool) or not isinstance(text, (str, int, float)):
         raise UsageError(f"{where}: expected an expression string, got {type(text).__name__}")
     text = str(text)
+    if len(text) <= MAX_RATIONAL_CHARS and _RATIONAL.fullmatch(text):
+        num, _, den = text.partition("/")
+        with full_int_text():
+            p, q = int(num), int(den or "1")
+        if q == 0:
+            raise UsageError(f"{where}: division by zero in {text[:40]!r}")
+        return sp.Rational(p, q)
     kw = dict(where=where, any_name=True, allow_complex=True, exact_floats=False,
-              allow_crootof=True)
+              allow_crootof=True, max_length=MAX_DESIGN_CHARS, big_integers=True)
     m = _RELATION.match(text)
     if m:
         args = _split_top_level(m.group(2))

@@ -343,8 +343,10 @@ def design_jordan(model: PlantModel, *, observer: str, estimate=None,
         if len(chosen) > len({r[0] for r in chosen}):
             # rows still share a λ: more λ with one basis row each may need fewer rows
             # (every combination of the pool, while there are not too many)
+            cap = (_COMBINATIONS_MAX_ALGEBRAIC if any(r[0].has(sp.CRootOf) for r in pool)
+                   else _COMBINATIONS_MAX)
             for size in range(len({r[0] for r in chosen}), len(chosen)):
-                if math.comb(len(pool), size) > _COMBINATIONS_MAX:
+                if math.comb(len(pool), size) > cap:
                     break
                 alt = _combination_rows(pool, n, observer, H, D, M, st, tried, names, (size,))
                 if alt is not None:
@@ -415,7 +417,7 @@ def design_jordan(model: PlantModel, *, observer: str, estimate=None,
                               F, H, L if decoupled else sp.zeros(n, 0), M, C,
                               [sp.Matrix(t.row) for t in st.terms], k_, LAMBDA, work.time,
                               lam_list)) if st.terms and M is not None and not lambdas
-                          else None)
+                          else None, several=M is not None and M.rows > 1)
     conds.append(minimal)
     choice = (f"k = {k}: rows with λ = ({', '.join(map(str, lams))}) chosen from"
               f" {len(pool)} candidate row(s) for λ in {{{', '.join(map(str, lam_list))}}};"
@@ -571,11 +573,13 @@ def _span_design(fam, lam_list, H, M, observer, D, st, tried, names=(), extra=()
     rows, have, r_have = [], sp.Matrix(H), rH
     target = _rank(sp.Matrix.vstack(H, T))
     for lam in lam_list:
-        if lam not in fam or lam.has(sp.CRootOf) and not _maybe_in_rowspace(
-                sp.Matrix.vstack(fam[lam][0], H), M):
+        if lam not in fam:
             continue
         PhiB, JB = fam[lam]
-        basis, _ = left_null_space(sp.Matrix.vstack(PhiB, T, H))
+        stacked = sp.Matrix.vstack(PhiB, T, H)
+        if lam.has(sp.CRootOf) and _float_rank_full(stacked):
+            continue  # no row of this λ inside rowspace [T; H] (numerically clear)
+        basis, _ = left_null_space(stacked)
         for v in basis:
             c = v[:, :PhiB.rows]
             row = (c * PhiB).applyfunc(sp.cancel)
@@ -620,8 +624,10 @@ def _extended_span_design(fam, lam_list, pool, H, M, observer, D, st, tried, nam
 #: extra-row choices tried per e by :func:`_extended_span_design`
 _EXTENDED_TRIES = 24
 
-#: the most pool combinations tried for one size when rows share a λ
+#: the most pool combinations tried for one size when rows share a λ (fewer when some λ
+#: are algebraic: each exact rank is then far slower)
 _COMBINATIONS_MAX = 2000
+_COMBINATIONS_MAX_ALGEBRAIC = 60
 
 
 def _combination_rows(pool, n, observer, H, D, M, st, tried, names=(), sizes=None):
@@ -724,7 +730,7 @@ def _special_lambdas(observer, F, H, L0, L, M, time):
 
 
 def _minimality(observer, k, n, lams, lam_list, adm, requested, one_row, jumps, time,
-                bound, chains=(), span=None, nonlinear=None) -> Condition:
+                bound, chains=(), span=None, nonlinear=None, several=False) -> Condition:
     """Why fewer rows are impossible, as far as it is proven (METHOD §2b). ``bound(k)``
     gives the :class:`OrderBound` of every reduced model of the task (any F*); ``chains``
     the :class:`ChainOrder` of each order m (z = M x, every λ admissible). A Jordan
@@ -749,12 +755,12 @@ def _minimality(observer, k, n, lams, lam_list, adm, requested, one_row, jumps, 
     if requested:
         why = f"k = {k} for the requested λ only; other λ were not searched"
         proven = False
-    elif not adm.generic and span is not None and k > span.q + 1:
-        # z with several components: the search takes one combination of each λ's rows
-        # (a particular solution), so fewer rows through another combination are not
-        # ruled out
+    elif not adm.generic and (several or nonlinear is not None):
+        # z with several components, or nonlinear terms: the search takes particular
+        # combinations of each λ's rows, so fewer rows through another combination are
+        # not ruled out by the search itself (the bounds below may still prove k)
         why = (f"every stable admissible λ ({', '.join(map(str, lam_list))}; {adm.describe()})"
-               " was searched, with one combination of each λ's rows per set of λ")
+               " was searched, with particular combinations of each λ's rows")
         proven = False
     elif not adm.generic:
         return Condition(name, True, f"every stable admissible λ ({', '.join(map(str, lam_list))};"

@@ -5,15 +5,18 @@ virtual sensor of random_model(12, 4, 2, integer=False))."""
 import dataclasses
 import json
 import sys
+import threading
+import time
 
 import pytest
 import sympy as sp
 
-from observer_cad import load_model
+from observer_cad import CertificateError, UsageError, load_model
 from observer_cad.model import random_model
 from observer_cad.numerics import full_int_text, readable
 from observer_cad.reporting import format_design, format_matrix
-from observer_cad.synthesis import design_jordan
+from observer_cad.synthesis import Design, design_jordan
+from observer_cad.synthesis._expr import parse_json_expression
 
 HUGE = sp.Rational(3 * 10 ** 5000 + 7, 10 ** 5000 + 3)  # ≈ 3, 5,000 digits
 
@@ -52,9 +55,57 @@ def test_design_with_a_long_rational_prints_and_serialises(models_dir):
 @pytest.mark.slow  # ~10 s: the seed-004 design of a 12-state float-based plant
 def test_seed_004_virtual_sensor_of_a_float_plant():
     from observer_cad.synthesis._virtual import design_virtual_sensor_canonical
-    d = design_virtual_sensor_canonical(random_model(12, 4, 2, seed=0, integer=False),
-                                        estimate="x1", variant="004")
+    model = random_model(12, 4, 2, seed=0, integer=False)
+    d = design_virtual_sensor_canonical(model, estimate="x1", variant="004")
     assert d.certificate.passed
     metz = next(c for c in d.conditions if c.name.startswith("F* − K H*"))
     assert "F* − K H* = [[" in metz.detail
-    assert format_design(d) and json.dumps(d.to_json())
+    assert format_design(d)
+    data = json.loads(json.dumps(d.to_json()))
+    assert max(len(e) for rows in data["matrices"].values() for r in rows for e in r) > 4300
+    again = Design.from_json(data, model)  # read back exactly and re-certified
+    assert again.certificate.passed and again.matrices.Phi == d.matrices.Phi
+
+
+def test_two_threads_keep_the_limit_lifted_inside_and_restored_after():
+    errors = []
+
+    def hold(delay, work):
+        time.sleep(delay)
+        with full_int_text():
+            time.sleep(work)
+            try:
+                str(HUGE)
+            except ValueError as exc:  # the other thread restored the limit too early
+                errors.append(exc)
+
+    threads = [threading.Thread(target=hold, args=a) for a in ((0, 0.1), (0.05, 0.3))]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    assert not errors and sys.get_int_max_str_digits() == 4300
+
+
+def test_long_rational_literals_are_read_from_json():
+    with full_int_text():
+        text = f"-{HUGE.p}/{HUGE.q}"
+    assert parse_json_expression(text, {}, "matrices.Phi") == -HUGE
+    with pytest.raises(UsageError, match="division by zero"):
+        parse_json_expression("1/0", {}, "matrices.Phi")
+    with full_int_text():  # an expression with long coefficients: the whitelist reader
+        e = parse_json_expression(f"x*{HUGE.p}/{HUGE.q} + 1", {"x": sp.Symbol("x")},
+                                  "equations")
+    assert e == sp.Symbol("x") * HUGE + 1
+    with pytest.raises(UsageError, match="longer than"):  # beyond the design cap
+        parse_json_expression("x + " + "1" * 1_000_001, {"x": sp.Symbol("x")}, "equations")
+
+
+def test_a_tampered_long_rational_is_a_certificate_error(models_dir):
+    model = load_model(str(models_dir / "three_tank_linear.py"))
+    d = design_jordan(model, observer="virtual-sensor", estimate="x1")
+    data = json.loads(json.dumps(d.to_json()))
+    with full_int_text():
+        data["matrices"]["F_star"][0][0] = str(HUGE)
+    with pytest.raises(CertificateError, match="≈"):  # one line, the residual rounded
+        Design.from_json(data, model)
