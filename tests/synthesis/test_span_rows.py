@@ -142,3 +142,24 @@ def test_symbolic_model_is_not_analysed():
     sr = span_rows(F, sp.Matrix([[0, 0, 1]]), sp.zeros(3, 0), sp.eye(3)[:2, :], LAM,
                    "continuous")
     assert not sr.analysed and "symbolic" in sr.evidence
+
+
+@pytest.mark.slow  # ~1.5 min: exact rows over the cubic field of the three λ
+def test_four_rows_need_the_roots_of_a_cubic():
+    """z = (x1, x2, x6, x7) with an unmeasured companion block: four rows inside
+    rowspace [M; H] exist only with the three real roots of λ³ + 6λ² + 9λ + 3 (CRootOf)
+    among the λ; the design uses them and is proven minimal by the subspace bound."""
+    x = sp.symbols("x1:8")
+    u = sp.Symbol("u")
+    m = PlantModel(name="cubic_block", time="continuous", states=list(x), inputs=[u],
+                   outputs=[x[2], x[3]],
+                   dynamics=[x[2] + u, x[5], x[0] + x[3], -x[3] + x[4] + x[0],
+                             -2 * x[4] + x[1], x[6], -3 * x[1] - 9 * x[5] - 6 * x[6]])
+    st = extract_structure(m)
+    F, H = sp.Matrix(st.F), sp.Matrix(st.H)
+    M = sp.Matrix.vstack(*[sp.eye(7)[i, :] for i in (0, 1, 5, 6)])
+    sr = span_rows(F, H, sp.zeros(7, 0), M, LAM, "continuous")
+    assert sr.possible and len(sr.stable) == 3 and all(v.has(sp.CRootOf) for v in sr.stable)
+    d = design_jordan(m, observer="interval", estimate=M)
+    assert d.k == 4 and d.certificate.passed and _minimal(d).holds
+    assert sum(v.has(sp.CRootOf) for v in d.lambdas) == 3
