@@ -45,25 +45,40 @@ def test_import_observer_cad_loads_no_pipeline_stage():
     assert not got["sympy"], "import observer_cad alone should not import sympy"
 
 
-@pytest.mark.parametrize("argv", [
+COMMANDS = (
     ("design", "models/electric_drive.py", "--observer", "diagnostic"),
     ("design", "models/electric_drive.py", "--observer", "unknown-input", "--fault", "d"),
     ("design", "models/three_tank.py", "--observer", "virtual-sensor", "--estimate", "x1"),
     ("analyze", "models/three_tank_faults.py"),
     ("show", "models/electric_drive.py"),
-], ids=lambda a: "-".join(a[:1] + a[3:4]))
-def test_design_and_analyze_commands_import_no_casadi_matplotlib_scipy(argv):
+)
+
+
+def test_design_and_analyze_commands_import_no_casadi_matplotlib_scipy():
+    """All five commands run one after another in one fresh interpreter; modules only
+    accumulate, so reading ``sys.modules`` after each command names the first command
+    that pulls in a heavy module."""
     code = """
-        import contextlib, io, sys
+        import contextlib, io, json, sys
         from observer_cad.cli import main
-        with contextlib.redirect_stdout(io.StringIO()) as out:
-            rc = main(sys.argv[1:])
-        assert rc in (0, None), rc
-        assert out.getvalue().strip(), "the command printed nothing"
+        heavy = {heavy!r}
+        seen = []
+        for argv in json.loads(sys.argv[1]):
+            with contextlib.redirect_stdout(io.StringIO()) as out:
+                rc = main(argv)
+            seen.append({{"argv": argv, "rc": rc, "printed": bool(out.getvalue().strip()),
+                          "heavy": sorted(m for m in heavy if m in sys.modules),
+                          "sympy": "sympy" in sys.modules}})
+        print(json.dumps(seen))
     """
-    got = _loaded_after(textwrap.dedent(code) + textwrap.dedent(_REPORT.format(heavy=HEAVY)), *argv)
-    assert got["heavy"] == [], f"{' '.join(argv)} imported {got['heavy']}"
-    assert got["sympy"]
+    got = _loaded_after(textwrap.dedent(code.format(heavy=HEAVY)), json.dumps(COMMANDS))
+    assert [tuple(g["argv"]) for g in got] == list(COMMANDS)
+    for g in got:
+        cmd = " ".join(g["argv"])
+        assert g["rc"] in (0, None), f"{cmd} returned {g['rc']}"
+        assert g["printed"], f"{cmd} printed nothing"
+        assert g["heavy"] == [], f"{cmd} imported {g['heavy']}"
+        assert g["sympy"]
 
 
 def test_simulate_path_imports_no_casadi():

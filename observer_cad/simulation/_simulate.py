@@ -494,7 +494,50 @@ def _vector_fn(args, exprs):
                 r = np.full(shape, float(r))
             out.append(r)
         return out
+    call.raw = f  # the lambdified function itself (scalars in, scalars out)
     return call
+
+
+def _integrate_runs(f, X, U, pvals, t, *, discrete: bool) -> None:
+    """Fill X (states × runs × steps) from its first column: one step of every run at a
+    time, on arrays over the runs (the classic RK4 in continuous time)."""
+    nx, nu = X.shape[0], U.shape[0]
+    for i in range(t.size - 1):
+        u = [U[j, :, i] for j in range(nu)]
+        cur = [X[j, :, i] for j in range(nx)]
+        if discrete:
+            nxt = f(*cur, *u, *pvals)
+        else:
+            h = t[i + 1] - t[i]
+            k1 = f(*cur, *u, *pvals)
+            k2 = f(*[c + h / 2 * k for c, k in zip(cur, k1)], *u, *pvals)
+            k3 = f(*[c + h / 2 * k for c, k in zip(cur, k2)], *u, *pvals)
+            k4 = f(*[c + h * k for c, k in zip(cur, k3)], *u, *pvals)
+            nxt = [c + h / 6 * (a + 2 * b + 2 * cc + d)
+                   for c, a, b, cc, d in zip(cur, k1, k2, k3, k4)]
+        for j in range(nx):
+            X[j, :, i + 1] = nxt[j]
+
+
+def _integrate_one_run(f, X, U, pvals, t, *, discrete: bool) -> None:
+    """:func:`_integrate_runs` for a single run, on numpy float64 scalars instead of
+    one-element arrays: the same numpy arithmetic and ufunc loops (so the same numbers,
+    NaN and inf included) at a fraction of the per-operation overhead. X is states ×
+    steps, U inputs × steps, pvals the run's parameter values."""
+    for i in range(t.size - 1):
+        u = list(U[:, i])
+        cur = list(X[:, i])
+        if discrete:
+            nxt = f(*cur, *u, *pvals)
+        else:
+            h = t[i + 1] - t[i]
+            k1 = f(*cur, *u, *pvals)
+            k2 = f(*[c + h / 2 * k for c, k in zip(cur, k1)], *u, *pvals)
+            k3 = f(*[c + h / 2 * k for c, k in zip(cur, k2)], *u, *pvals)
+            k4 = f(*[c + h * k for c, k in zip(cur, k3)], *u, *pvals)
+            nxt = [c + h / 6 * (a + 2 * b + 2 * cc + d)
+                   for c, a, b, cc, d in zip(cur, k1, k2, k3, k4)]
+        X[:, i + 1] = nxt
 
 
 def simulate(model: PlantModel, observer: Observer | None, scenario: Scenario, *,
@@ -565,21 +608,11 @@ def simulate(model: PlantModel, observer: Observer | None, scenario: Scenario, *
     U = np.ascontiguousarray(np.moveaxis(Vall, 2, 0)) if ins else np.zeros((0, R, N))
     nx = X.shape[0]
     with np.errstate(all="ignore"):  # non-finite values are reported below, not warned
-        for i in range(N - 1):
-            u = [U[j, :, i] for j in range(len(ins))]
-            cur = [X[j, :, i] for j in range(nx)]
-            if m.time == "discrete":
-                nxt = f_joint(*cur, *u, *pvals)
-            else:
-                h = t[i + 1] - t[i]
-                k1 = f_joint(*cur, *u, *pvals)
-                k2 = f_joint(*[c + h / 2 * k for c, k in zip(cur, k1)], *u, *pvals)
-                k3 = f_joint(*[c + h / 2 * k for c, k in zip(cur, k2)], *u, *pvals)
-                k4 = f_joint(*[c + h * k for c, k in zip(cur, k3)], *u, *pvals)
-                nxt = [c + h / 6 * (a + 2 * b + 2 * cc + d)
-                       for c, a, b, cc, d in zip(cur, k1, k2, k3, k4)]
-            for j in range(nx):
-                X[j, :, i + 1] = nxt[j]
+        if R == 1:
+            _integrate_one_run(f_joint.raw, X[:, 0, :], U[:, 0, :], [v[0] for v in pvals],
+                               t, discrete=m.time == "discrete")
+        else:
+            _integrate_runs(f_joint, X, U, pvals, t, discrete=m.time == "discrete")
     cols = {"t": np.broadcast_to(t, (R, N)).copy()}
     for j, s in enumerate(xs):
         cols[s.name] = X[j]

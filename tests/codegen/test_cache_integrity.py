@@ -97,6 +97,7 @@ print(cs.cached, cs.translated)
 """
 
 
+@pytest.mark.slow  # two fresh interpreters and a compile: ~4.5 s
 def test_truncated_library_in_a_fresh_process_is_rebuilt_without_a_crash(tmp_path):
     """Issue 11: a truncated .so killed every later run with SIGBUS (exit 135)."""
     cache = tmp_path / "cache"

@@ -172,7 +172,8 @@ def test_every_kind_is_covered():
 
 # ------------------------------------------------------------------ whole trajectories
 @needs_cc
-@pytest.mark.parametrize("case", list(CASES))
+@pytest.mark.parametrize("case", [  # the sliding-mode run takes ~4 s: slow step
+    pytest.param(c, marks=pytest.mark.slow) if c == "sliding-mode" else c for c in CASES])
 def test_trajectory_parity_every_kind(case, built):
     m, o, sc = built(case)
     ref = simulate(m, o, sc)

@@ -183,7 +183,8 @@ def _observer_x0(o, sc):
 
 # ------------------------------------------------------------------ parity
 @needs_cc
-@pytest.mark.parametrize("kind", list(CASES))
+@pytest.mark.parametrize("kind", [  # the sliding-mode run takes ~2.5 s: slow step
+    pytest.param(c, marks=pytest.mark.slow) if c == "sliding-mode" else c for c in CASES])
 def test_example_reproduces_python_path(kind, built, tmp_path):
     m, o, sc, ref, dt = built[kind]
     h = float(sc.dt) if o.time == "continuous" else None

@@ -67,8 +67,9 @@ def _values(got):
 
 # --- identical results -----------------------------------------------------------------
 
-@pytest.mark.parametrize("backend", [Backend("serial"), Backend("threads", 2),
-                                     Backend("processes", 2)], ids=lambda b: b.kind)
+@pytest.mark.parametrize("backend", [  # a pool of processes costs ~3 s: slow step
+    Backend("serial"), Backend("threads", 2),
+    pytest.param(Backend("processes", 2), marks=pytest.mark.slow)], ids=lambda b: b.kind)
 def test_identical_results(backend, spec, expected):
     seen = []
     got = _collect(map_chunks(runs_counted, CountedPayload(spec, STEPS), CHUNKS,
@@ -165,7 +166,7 @@ def test_key_mismatch_is_refused(spec):
 
 # --- Ctrl-C ------------------------------------------------------------------------------
 
-@pytest.mark.parametrize("kind", ["threads", "processes"])
+@pytest.mark.parametrize("kind", ["threads", pytest.param("processes", marks=pytest.mark.slow)])
 def test_interrupt_leaves_finished_results(kind, tmp_path):
     """SIGINT to the process group (as a terminal's Ctrl-C): the map stops without a
     hang, Interrupted carries finished chunks not yet yielded, no worker survives."""

@@ -75,6 +75,7 @@ def test_summaries_do_not_depend_on_chunks_or_threads(tank):
                                 simulator=sim, keep=0))
 
 
+@pytest.mark.slow  # a pool of processes and a Dask cluster: ~4 s
 def test_processes_and_a_dask_cluster_give_the_same_summaries(tank):
     distributed = pytest.importorskip("distributed")
     m, o, sim, sc = tank
@@ -240,6 +241,7 @@ def test_ensemble_command_errors_are_one_line(tmp_path, scen_file, capsys, argv,
     assert rc == 2 and message in err and len(err.strip().splitlines()) == 1, err
 
 
+@pytest.mark.slow  # a subprocess and a pool of processes: ~4 s
 @pytest.mark.skipif(sys.platform == "win32", reason="SIGINT")
 def test_ctrl_c_leaves_what_finished_readable(tmp_path, scen_file):
     """SIGINT after the first chunks: exit 130, summary.csv holds exactly the finished

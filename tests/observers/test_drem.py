@@ -314,6 +314,7 @@ SCALAR_SC = scenario_from_dict({"t_end": 30, "dt": 0.02, "initial": {"x1": 1},
                                 "signals": {"u": "sin(t) + sin(2.3*t) + 0.5"}})
 
 
+@pytest.mark.slow  # a long convergence run: ~4 s
 def test_scalar_plant_converges_and_suggest_gamma():
     """N = 1 (A = 0): θ affine and V constant; the gain from a pilot run's Δ."""
     pilot = simulate(SCALAR, drem_design(SCALAR, SCALAR_SPEC, gamma=1).observer, SCALAR_SC)

@@ -228,3 +228,49 @@ def test_huge_json_numbers_are_one_line_errors():
                           ({"steps": 3, "signals": {"u": 10 ** 400}}, "must be finite")):
         with pytest.raises(UsageError, match=message):
             scenario_from_dict(data)
+
+
+# A single run is integrated on numpy scalars (the fast path), several runs on arrays:
+# the same numpy arithmetic, so run 0 of a batch is bit for bit the single run.
+_SINGLE = {
+    "drive, unknown-input (discrete)": (
+        "electric_drive.py", {"observer": "unknown-input", "faults": ["d"]},
+        {"steps": 60, "seed": 4, "signals": {"u": "sin(t/5)", "d": "Piecewise((0, t < 30), (1, True))",
+                                             "rho": {"uniform": [-0.05, 0.05]}}}),
+    "tank, interval (continuous, sqrt)": (
+        "three_tank.py", {"observer": "interval", "estimate": "x1"},
+        {"t_end": 2, "dt": 0.01, "seed": 2, "initial": {"x1": 3, "x2": 2, "x3": 1},
+         "signals": {"rho1": "declared", "w1": "declared"}}),
+    "sliding mode (sign)": (
+        "sliding_example.py", {"observer": "sliding-mode", "faults": ["d"]},
+        {"t_end": 1, "dt": 0.001, "seed": 1, "initial": {"x1": 0, "x2": 1, "x3": 0},
+         "signals": {"d": "Piecewise((0, t < 0.5), (0.8*sin(t - 0.5), True))",
+                     "rho": "0.3*sin(3*t)", "w1": {"uniform": [-0.01, 0.01]}}}),
+}
+
+
+@pytest.mark.parametrize("case", list(_SINGLE))
+def test_a_single_run_is_bit_for_bit_run_zero_of_a_batch(case):
+    path, kw, scen = _SINGLE[case]
+    m = load_model(MODELS / path)
+    o = build_observer(m, design(m, **kw))
+    sc = scenario_from_dict(scen)
+    one, batch = simulate(m, o, sc), simulate(m, o, sc, runs=3)
+    assert one["t"].ndim == 1
+    for c in one.columns:
+        np.testing.assert_array_equal(one[c], batch[c][0], err_msg=f"{case}: {c}")
+
+
+def test_a_single_run_keeps_the_same_non_finite_values_as_a_batch():
+    import sympy as sp
+    from observer_cad import PlantModel
+    x = sp.Symbol("x")
+    m = PlantModel(name="leak", time="continuous", states=[x], outputs=[sp.sqrt(x), 1 / x],
+                   dynamics=[-1 + 0 * x])  # x crosses 0 at t = 1: sqrt → NaN, 1/x → ±inf
+    sc = scenario_from_dict({"t_end": 2, "dt": 0.1, "initial": {"x": 1}})
+    one = simulate(m, None, sc, keep_nonfinite=True)
+    batch = simulate(m, None, sc, runs=2, keep_nonfinite=True)
+    assert np.isnan(one["y1"][-1]) and np.isinf(one["y2"][10])
+    assert one.nonfinite == batch.nonfinite.replace(" (run 0)", "")
+    for c in one.columns:
+        np.testing.assert_array_equal(one[c], batch[c][0], err_msg=c)

@@ -68,7 +68,9 @@ def _symbolic_designs(model):
     return made
 
 
-@pytest.mark.parametrize("which", ["electric_drive", "three_tank_param", "uio_param"])
+@pytest.mark.parametrize("which", [  # the two parametrised plants take 4–7 s each: slow step
+    "electric_drive", pytest.param("three_tank_param", marks=pytest.mark.slow),
+    pytest.param("uio_param", marks=pytest.mark.slow)])
 def test_every_symbolic_design_excludes_its_denominators(which, models_dir):
     model = {"electric_drive": lambda: _electric_drive(models_dir),
              "three_tank_param": _three_tank_parametrised,
