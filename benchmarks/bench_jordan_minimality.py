@@ -93,6 +93,10 @@ def cases(slow: bool):
                                     -2 * x5 + x2]), sp.eye(5)[:2, :], 2))
     out.append(("`random_model(6, 2, 0, seed=0)`, z = (x1, x2) (4 rows before span_rows)", random_model(
         6, 2, 0, seed=0, time="continuous"), sp.eye(6)[:2, :], 3))
+    # two rows impossible, no extra row of a listed λ gives three: a pair of λ fixes the
+    # line the three rows share modulo [M; H], the third λ is an exact root for the pair
+    out.append(("`random_model(7, 2, 0, seed=0)`, z = (x1, x2) (4 rows before the pair search)",
+                random_model(7, 2, 0, seed=0, time="continuous"), sp.eye(7)[:2, :], 3))
     if slow:
         out.append(("unmeasured companion block, λ³ + 6λ² + 8λ + 1", PlantModel(
             name="cubic", time="continuous", states=[x1, x2, x3, x4], inputs=[u], outputs=[x4],

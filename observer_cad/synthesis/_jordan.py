@@ -84,6 +84,20 @@ def _pencil(F, H, L0, lam):
     return sp.Matrix.vstack(L0 * (F - lam * sp.eye(n)), H)
 
 
+def _family(F, H, L0, lam) -> tuple:
+    """The rows of λ: ``(Φ rows, J rows, pivot conditions)`` with Φ = S L0 and
+    S L0 (F − λI) = J H, from the left null space of [L0 (F − λI); H] (nonzero Φ only)."""
+    members, rkP = left_null_echelon(_pencil(F, H, L0, lam))
+    rows_phi, rows_j = [], []
+    for v in members:
+        S, J = v[:, :L0.rows], -v[:, L0.rows:]
+        Phi_i = (S * L0).applyfunc(sp.cancel)
+        if Phi_i != sp.zeros(1, F.rows):
+            rows_phi.append(Phi_i)
+            rows_j.append(J.applyfunc(sp.cancel))
+    return rows_phi, rows_j, rkP.conditions
+
+
 def _det(M):
     """Determinant over the polynomial ring (fast, exact), as an expression."""
     from sympy.polys.matrices import DomainMatrix
@@ -296,18 +310,9 @@ def design_jordan(model: PlantModel, *, observer: str, estimate=None,
     for i_lam, lam in enumerate(lam_list + extra):
         report(f"designing (Jordan form): null space for λ = {lam} ({i_lam + 1} of"
                f" {len(lam_list) + len(extra)})")
-        P = _pencil(F, H, L0, lam)
-        members, rkP = left_null_echelon(P)
-        lam_pivots[lam] = rkP.conditions
-        rows_phi, rows_j = [], []
-        for v in members:
-            S, J = v[:, :L0.rows], -v[:, L0.rows:]
-            Phi_i = (S * L0).applyfunc(sp.cancel)
-            if Phi_i != sp.zeros(1, n):
-                rows_phi.append(Phi_i)
-                rows_j.append(J.applyfunc(sp.cancel))
-                if i_lam < len(lam_list):
-                    pool.append((lam, Phi_i, J.applyfunc(sp.cancel)))
+        rows_phi, rows_j, lam_pivots[lam] = _family(F, H, L0, lam)
+        if i_lam < len(lam_list):
+            pool += [(lam, Phi_i, J_i) for Phi_i, J_i in zip(rows_phi, rows_j)]
         if rows_phi:
             fam[lam] = (sp.Matrix.vstack(*rows_phi), sp.Matrix.vstack(*rows_j))
             if observer == "diagnostic":  # rows inside rowspace(H): a residual with k = 1
@@ -332,6 +337,12 @@ def design_jordan(model: PlantModel, *, observer: str, estimate=None,
     if M is not None and chosen is None:  # directed: M ∈ rowspace(H) + Σ_λ rowspace(N_λ L0)
         chosen = _directed_rows(fam, lam_list, H, M, n, observer, D, st, tried, names,
                                 tuple(c.lambdas for c in chains if c.lambdas))
+    if (chosen is not None and M is not None and M.rows > 1 and span is not None
+            and span.analysed and not span.possible and len(chosen) > span.q + 1):
+        # q rows impossible: q + 1 rows whose images modulo [M; H] share one line
+        alt = _pair_span_design(F, H, L if decoupled else sp.zeros(n, 0), L0, fam, lam_list,
+                                M, observer, D, st, tried, names, work.time)
+        chosen = alt or chosen
     if (chosen is not None and M is not None and M.rows > 1
             and not (span is not None and span.analysed
                      and len(chosen) == span.q + (not span.possible))):
@@ -619,6 +630,145 @@ def _extended_span_design(fam, lam_list, pool, H, M, observer, D, st, tried, nam
             if rows is not None and len(rows) < k:
                 return rows
     return None
+
+
+def _pair_span_design(F, H, L, L0, fam, lam_list, M, observer, D, st, tried, names, time):
+    """q + 1 rows for z with several components when q rows are impossible (the least a
+    Jordan model can then have). Modulo rowspace [M; H] (the columns of Q span its right
+    null space), q + 1 rows spanning z modulo H all lie on one line w. Two λ with rows
+    Φ₁ Q = Φ₂ Q ≠ 0 (a linear solve for rational λ₁, λ₂) give w = Φ₁ Q; the further λ
+    whose rows also meet rowspace [M; Φ₁; H] are the rank drops of E(λ) for T = [M; Φ₁]
+    (:func:`span_rows`, exact roots: often rational, not in any list), and the rows
+    spanning T modulo H are taken as in :func:`_span_design` (METHOD §2b).
+
+    The further λ depend on the pair: a floating-point scan over a grid of rational pairs
+    (generalised eigenvalues of E(λ)) picks the pairs whose further λ look real and
+    stable; only those are solved exactly, and the exact solve decides."""
+    Q = sp.Matrix.hstack(*sp.Matrix.vstack(M, H).nullspace())
+    if Q.cols == 0:
+        return None
+    q = _rank(sp.Matrix.vstack(M, H)) - _rank(H)
+    grid = [lam for lam in lam_list if lam.is_rational] + [
+        v for v in _PAIR_GRID[time] if not any(v == w for w in lam_list)]
+    pairs = _promising_pairs(F, H, L, L0, M, Q, grid, q, time)
+    for i, (l1, l2) in enumerate(pairs[:_PAIR_EXACT]):
+        report(f"designing (Jordan form): q + 1 rows through λ = {l1}, {l2} (pair {i + 1})")
+        more = dict(fam)
+        for lam in (l1, l2):
+            if lam not in more:
+                phis, js, _ = _family(F, H, L0, lam)
+                if not phis:
+                    break
+                more[lam] = (sp.Matrix.vstack(*phis), sp.Matrix.vstack(*js))
+        else:
+            N1, N2 = more[l1][0], more[l2][0]
+            basis, _ = left_null_space(sp.Matrix.vstack(N1 * Q, -N2 * Q))
+            if len(basis) != 1:
+                continue  # the scan kept only pairs with one line w
+            Phi1 = (basis[0][:, :N1.rows] * N1).applyfunc(sp.cancel)
+            if (Phi1 * Q).is_zero_matrix:
+                continue  # a row inside rowspace [M; H]: the q-row case, already decided
+            sr = span_rows(F, H, L, sp.Matrix.vstack(M, Phi1), LAMBDA, time)
+            if not sr.possible:
+                continue
+            for lam in sr.stable:
+                if not any(_same_number(lam, w) for w in more):
+                    phis, js, _ = _family(F, H, L0, lam)
+                    if phis:
+                        more[lam] = (sp.Matrix.vstack(*phis), sp.Matrix.vstack(*js))
+            order = [l1, l2] + [lam for lam in sr.stable if lam in more and lam not in (l1, l2)]
+            rows = _span_design(more, order, H, M, observer, D, st, tried, names, (Phi1,))
+            if rows is not None:
+                return rows
+    return None
+
+
+def _float_left_null(A, rtol=1e-9):
+    """Rows spanning the left null space of a float matrix (SVD, relative tolerance)."""
+    if A.shape[0] == 0:
+        return np.zeros((0, 0))
+    u, sv, _ = np.linalg.svd(A)
+    r = int(np.sum(sv > rtol * (sv[0] if sv.size else 1.0))) if sv.size else 0
+    return u[:, r:].T
+
+
+def _promising_pairs(F, H, L, L0, M, Q, grid, q, time) -> list:
+    """Rational pairs (λ₁, λ₂) of the grid for which, in floating point, exactly one line
+    w = Φ₁ Q = Φ₂ Q exists and E(λ) of T = [M; Φ₁] drops rank at q − 1 further real stable
+    λ (distinct, not λ₁ or λ₂); the least stiff first (continuous: the ratio of the largest
+    to the smallest |λ|; discrete: the largest |λ|)."""
+    try:
+        Fn, Hn, L0n, Mn, Qn = (np.array(X.evalf().tolist(), dtype=float).reshape(X.shape)
+                               for X in (F, H, L0, M, Q))
+        Ln = np.array(L.evalf().tolist(), dtype=float).reshape(L.shape)
+    except (TypeError, ValueError):
+        return []
+    n = Fn.shape[0]
+    fams = {}
+    for lam in grid:
+        x = float(lam)
+        S = _float_left_null(np.vstack([L0n @ (Fn - x * np.eye(n)), Hn]))
+        fams[lam] = S[:, :L0n.shape[0]] @ L0n
+    scored = []
+    for l1, l2 in itertools.combinations(grid, 2):
+        N1, N2 = fams[l1], fams[l2]
+        if not len(N1) or not len(N2):
+            continue
+        Y = _float_left_null(np.vstack([N1 @ Qn, -(N2 @ Qn)]))
+        if Y.shape[0] != 1:
+            continue
+        phi = Y[0, :N1.shape[0]] @ N1
+        if np.linalg.norm(phi @ Qn) < 1e-8 * max(1.0, np.linalg.norm(phi)):
+            continue
+        T = np.vstack([Mn, phi])
+        A = np.block([[T @ Fn, T @ Ln], [Hn @ Fn, Hn @ Ln], [-Hn, np.zeros((Hn.shape[0], Ln.shape[1]))]])
+        B = np.block([[T, np.zeros((T.shape[0], Ln.shape[1]))],
+                      [np.zeros((2 * Hn.shape[0], n + Ln.shape[1]))]])
+        # (a, b, g) E(λ) = 0 with E(λ) = A − λ B: the rank drops are the finite
+        # generalised eigenvalues of a random square compression (a superset)
+        rng = np.random.default_rng(20261123)
+        r = np.linalg.matrix_rank(A - 0.37 * B)
+        U, V = rng.standard_normal((r, A.shape[0])), rng.standard_normal((A.shape[1], r))
+        try:
+            ev = scipy_linalg().eigvals(U @ A @ V, U @ B @ V)
+        except (np.linalg.LinAlgError, ValueError):
+            continue
+        x1, x2 = float(l1), float(l2)
+        real = sorted({round(float(e.real), 9) for e in ev if np.isfinite(e)  # |e| huge:
+                       and abs(e) < _PAIR_MAX and abs(e.imag) <= 1e-7 * (1 + abs(e))})  # ∞
+        new = [e for e in real if min(abs(e - x1), abs(e - x2)) > 1e-4 * (1 + abs(e))
+               and (e < 0 if time == "continuous" else abs(e) < 1)
+               and _float_drops(A - e * B, r)]
+        if len(new) >= q - 1:
+            lams = [abs(v) for v in [x1, x2] + new[:q - 1]]
+            # continuous: the least stiff (fastest / slowest |λ|); discrete: the fastest
+            scored.append(((max(lams) / min(lams)) if time == "continuous" else max(lams),
+                           l1, l2))
+    return [(a, b) for _, a, b in sorted(scored, key=lambda t: t[0])]
+
+
+def _float_drops(A, r) -> bool:
+    sv = np.linalg.svd(A, compute_uv=False)
+    return bool(sv[r - 1] <= 1e-8 * sv[0])
+
+
+def scipy_linalg():
+    import scipy.linalg
+    return scipy.linalg
+
+
+#: the rational λ the pair search scans besides the list's (continuous / discrete)
+_PAIR_GRID = {
+    "continuous": [sp.Rational(v) for v in (
+        "-1/10", "-1/5", "-1/4", "-1/3", "-1/2", "-2/3", "-3/4", "-1", "-3/2", "-2", "-3", "-4",
+        "-5", "-6", "-8", "-10", "-15", "-20", "-30", "-50", "-100", "-200", "-500", "-1000")],
+    "discrete": [s_ * sp.Rational(v) for v in (
+        "1/16", "1/8", "1/4", "3/8", "1/2", "5/8", "3/4", "7/8", "15/16") for s_ in (1, -1)],
+}
+#: generalised eigenvalues at least this large are taken as infinite (B is singular)
+_PAIR_MAX = 1e5
+#: pairs solved exactly after the scan
+_PAIR_EXACT = 6
 
 
 #: extra-row choices tried per e by :func:`_extended_span_design`

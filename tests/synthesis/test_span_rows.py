@@ -95,6 +95,36 @@ def test_one_more_row_proven_when_q_rows_are_impossible(n, l, q, seed, k_before)
     _rows_ok(d, F, H, M)
 
 
+@pytest.mark.parametrize("seed", [0, 2])
+def test_q_plus_one_rows_through_a_pair_of_lambdas(seed):
+    """Seven states, two outputs, z = (x1, x2): two rows are impossible, and no extra row
+    of the default λ gives three (before: four rows, least order in [3, 4]). Three rows
+    whose images modulo [M; H] share one line: a pair of rational λ fixes the line, the
+    third λ is an exact root found for it (not in any list). Checked independently:
+    the row identities, distinct stable λ, and modulo [M; H] the rows are collinear."""
+    m = random_model(7, 2, 0, seed=seed, time="continuous")
+    st = extract_structure(m)
+    F, H, M = sp.Matrix(st.F), sp.Matrix(st.H), _first_rows(7, 2)
+    d = design_jordan(m, observer="virtual-sensor", estimate=M)
+    assert d.k == 3 and d.certificate.passed
+    assert _minimal(d).holds and "impossible for every real stable λ" in _minimal(d).detail
+    _rows_ok(d, F, H, M)
+    lams = d.lambdas
+    assert len(set(lams)) == 3 and all(v < 0 for v in lams)
+    assert any(v not in range(-7, 0) for v in lams)  # a λ outside the default list
+    Q = sp.Matrix.hstack(*sp.Matrix.vstack(M, H).nullspace())
+    assert (d.matrices.Phi * Q).rank() == 1
+
+
+def test_q_plus_one_rows_not_claimed_when_no_pair_works():
+    """The discrete-time twin: no pair of the scanned λ gives a third stable λ, so the
+    design keeps four rows and says the least order lies in [3, 4] (not proven)."""
+    m = random_model(7, 2, 0, seed=0, time="discrete")
+    d = design_jordan(m, observer="virtual-sensor", estimate=_first_rows(7, 2))
+    assert d.k == 4 and d.certificate.passed
+    assert not _minimal(d).holds and "lies in [3, 4]" in _minimal(d).detail
+
+
 def _special_plant():
     """x2' = −5/2 x2 + u (its row is a left eigenvector), x1 reachable by a row at any λ;
     y = (x3, x4)."""
