@@ -721,21 +721,16 @@ def _promising_pairs(F, H, L, L0, M, Q, grid, q, time) -> list:
         if np.linalg.norm(phi @ Qn) < 1e-8 * max(1.0, np.linalg.norm(phi)):
             continue
         T = np.vstack([Mn, phi])
-        A = np.block([[T @ Fn, T @ Ln], [Hn @ Fn, Hn @ Ln], [-Hn, np.zeros((Hn.shape[0], Ln.shape[1]))]])
-        B = np.block([[T, np.zeros((T.shape[0], Ln.shape[1]))],
-                      [np.zeros((2 * Hn.shape[0], n + Ln.shape[1]))]])
-        # (a, b, g) E(λ) = 0 with E(λ) = A − λ B: the rank drops are the finite
-        # generalised eigenvalues of a random square compression (a superset)
-        rng = np.random.default_rng(20261123)
-        r = np.linalg.matrix_rank(A - 0.37 * B)
-        U, V = rng.standard_normal((r, A.shape[0])), rng.standard_normal((A.shape[1], r))
-        try:
-            ev = scipy_linalg().eigvals(U @ A @ V, U @ B @ V)
-        except (np.linalg.LinAlgError, ValueError):
+        zl = np.zeros((Hn.shape[0], Ln.shape[1]))
+        A = np.block([[T @ Fn, T @ Ln], [Hn @ Fn, Hn @ Ln], [-Hn, zl]])
+        B = np.vstack([np.hstack([T, np.zeros((T.shape[0], Ln.shape[1]))]),
+                       np.zeros((2 * Hn.shape[0], n + Ln.shape[1]))])
+        r, ev = _pencil_drops(A, B)
+        if ev is None:
             continue
         x1, x2 = float(l1), float(l2)
-        real = sorted({round(float(e.real), 9) for e in ev if np.isfinite(e)  # |e| huge:
-                       and abs(e) < _PAIR_MAX and abs(e.imag) <= 1e-7 * (1 + abs(e))})  # ∞
+        real = sorted({round(float(e.real), 9) for e in ev
+                       if np.isfinite(e) and abs(e.imag) <= 1e-7 * (1 + abs(e))})
         new = [e for e in real if min(abs(e - x1), abs(e - x2)) > 1e-4 * (1 + abs(e))
                and (e < 0 if time == "continuous" else abs(e) < 1)
                and _float_drops(A - e * B, r)]
@@ -747,15 +742,33 @@ def _promising_pairs(F, H, L, L0, M, Q, grid, q, time) -> list:
     return [(a, b) for _, a, b in sorted(scored, key=lambda t: t[0])]
 
 
+def _pencil_drops(A, B) -> tuple:
+    """``(r, candidates)``: the rank r of A − λB at a shift σ (its generic rank unless σ
+    is a drop) and candidates for the λ where it drops below r: the finite eigenvalues of
+    a random r × r compression U (A − λB) V (a superset of the drops), by shift and invert
+    (μ = 1 / (λ − σ) of (U (A − σB) V)⁻¹ U B V; μ = 0 is λ = ∞). Candidates None when the
+    compression is singular at the shift."""
+    rng = np.random.default_rng(20261123)
+    r = np.linalg.matrix_rank(A - _SHIFT * B)
+    if r == 0:
+        return r, None
+    U, V = rng.standard_normal((r, A.shape[0])), rng.standard_normal((A.shape[1], r))
+    try:
+        mu = np.linalg.eigvals(np.linalg.solve(U @ (A - _SHIFT * B) @ V, U @ B @ V))
+    except np.linalg.LinAlgError:
+        return r, None
+    big = np.abs(mu) > 1 / _PAIR_MAX  # |λ − σ| < _PAIR_MAX; smaller μ: λ taken as infinite
+    return r, _SHIFT + 1 / mu[big]
+
+
 def _float_drops(A, r) -> bool:
+    """A (float) has rank below r: σ_r ≤ 1e-8 σ_1."""
     sv = np.linalg.svd(A, compute_uv=False)
     return bool(sv[r - 1] <= 1e-8 * sv[0])
 
 
-def scipy_linalg():
-    import scipy.linalg
-    return scipy.linalg
-
+#: the shift of :func:`_pencil_drops` (a number no λ of interest sits on)
+_SHIFT = 0.3717
 
 #: the rational λ the pair search scans besides the list's (continuous / discrete)
 _PAIR_GRID = {
@@ -765,7 +778,7 @@ _PAIR_GRID = {
     "discrete": [s_ * sp.Rational(v) for v in (
         "1/16", "1/8", "1/4", "3/8", "1/2", "5/8", "3/4", "7/8", "15/16") for s_ in (1, -1)],
 }
-#: generalised eigenvalues at least this large are taken as infinite (B is singular)
+#: |λ − shift| at least this large is taken as infinite (B is singular)
 _PAIR_MAX = 1e5
 #: pairs solved exactly after the scan
 _PAIR_EXACT = 6
