@@ -97,6 +97,10 @@ def cases(slow: bool):
     # line the three rows share modulo [M; H], the third λ is an exact root for the pair
     out.append(("`random_model(7, 2, 0, seed=0)`, z = (x1, x2) (4 rows before the pair search)",
                 random_model(7, 2, 0, seed=0, time="continuous"), sp.eye(7)[:2, :], 3))
+    # its discrete-time twin: three rows impossible (decided exactly), so four are minimal
+    out.append(("`random_model(7, 2, 0, seed=0, time='discrete')`, z = (x1, x2) (3 rows"
+                " impossible)", random_model(7, 2, 0, seed=0, time="discrete"),
+                sp.eye(7)[:2, :], 4))
     if slow:
         out.append(("unmeasured companion block, λ³ + 6λ² + 8λ + 1", PlantModel(
             name="cubic", time="continuous", states=[x1, x2, x3, x4], inputs=[u], outputs=[x4],

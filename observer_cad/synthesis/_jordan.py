@@ -42,6 +42,7 @@ from ._nonlinear import substitute_arguments
 from ._poles import default_eigenvalues
 from ._lambda_search import family_jump_lambdas, one_row_lambdas, span_rows
 from ._order_bound import (chain_order, estimation_order_bound, nonlinear_jordan_bound,
+                           one_more_row,
                            residual_order_bound, spread_lambdas)
 from ._reduced import is_stable, jordan_equations, observer_symbols, output_symbols
 from ._signature import residual_response
@@ -337,12 +338,16 @@ def design_jordan(model: PlantModel, *, observer: str, estimate=None,
     if M is not None and chosen is None:  # directed: M ∈ rowspace(H) + Σ_λ rowspace(N_λ L0)
         chosen = _directed_rows(fam, lam_list, H, M, n, observer, D, st, tried, names,
                                 tuple(c.lambdas for c in chains if c.lambdas))
+    more = None  # q rows impossible: can q + 1 do it? (decided exactly in some cases)
     if (chosen is not None and M is not None and M.rows > 1 and span is not None
             and span.analysed and not span.possible and len(chosen) > span.q + 1):
-        # q rows impossible: q + 1 rows whose images modulo [M; H] share one line
-        alt = _pair_span_design(F, H, L if decoupled else sp.zeros(n, 0), L0, fam, lam_list,
-                                M, observer, D, st, tried, names, work.time)
-        chosen = alt or chosen
+        L_span = L if decoupled else sp.zeros(n, 0)
+        more = one_more_row(F, H, L_span, M, LAMBDA, work.time)
+        if not (more.analysed and not more.possible):
+            # q + 1 rows whose images modulo [M; H] share one line
+            alt = _pair_span_design(F, H, L_span, L0, fam, lam_list, M, observer, D, st,
+                                    tried, names, work.time, more.lambdas)
+            chosen = alt or chosen
     if (chosen is not None and M is not None and M.rows > 1
             and not (span is not None and span.analysed
                      and len(chosen) == span.q + (not span.possible))):
@@ -428,7 +433,7 @@ def design_jordan(model: PlantModel, *, observer: str, estimate=None,
                               F, H, L if decoupled else sp.zeros(n, 0), M, C,
                               [sp.Matrix(t.row) for t in st.terms], k_, LAMBDA, work.time,
                               lam_list)) if st.terms and M is not None and not lambdas
-                          else None, several=M is not None and M.rows > 1)
+                          else None, several=M is not None and M.rows > 1, more=more)
     conds.append(minimal)
     choice = (f"k = {k}: rows with λ = ({', '.join(map(str, lams))}) chosen from"
               f" {len(pool)} candidate row(s) for λ in {{{', '.join(map(str, lam_list))}}};"
@@ -632,7 +637,8 @@ def _extended_span_design(fam, lam_list, pool, H, M, observer, D, st, tried, nam
     return None
 
 
-def _pair_span_design(F, H, L, L0, fam, lam_list, M, observer, D, st, tried, names, time):
+def _pair_span_design(F, H, L, L0, fam, lam_list, M, observer, D, st, tried, names, time,
+                      hint=()):
     """q + 1 rows for z with several components when q rows are impossible (the least a
     Jordan model can then have). Modulo rowspace [M; H] (the columns of Q span its right
     null space), q + 1 rows spanning z modulo H all lie on one line w. Two λ with rows
@@ -643,15 +649,19 @@ def _pair_span_design(F, H, L, L0, fam, lam_list, M, observer, D, st, tried, nam
 
     The further λ depend on the pair: a floating-point scan over a grid of rational pairs
     (generalised eigenvalues of E(λ)) picks the pairs whose further λ look real and
-    stable; only those are solved exactly, and the exact solve decides."""
+    stable; only those are solved exactly, and the exact solve decides. ``hint``: λ known
+    to allow q + 1 rows (:func:`one_more_row`); pairs of its rational ones are tried after
+    the scan's (whose λ are less stiff)."""
     Q = sp.Matrix.hstack(*sp.Matrix.vstack(M, H).nullspace())
     if Q.cols == 0:
         return None
     q = _rank(sp.Matrix.vstack(M, H)) - _rank(H)
     grid = [lam for lam in lam_list if lam.is_rational] + [
         v for v in _PAIR_GRID[time] if not any(v == w for w in lam_list)]
-    pairs = _promising_pairs(F, H, L, L0, M, Q, grid, q, time)
-    for i, (l1, l2) in enumerate(pairs[:_PAIR_EXACT]):
+    pairs = _promising_pairs(F, H, L, L0, M, Q, grid, q, time)[:_PAIR_EXACT]
+    pairs += [pr for pr in itertools.combinations([v for v in hint if v.is_rational], 2)
+              if pr not in pairs]
+    for i, (l1, l2) in enumerate(pairs):
         report(f"designing (Jordan form): q + 1 rows through λ = {l1}, {l2} (pair {i + 1})")
         more = dict(fam)
         for lam in (l1, l2):
@@ -893,7 +903,8 @@ def _special_lambdas(observer, F, H, L0, L, M, time):
 
 
 def _minimality(observer, k, n, lams, lam_list, adm, requested, one_row, jumps, time,
-                bound, chains=(), span=None, nonlinear=None, several=False) -> Condition:
+                bound, chains=(), span=None, nonlinear=None, several=False,
+                more=None) -> Condition:
     """Why fewer rows are impossible, as far as it is proven (METHOD §2b). ``bound(k)``
     gives the :class:`OrderBound` of every reduced model of the task (any F*); ``chains``
     the :class:`ChainOrder` of each order m (z = M x, every λ admissible). A Jordan
@@ -915,6 +926,13 @@ def _minimality(observer, k, n, lams, lam_list, adm, requested, one_row, jumps, 
         return Condition(name, True, found + f"every model of z has at least {span.q} rows"
                          " (rank [M; H] − rank H), and exactly that many is impossible for"
                          f" every real stable λ: {span.evidence}", ref, required=False)
+    no_more = (span is not None and span.analysed and not span.possible and more is not None
+               and more.analysed and not more.possible)
+    if no_more and k == span.q + 2:
+        return Condition(name, True, found + f"every model of z has at least {span.q} rows"
+                         " (rank [M; H] − rank H); exactly that many is impossible for every"
+                         f" real stable λ ({span.evidence}); and {span.q + 1} rows are impossible"
+                         f" too: {more.evidence}", ref, required=False)
     if requested:
         why = f"k = {k} for the requested λ only; other λ were not searched"
         proven = False
@@ -970,6 +988,10 @@ def _minimality(observer, k, n, lams, lam_list, adm, requested, one_row, jumps, 
         least += f"; {span.q} rows (rank [M; H] − rank H): {span.evidence}"
         if not span.possible:
             lo = max(lo, span.q + 1)
+        if more is not None:
+            least += f"; {span.q + 1} rows: {more.evidence}"
+            if no_more:
+                lo = max(lo, span.q + 2)
     return Condition(name, False, found + f"{why}; the lower bound over every F* is {b.k}{where}"
                      f" ({b.evidence}){least}, so the least order of a Jordan model lies in"
                      f" [{lo}, {k}]", ref, required=False)

@@ -46,11 +46,14 @@ import sympy as sp
 
 from ..numerics import exact_rank, left_null_echelon, left_null_space, solve_left
 from ._canonical import krylov_blocks, member_to_phi
-from ._lambda_search import exact_real_roots, span_rows
+from sympy.polys.matrices import DomainMatrix
+
+from ._lambda_search import (exact_real_roots, family_jump_lambdas, rank_drop_lambdas,
+                             span_pencil, span_rows)
 from ._reduced import is_stable
 
 __all__ = ["OrderBound", "ChainOrder", "estimation_order_bound", "residual_order_bound",
-           "nonlinear_jordan_bound",
+           "nonlinear_jordan_bound", "OneMoreRow", "one_more_row",
            "chain_order", "chain_system", "hyperplane_functional", "hyperplane_corners",
            "hyperplane_member", "plane_order", "spread_lambdas", "MAX_SUBSETS"]
 
@@ -165,6 +168,144 @@ def nonlinear_jordan_bound(F, H, L, M, C, A_rows, k: int, lam, time: str, tries,
                 return None
             least = bound if least is None else min(least, bound)
     return OrderBound(least, _nonlinear_evidence(parts))
+
+
+@dataclasses.dataclass(frozen=True)
+class OneMoreRow:
+    """Can q + 1 rows give z = M x when q = rank [M; H] − rank H rows cannot?
+
+    ``analysed``: False when the case is outside what :func:`one_more_row` decides
+    (``evidence`` says why); ``possible``: some w gives q + 1 distinct real stable λ (a
+    necessary condition; a design still has to be built and certified); ``lambdas``: such
+    λ when found (exact); ``evidence``: one line."""
+
+    analysed: bool
+    possible: bool
+    lambdas: tuple
+    evidence: str
+
+
+def one_more_row(F, H, L, M, lam, time: str) -> OneMoreRow:
+    """Decide exactly whether a Jordan model of z = M x with q + 1 rows can exist, in the
+    case where the rows' images modulo rowspace [M; H] form a polynomial family of
+    hyperplanes (METHOD §2b, "one more row").
+
+    Let Q span the right null space of [M; H] (c columns) and V(λ) the rows Φ with
+    Φ L = 0 and Φ (F − λI) ∈ rowspace H. Preconditions, each checked exactly: M has q rows
+    independent modulo H; no row of any real stable λ lies in rowspace [M; H] outside
+    rowspace H (E(λ) of :func:`span_rows` has no a-part, generically nor at its drops);
+    V(λ) has the same dimension f at every real stable λ (no family jump); f = c − 1.
+    Then q + 1 rows span z and one more direction modulo H, so their images Φ_i Q all lie
+    on one line w ≠ 0; none is 0 and no two share a λ (either would put a row of V(λ)
+    inside rowspace [M; H]). So w ∈ W(λ_i) = V(λ_i) Q at q + 1 distinct real stable λ_i,
+    and W(λ) ⊆ ν(λ)^⊥ with ν(λ) the primitive vector of signed maximal minors of a
+    polynomial basis of W(λ): p_w(λ) = ν(λ)·w has q + 1 distinct real stable roots. The
+    p_w form a linear family of polynomials of degree ≤ D = deg ν (of dimension c when
+    no w has p_w ≡ 0). D < q + 1: impossible. D = q + 1: every root must be real,
+    distinct and stable, and the monic members are an affine family of dimension c − 1,
+    decided exactly as the chain polynomials are (a point, a line, a plane or a
+    hyperplane). Otherwise not analysed."""
+    F, H, L, M = (sp.Matrix(X) for X in (F, H, L, M))
+    if set().union(*(X.free_symbols for X in (F, H, L, M))):
+        return OneMoreRow(False, False, (), "not analysed: symbolic parameters")
+    n = F.rows
+
+    def no(why):
+        return OneMoreRow(False, False, (), f"one more row not analysed: {why}")
+
+    rH = exact_rank(H).rank if H.rows else 0
+    rMH = exact_rank(sp.Matrix.vstack(M, H)).rank
+    q, c = rMH - rH, n - rMH
+    if q != M.rows:
+        return no("the rows of M are dependent modulo the outputs")
+    if c < 2:
+        return no(f"rowspace [M; H] has codimension {c}")
+    E = span_pencil(F, H, L, M, lam)
+    if any(not v[:, :M.rows].is_zero_matrix for v in left_null_space(E)[0]):
+        return no("rows inside rowspace [M; H] exist for λ generic")
+    _, drop = rank_drop_lambdas(E, lam, time, "E(λ)", "rows inside rowspace [M; H]")
+    if not drop.analysed:  # pragma: no cover - singular compressions (probability 0)
+        return no(drop.evidence)
+    for v in drop.stable:
+        if any(not b[:, :M.rows].is_zero_matrix for b in left_null_space(E.subs(lam, v))[0]):
+            return no(f"at λ = {v} a row lies inside rowspace [M; H]")
+    L0 = (sp.Matrix.vstack(*left_null_space(L)[0]) if L.cols else sp.eye(n))
+    if L0.rows == 0:
+        return no("no row has Φ L = 0")
+    jumps = family_jump_lambdas(F, H, L0, lam, time)
+    if not jumps.analysed or jumps.stable:
+        return no("the family of rows grows at λ = " + ", ".join(map(str, jumps.stable))
+                  if jumps.stable else jumps.evidence)
+    rows = []
+    for v in left_null_space(sp.Matrix.vstack(L0 * (F - lam * sp.eye(n)), H))[0]:
+        phi = (v[:, :L0.rows] * L0).applyfunc(sp.together)
+        den = sp.lcm_list([sp.fraction(e)[1] for e in phi])
+        phi = (phi * den).applyfunc(sp.cancel)
+        if not phi.is_zero_matrix:
+            rows.append(phi)
+    Q = sp.Matrix.hstack(*sp.Matrix.vstack(M, H).nullspace())
+    f = len(rows)
+    if f != c - 1:
+        return no(f"the images of the rows modulo rowspace [M; H] have dimension {f}, not"
+                  f" {c - 1} (a hyperplane of the {c} dimensions)")
+    G = (sp.Matrix.vstack(*rows) * Q).applyfunc(sp.expand)
+    nu = []
+    for j in range(c):
+        minor = G[:, [i for i in range(c) if i != j]]
+        dm = DomainMatrix.from_Matrix(minor).convert_to(sp.QQ[lam])
+        nu.append((-1) ** j * sp.QQ[lam].to_sympy(dm.det()))
+    g = sp.gcd_list(nu)
+    if g == 0:
+        return no("the images of the rows are dependent for λ generic")
+    nu = [sp.cancel(e / g) for e in nu]
+    polys = [sp.Poly(e, lam) for e in nu]
+    D = max(p.degree() for p in polys)
+    coef = sp.Matrix([[p.coeff_monomial(lam ** i) for i in range(D + 1)] for p in polys])
+    fam = (f"modulo rowspace [M; H] the rows of λ span the hyperplane ν(λ)^⊥, ν(λ) ="
+           f" ({', '.join(str(sp.factor(e)) for e in nu)}); q + 1 = {q + 1} rows need a w"
+           f" with ν(λ)·w = 0 at {q + 1} distinct real stable λ")
+    if exact_rank(coef).rank < c:
+        return no(f"{fam}, but some w ≠ 0 has ν(λ)·w ≡ 0")
+    if D < q + 1:
+        return OneMoreRow(True, False, (), f"{fam}: ν(λ)·w has degree ≤ {D} < {q + 1},"
+                          f" so no choice of real stable λ gives {q + 1} rows")
+    if D > q + 1:
+        return no(f"{fam}: ν(λ)·w has degree {D} > {q + 1} (at least {q + 1} of its roots"
+                  " stable: not decided)")
+    m = D
+    j0 = next(j for j, p in enumerate(polys) if p.degree() == m)
+    lc0 = polys[j0].LC()
+    p0 = sp.expand(nu[j0] / lc0)
+    dirs = [sp.expand(nu[j] - polys[j].coeff_monomial(lam ** m) / lc0 * nu[j0])
+            for j in range(c) if j != j0]
+    d = len(dirs)
+
+    def roots_ok(p):
+        return _stable_distinct_roots(p, lam, m, time)
+
+    if d >= m:
+        order = ChainOrder(m, "free", d, None, (), "every monic p of that degree")
+        return OneMoreRow(True, True, (), f"{fam}: {order.evidence}")
+    if d == 1:
+        order = _pencil_order(m, p0, dirs[0], lam, time, roots_ok)
+    elif d == m - 1:
+        a0 = [-sp.Poly(p0, lam).coeff_monomial(lam ** i) for i in range(m)]
+        av = [[-sp.Poly(e, lam).coeff_monomial(lam ** i) for i in range(m)] for e in dirs]
+        ell = hyperplane_functional(m, a0, av)
+        ok, text = hyperplane_corners(ell, time)
+        p = hyperplane_member(ell, time, lam) if ok else None
+        order = ChainOrder(m, "hyperplane", d, p, roots_ok(p) if p is not None else (),
+                           text if p is None or not ok else f"{text}; p(λ) = {sp.factor(p)}")
+        if ok and p is None:  # pragma: no cover - the walk always ends at a member
+            return OneMoreRow(True, True, (), f"{fam}: {text}")
+    elif d == 2:
+        order = plane_order(m, p0, dirs, lam, time, roots_ok)
+    else:
+        return no(f"{fam}: the monic p_w form a {d}-parameter family of degree {m}")
+    if order.lambdas:
+        return OneMoreRow(True, True, tuple(order.lambdas), f"{fam}: {order.evidence}")
+    return OneMoreRow(True, False, (), f"{fam}: {order.evidence}, so no choice of real"
+                      f" stable λ gives {q + 1} rows")
 
 
 def _nonlinear_evidence(parts) -> str:

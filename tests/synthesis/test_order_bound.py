@@ -465,8 +465,12 @@ def test_vector_z_joint_chain_proves_minimal():
     d = design_jordan(m, observer="interval", estimate=M)
     assert d.k == 4 and d.certificate.passed
     cond = _minimal(d)
-    assert cond.holds and "no Jordan model of fewer rows" in cond.detail
+    # two proofs: the joint chain polynomials of order 3, and (reported first) three rows
+    # impossible by one_more_row (a line of monic cubics); both must hold
+    assert cond.holds and ("no Jordan model of fewer rows" in cond.detail
+                           or "3 rows are impossible too" in cond.detail)
     F, H, _ = _matrices(m)
+    assert chain_order(F, H, M, 3, LAM, "continuous", [sp.Integer(-1)]).impossible
     assert estimation_order_bound(F, H, M).k < 4
     Fn, Hn, Mn = (np.array(X.tolist(), dtype=float) for X in (F, H, M))
     rng = np.random.default_rng(2)

@@ -11,6 +11,7 @@ from observer_cad import PlantModel
 from observer_cad.model import extract_structure, random_model
 from observer_cad.synthesis import design_jordan
 from observer_cad.synthesis._lambda_search import span_rows
+from observer_cad.synthesis._order_bound import one_more_row
 
 LAM = sp.Symbol("lambda")
 
@@ -116,13 +117,90 @@ def test_q_plus_one_rows_through_a_pair_of_lambdas(seed):
     assert (d.matrices.Phi * Q).rank() == 1
 
 
-def test_q_plus_one_rows_not_claimed_when_no_pair_works():
-    """The discrete-time twin: no pair of the scanned λ gives a third stable λ, so the
-    design keeps four rows and says the least order lies in [3, 4] (not proven)."""
-    m = random_model(7, 2, 0, seed=0, time="discrete")
-    d = design_jordan(m, observer="virtual-sensor", estimate=_first_rows(7, 2))
+def _third_stable_roots(F, H, M, time, count=25):
+    """Floating point, independent of the design code: for pairs (λ₁, λ₂) of a grid of
+    stable λ, the line w shared by the images W(λ_i) = rowspace H (F − λ_i I)⁻¹ Q of the
+    rows modulo [M; H] (Q: right null space; two planes of R³), then the sign changes of
+    n(λ)·w over a fine stable grid away from λ₁, λ₂, with n(λ) the unit normal of W(λ)
+    followed continuously along the grid (its sign fixed by continuity, so that poles and
+    factors common to every w do not count). Returns the most further roots any pair has."""
+    Fn, Hn, Mn = (np.array(X.tolist(), dtype=float) for X in (F, H, M))
+    n = Fn.shape[0]
+    _, sv, Vt = np.linalg.svd(np.vstack([Mn, Hn]))
+    Q = Vt[int(np.sum(sv > 1e-10 * sv[0])):].T
+
+    def normal(v):
+        W = Hn @ np.linalg.solve(Fn - v * np.eye(n), Q)
+        c = np.cross(W[0], W[1])
+        return c / np.linalg.norm(c)
+
+    if time == "continuous":
+        grid = -np.logspace(-2, 3, count)
+        fine = -np.logspace(-3, 4, 6000)
+    else:
+        grid = np.linspace(-0.97, 0.97, count)
+        fine = np.linspace(-0.9999, 0.9999, 6000)
+    Nf = np.array([normal(v) for v in fine])
+    for i in range(1, len(Nf)):  # follow the normal continuously
+        if Nf[i] @ Nf[i - 1] < 0:
+            Nf[i] = -Nf[i]
+    worst = 0
+    for a, b in [(a, b) for i, a in enumerate(grid) for b in grid[i + 1:]]:
+        w = np.cross(normal(a), normal(b))
+        if np.linalg.norm(w) < 1e-9:
+            continue
+        keep = (np.abs(fine - a) > 1e-2 * (1 + abs(a))) & (np.abs(fine - b) > 1e-2 * (1 + abs(b)))
+        s = np.sign(Nf @ w)
+        changes = np.flatnonzero(s[:-1] * s[1:] < 0)
+        worst = max(worst, sum(1 for c in changes if keep[c] and keep[c + 1]))
+    return worst
+
+
+@pytest.mark.parametrize("seed, time", [(0, "discrete"), (1, "continuous")])
+def test_q_plus_one_rows_proven_impossible(seed, time):
+    """The twins where no pair works: modulo [M; H] the rows of λ span the hyperplane
+    ν(λ)^⊥ with ν cubic, so three rows need a w with ν(λ)·w = 0 at three distinct stable
+    λ — a hyperplane of monic cubics decided exactly (one sign at the corners). So four
+    rows are minimal (before: least order in [3, 4]). Confirmed in floating point: no
+    pair (λ₁, λ₂) of a grid has a third stable λ."""
+    m = random_model(7, 2, 0, seed=seed, time=time)
+    st = extract_structure(m)
+    F, H, M = sp.Matrix(st.F), sp.Matrix(st.H), _first_rows(7, 2)
+    more = one_more_row(F, H, sp.zeros(7, 0), M, LAM, time)
+    assert more.analysed and not more.possible and "one sign" in more.evidence
+    d = design_jordan(m, observer="virtual-sensor", estimate=M)
     assert d.k == 4 and d.certificate.passed
-    assert not _minimal(d).holds and "lies in [3, 4]" in _minimal(d).detail
+    assert _minimal(d).holds and "3 rows are impossible too" in _minimal(d).detail
+    _rows_ok(d, F, H, M)
+    assert _third_stable_roots(F, H, M, time) == 0
+
+
+@pytest.mark.parametrize("seed", [0, 2])
+def test_one_more_row_possible_where_the_pair_design_exists(seed):
+    m = random_model(7, 2, 0, seed=seed, time="continuous")
+    st = extract_structure(m)
+    F, H, M = sp.Matrix(st.F), sp.Matrix(st.H), _first_rows(7, 2)
+    more = one_more_row(F, H, sp.zeros(7, 0), M, LAM, "continuous")
+    assert more.analysed and more.possible and len(more.lambdas) == 3
+    assert all(v < 0 for v in more.lambdas)
+    assert _third_stable_roots(F, H, M, "continuous") >= 1
+
+
+def test_one_more_row_not_analysed_outside_its_case():
+    """Outside its case one_more_row says so: rows inside rowspace [M; H] exist (the
+    five-state plant of z = (x1, x2), where two rows do it), and symbolic parameters."""
+    m = random_model(5, 2, 0, seed=0, time="continuous")
+    st = extract_structure(m)
+    F, H = sp.Matrix(st.F), sp.Matrix(st.H)
+    M = _first_rows(5, 2)
+    more = one_more_row(F, H, sp.zeros(5, 0), M, LAM, "continuous")
+    assert not more.analysed and "codimension 1" in more.evidence
+    m7 = random_model(7, 2, 0, seed=0, time="continuous")
+    st7 = extract_structure(m7)
+    F7, H7 = sp.Matrix(st7.F), sp.Matrix(st7.H)
+    more = one_more_row(F7 + sp.diag(sp.Symbol("a"), *([0] * 6)), H7, sp.zeros(7, 0),
+                        _first_rows(7, 2), LAM, "continuous")
+    assert not more.analysed and "symbolic" in more.evidence
 
 
 def _special_plant():
