@@ -343,11 +343,16 @@ def design_jordan(model: PlantModel, *, observer: str, estimate=None,
             and span.analysed and not span.possible and len(chosen) > span.q + 1):
         L_span = L if decoupled else sp.zeros(n, 0)
         more = one_more_row(F, H, L_span, M, LAMBDA, work.time)
-        if not (more.analysed and not more.possible):
-            # q + 1 rows whose images modulo [M; H] share one line
-            alt = _pair_span_design(F, H, L_span, L0, fam, lam_list, M, observer, D, st,
-                                    tried, names, work.time, more.lambdas)
-            chosen = alt or chosen
+        # q + e rows whose images modulo [M; H] lie in e dimensions (e = 1: one line),
+        # e = 1 skipped when decided impossible
+        for e in range(1 + (more.analysed and not more.possible), _TUPLE_E_MAX + 1):
+            if len(chosen) <= span.q + e:
+                break
+            alt = _tuple_span_design(F, H, L_span, L0, fam, lam_list, M, observer, D, st,
+                                     tried, names, work.time, e, more.lambdas)
+            if alt is not None and len(alt) < len(chosen):
+                chosen = alt
+                break
     if (chosen is not None and M is not None and M.rows > 1
             and not (span is not None and span.analysed
                      and len(chosen) == span.q + (not span.possible))):
@@ -637,60 +642,102 @@ def _extended_span_design(fam, lam_list, pool, H, M, observer, D, st, tried, nam
     return None
 
 
-def _pair_span_design(F, H, L, L0, fam, lam_list, M, observer, D, st, tried, names, time,
-                      hint=()):
-    """q + 1 rows for z with several components when q rows are impossible (the least a
-    Jordan model can then have). Modulo rowspace [M; H] (the columns of Q span its right
-    null space), q + 1 rows spanning z modulo H all lie on one line w. Two λ with rows
-    Φ₁ Q = Φ₂ Q ≠ 0 (a linear solve for rational λ₁, λ₂) give w = Φ₁ Q; the further λ
-    whose rows also meet rowspace [M; Φ₁; H] are the rank drops of E(λ) for T = [M; Φ₁]
-    (:func:`span_rows`, exact roots: often rational, not in any list), and the rows
-    spanning T modulo H are taken as in :func:`_span_design` (METHOD §2b).
+def _tuple_span_design(F, H, L, L0, fam, lam_list, M, observer, D, st, tried, names, time,
+                       e=1, hint=()):
+    """q + e rows for z with several components when q rows are impossible. Modulo
+    rowspace [M; H] (the columns of Q span its right null space) q + e rows spanning z
+    modulo H have their images in an e-dimensional subspace U. e + 1 λ with rows
+    Σ Φ_i Q = 0 (a linear solve for rational λ_i) give U = span of e of the images; the
+    further λ whose rows meet rowspace [M; Φ_1 … Φ_e; H] are the rank drops of E(λ) for
+    T = [M; Φ_1; …; Φ_e] (:func:`span_rows`, exact roots: often rational, not in any
+    list), and the rows spanning T modulo H are taken as in :func:`_span_design`
+    (METHOD §2b). e = 1: pairs of λ and one line w (q + 1 rows, the least when q rows are
+    impossible).
 
-    The further λ depend on the pair: a floating-point scan over a grid of rational pairs
-    (generalised eigenvalues of E(λ)) picks the pairs whose further λ look real and
-    stable; only those are solved exactly, and the exact solve decides. ``hint``: λ known
-    to allow q + 1 rows (:func:`one_more_row`); pairs of its rational ones are tried after
-    the scan's (whose λ are less stiff)."""
+    The further λ depend on the chosen λ: a floating-point scan over a grid of rational
+    λ (generalised eigenvalues of E(λ)) picks the sets whose further λ look real and
+    stable; only those are solved exactly (the solution of the float scan carried over
+    by a rationalised least-squares fit when the solutions form more than a line), and
+    the exact solve decides. ``hint``: λ known to allow q + 1 rows (:func:`one_more_row`);
+    pairs of its rational ones are tried after the scan's (whose λ are less stiff)."""
     Q = sp.Matrix.hstack(*sp.Matrix.vstack(M, H).nullspace())
     if Q.cols == 0:
         return None
     q = _rank(sp.Matrix.vstack(M, H)) - _rank(H)
     grid = [lam for lam in lam_list if lam.is_rational] + [
         v for v in _PAIR_GRID[time] if not any(v == w for w in lam_list)]
-    pairs = _promising_pairs(F, H, L, L0, M, Q, grid, q, time)[:_PAIR_EXACT]
-    pairs += [pr for pr in itertools.combinations([v for v in hint if v.is_rational], 2)
-              if pr not in pairs]
-    for i, (l1, l2) in enumerate(pairs):
-        report(f"designing (Jordan form): q + 1 rows through λ = {l1}, {l2} (pair {i + 1})")
+    if e > 1:
+        grid = grid[:_TUPLE_GRID]
+    sets = _promising_sets(F, H, L, L0, M, Q, grid, q, time, e)[:_PAIR_EXACT]
+    seen = [lams for lams, _ in sets]
+    if e == 1:
+        sets += [(pr, None) for pr in itertools.combinations([v for v in hint if v.is_rational], 2)
+                 if pr not in seen]
+    for i, (lams, phis) in enumerate(sets):
+        report(f"designing (Jordan form): q + {e} rows through λ = {', '.join(map(str, lams))}"
+               f" (set {i + 1})")
         more = dict(fam)
-        for lam in (l1, l2):
+        for lam in lams:
             if lam not in more:
-                phis, js, _ = _family(F, H, L0, lam)
-                if not phis:
+                rows_phi, js, _ = _family(F, H, L0, lam)
+                if not rows_phi:
                     break
-                more[lam] = (sp.Matrix.vstack(*phis), sp.Matrix.vstack(*js))
+                more[lam] = (sp.Matrix.vstack(*rows_phi), sp.Matrix.vstack(*js))
         else:
-            N1, N2 = more[l1][0], more[l2][0]
-            basis, _ = left_null_space(sp.Matrix.vstack(N1 * Q, -N2 * Q))
-            if len(basis) != 1:
-                continue  # the scan kept only pairs with one line w
-            Phi1 = (basis[0][:, :N1.rows] * N1).applyfunc(sp.cancel)
-            if (Phi1 * Q).is_zero_matrix:
+            Ns = [more[lam][0] for lam in lams]
+            basis, _ = left_null_space(sp.Matrix.vstack(*[N * Q for N in Ns]))
+            if not basis:
+                continue
+            y = _fitted(basis, Ns, phis)
+            rows, off = [], 0
+            for N in Ns:
+                rows.append((y[:, off:off + N.rows] * N).applyfunc(sp.cancel))
+                off += N.rows
+            if any((r * Q).is_zero_matrix for r in rows):
                 continue  # a row inside rowspace [M; H]: the q-row case, already decided
-            sr = span_rows(F, H, L, sp.Matrix.vstack(M, Phi1), LAMBDA, time)
+            extra, images = [], sp.zeros(0, Q.cols)
+            for r in rows:
+                if _rank(sp.Matrix.vstack(images, r * Q)) > images.rows:
+                    extra.append(r)
+                    images = sp.Matrix.vstack(images, r * Q)
+            if len(extra) != e:
+                continue
+            sr = span_rows(F, H, L, sp.Matrix.vstack(M, *extra), LAMBDA, time)
             if not sr.possible:
                 continue
             for lam in sr.stable:
                 if not any(_same_number(lam, w) for w in more):
-                    phis, js, _ = _family(F, H, L0, lam)
-                    if phis:
-                        more[lam] = (sp.Matrix.vstack(*phis), sp.Matrix.vstack(*js))
-            order = [l1, l2] + [lam for lam in sr.stable if lam in more and lam not in (l1, l2)]
-            rows = _span_design(more, order, H, M, observer, D, st, tried, names, (Phi1,))
-            if rows is not None:
-                return rows
+                    rows_phi, js, _ = _family(F, H, L0, lam)
+                    if rows_phi:
+                        more[lam] = (sp.Matrix.vstack(*rows_phi), sp.Matrix.vstack(*js))
+            order = list(lams) + [lam for lam in sr.stable if lam in more and lam not in lams]
+            found = _span_design(more, order, H, M, observer, D, st, tried, names, tuple(extra))
+            if found is not None:
+                return found
     return None
+
+
+def _fitted(basis, Ns, phis):
+    """An exact solution y (Σ y_i N_i Q = 0) close to the float rows ``phis`` of the scan:
+    the first basis vector when the solutions form a line (or no float rows are given),
+    else the least-squares combination of the basis rows, its weights rationalised."""
+    if len(basis) == 1 or phis is None:
+        return basis[0]
+    def rows_of(v):
+        out, off = [], 0
+        for N in Ns:
+            out.append(np.array((v[:, off:off + N.rows] * N).evalf().tolist(), dtype=float).ravel())
+            off += N.rows
+        return np.concatenate(out)
+    R = np.array([rows_of(b) for b in basis]).T
+    target = np.concatenate([np.asarray(p, dtype=float).ravel() for p in phis])
+    alpha, *_ = np.linalg.lstsq(R, target, rcond=None)
+    if not np.all(np.isfinite(alpha)) or not np.any(alpha):
+        return basis[0]
+    scale = np.max(np.abs(alpha))
+    w = [sp.Rational(float(a / scale)).limit_denominator(10 ** 6) for a in alpha]
+    y = sum((wk * b for wk, b in zip(w, basis)), sp.zeros(*basis[0].shape))
+    return y if not y.is_zero_matrix else basis[0]
 
 
 def _float_left_null(A, rtol=1e-9):
@@ -702,11 +749,12 @@ def _float_left_null(A, rtol=1e-9):
     return u[:, r:].T
 
 
-def _promising_pairs(F, H, L, L0, M, Q, grid, q, time) -> list:
-    """Rational pairs (λ₁, λ₂) of the grid for which, in floating point, exactly one line
-    w = Φ₁ Q = Φ₂ Q exists and E(λ) of T = [M; Φ₁] drops rank at q − 1 further real stable
-    λ (distinct, not λ₁ or λ₂); the least stiff first (continuous: the ratio of the largest
-    to the smallest |λ|; discrete: the largest |λ|)."""
+def _promising_sets(F, H, L, L0, M, Q, grid, q, time, e=1) -> list:
+    """Sets of e + 1 rational λ of the grid for which, in floating point, rows Φ_i of the
+    λ_i with Σ Φ_i Q = 0, all images nonzero and spanning e dimensions, exist, and E(λ) of
+    T = [M; e of the rows] drops rank at q − 1 further real stable λ (distinct, not among
+    the set); the least stiff first (continuous: the ratio of the largest to the smallest
+    |λ|; discrete: the largest |λ|). Items: (the λ, the float rows)."""
     try:
         Fn, Hn, L0n, Mn, Qn = (np.array(X.evalf().tolist(), dtype=float).reshape(X.shape)
                                for X in (F, H, L0, M, Q))
@@ -720,17 +768,30 @@ def _promising_pairs(F, H, L, L0, M, Q, grid, q, time) -> list:
         S = _float_left_null(np.vstack([L0n @ (Fn - x * np.eye(n)), Hn]))
         fams[lam] = S[:, :L0n.shape[0]] @ L0n
     scored = []
-    for l1, l2 in itertools.combinations(grid, 2):
-        N1, N2 = fams[l1], fams[l2]
-        if not len(N1) or not len(N2):
+    for lams in itertools.combinations(grid, e + 1):
+        Ns = [fams[v] for v in lams]
+        if any(not len(N) for N in Ns):
             continue
-        Y = _float_left_null(np.vstack([N1 @ Qn, -(N2 @ Qn)]))
-        if Y.shape[0] != 1:
+        Y = _float_left_null(np.vstack([N @ Qn for N in Ns]))
+        if Y.shape[0] == 0 or (e == 1 and Y.shape[0] != 1):
             continue
-        phi = Y[0, :N1.shape[0]] @ N1
-        if np.linalg.norm(phi @ Qn) < 1e-8 * max(1.0, np.linalg.norm(phi)):
+        rows, off = [], 0
+        for N in Ns:
+            rows.append(Y[0, off:off + N.shape[0]] @ N)
+            off += N.shape[0]
+        images = np.array([r @ Qn for r in rows])
+        if any(np.linalg.norm(im) < 1e-8 * max(1.0, np.linalg.norm(r))
+               for im, r in zip(images, rows)):
             continue
-        T = np.vstack([Mn, phi])
+        if np.linalg.matrix_rank(images, tol=1e-8 * np.abs(images).max()) != e:
+            continue
+        extra, got = [], np.zeros((0, Qn.shape[1]))
+        for r, im in zip(rows, images):
+            trial = np.vstack([got, im])
+            if np.linalg.matrix_rank(trial, tol=1e-8 * np.abs(trial).max()) > got.shape[0]:
+                extra.append(r)
+                got = trial
+        T = np.vstack([Mn] + extra)
         zl = np.zeros((Hn.shape[0], Ln.shape[1]))
         A = np.block([[T @ Fn, T @ Ln], [Hn @ Fn, Hn @ Ln], [-Hn, zl]])
         B = np.vstack([np.hstack([T, np.zeros((T.shape[0], Ln.shape[1]))]),
@@ -738,18 +799,19 @@ def _promising_pairs(F, H, L, L0, M, Q, grid, q, time) -> list:
         r, ev = _pencil_drops(A, B)
         if ev is None:
             continue
-        x1, x2 = float(l1), float(l2)
-        real = sorted({round(float(e.real), 9) for e in ev
-                       if np.isfinite(e) and abs(e.imag) <= 1e-7 * (1 + abs(e))})
-        new = [e for e in real if min(abs(e - x1), abs(e - x2)) > 1e-4 * (1 + abs(e))
-               and (e < 0 if time == "continuous" else abs(e) < 1)
-               and _float_drops(A - e * B, r)]
+        xs = [float(v) for v in lams]
+        real = sorted({round(float(z.real), 9) for z in ev
+                       if np.isfinite(z) and abs(z.imag) <= 1e-7 * (1 + abs(z))})
+        new = [z for z in real if min(abs(z - x) for x in xs) > 1e-4 * (1 + abs(z))
+               and (z < 0 if time == "continuous" else abs(z) < 1)
+               and _float_drops(A - z * B, r)]
         if len(new) >= q - 1:
-            lams = [abs(v) for v in [x1, x2] + new[:q - 1]]
+            mags = [abs(v) for v in xs + new[:q - 1]]
             # continuous: the least stiff (fastest / slowest |λ|); discrete: the fastest
-            scored.append(((max(lams) / min(lams)) if time == "continuous" else max(lams),
-                           l1, l2))
-    return [(a, b) for _, a, b in sorted(scored, key=lambda t: t[0])]
+            scored.append(((max(mags) / min(mags)) if time == "continuous" else max(mags),
+                           lams, rows))
+    scored.sort(key=lambda t: t[0])
+    return [(lams, rows) for _, lams, rows in scored]
 
 
 def _pencil_drops(A, B) -> tuple:
@@ -790,8 +852,12 @@ _PAIR_GRID = {
 }
 #: |λ − shift| at least this large is taken as infinite (B is singular)
 _PAIR_MAX = 1e5
-#: pairs solved exactly after the scan
+#: sets solved exactly after the scan
 _PAIR_EXACT = 6
+#: the largest e (q + e rows) searched through sets of e + 1 λ
+_TUPLE_E_MAX = 2
+#: grid values scanned for sets of three or more λ (the first of the list and the grid)
+_TUPLE_GRID = 14
 
 
 #: extra-row choices tried per e by :func:`_extended_span_design`

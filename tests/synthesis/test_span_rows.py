@@ -117,6 +117,25 @@ def test_q_plus_one_rows_through_a_pair_of_lambdas(seed):
     assert (d.matrices.Phi * Q).rank() == 1
 
 
+@pytest.mark.parametrize("seed, time", [(0, "continuous"), (1, "discrete")])
+def test_q_plus_two_rows_through_three_lambdas(seed, time):
+    """Eight states, two outputs, z = (x1, x2): every model has at least four states
+    (subspace bound), the defaults give five; three rational λ with rows Σ Φ_i Q = 0 fix
+    a plane U modulo [M; H] and a fourth λ (an exact root) completes four rows — proven
+    minimal. Checked: the row identities, and modulo [M; H] the four rows span exactly two
+    dimensions."""
+    m = random_model(8, 2, 0, seed=seed, time=time)
+    st = extract_structure(m)
+    F, H, M = sp.Matrix(st.F), sp.Matrix(st.H), _first_rows(8, 2)
+    d = design_jordan(m, observer="virtual-sensor", estimate=M)
+    assert d.k == 4 and d.certificate.passed
+    assert _minimal(d).holds and "subspace bound" in _minimal(d).detail
+    _rows_ok(d, F, H, M)
+    assert len(set(d.lambdas)) == 4
+    Q = sp.Matrix.hstack(*sp.Matrix.vstack(M, H).nullspace())
+    assert (d.matrices.Phi * Q).rank() == 2
+
+
 def _third_stable_roots(F, H, M, time, count=25):
     """Floating point, independent of the design code: for pairs (λ₁, λ₂) of a grid of
     stable λ, the line w shared by the images W(λ_i) = rowspace H (F − λ_i I)⁻¹ Q of the
