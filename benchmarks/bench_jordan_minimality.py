@@ -101,6 +101,9 @@ def cases(slow: bool):
     out.append(("`random_model(7, 2, 0, seed=0, time='discrete')`, z = (x1, x2) (3 rows"
                 " impossible)", random_model(7, 2, 0, seed=0, time="discrete"),
                 sp.eye(7)[:2, :], 4))
+    # four rows (the subspace bound) through three λ fixing a plane modulo [M; H]
+    out.append(("`random_model(8, 2, 0, seed=0)`, z = (x1, x2) (5 rows before the triple search)",
+                random_model(8, 2, 0, seed=0, time="continuous"), sp.eye(8)[:2, :], 4))
     if slow:
         out.append(("unmeasured companion block, λ³ + 6λ² + 8λ + 1", PlantModel(
             name="cubic", time="continuous", states=[x1, x2, x3, x4], inputs=[u], outputs=[x4],
