@@ -37,6 +37,8 @@ from typing import Mapping
 
 import numpy as np
 import sympy as sp
+from sympy.printing.numpy import NumPyPrinter
+from sympy.printing.precedence import PRECEDENCE
 
 from ..errors import NonFiniteError, UsageError
 from ..files import read_json_file
@@ -478,10 +480,32 @@ def align_delay(v: np.ndarray, delay: int) -> np.ndarray:
     return shifted
 
 
+class _SameBitsPrinter(NumPyPrinter):
+    """numpy code whose every operation rounds the same on float64 scalars as on arrays:
+    the Python ``**`` operator does not (on arrays numpy takes exact fast paths for x**2,
+    x**-1, x**0.5; on scalars it calls pow), so powers are printed as products and
+    quotients (small integer exponents), numpy.sqrt, or the ufunc numpy.power."""
+
+    def _print_Pow(self, expr, rational=False):
+        b, e = expr.base, expr.exp
+        base = self.parenthesize(b, PRECEDENCE["Atom"] + 1)
+        if e.is_Integer and 1 <= abs(int(e)) <= 4:
+            prod = "*".join([base] * abs(int(e)))
+            return f"({prod})" if e > 0 else f"(1/({prod}))"
+        if e == sp.S.Half:
+            return f"{self._module_format('numpy.sqrt')}({self._print(b)})"
+        if e == -sp.S.Half:
+            return f"(1/{self._module_format('numpy.sqrt')}({self._print(b)}))"
+        return f"{self._module_format('numpy.power')}({self._print(b)}, {self._print(e)})"
+
+
 def _vector_fn(args, exprs):
-    """Numpy function of arrays (one per arg) returning a list of arrays (broadcast)."""
+    """Numpy function of arrays (one per arg) returning a list of arrays (broadcast); the
+    same code on float64 scalars gives the same bits (:class:`_SameBitsPrinter`)."""
     # cse: long expressions (e.g. DREM's determinants) share their subexpressions
-    f = sp.lambdify(args, list(exprs), "numpy", cse=True)
+    printer = _SameBitsPrinter({"fully_qualified_modules": False, "inline": True,
+                                "allow_unknown_functions": True, "user_functions": {}})
+    f = sp.lambdify(args, list(exprs), "numpy", cse=True, printer=printer)
 
     def call(*vals):
         res = f(*vals)

@@ -705,12 +705,17 @@ def _tuple_span_design(F, H, L, L0, fam, lam_list, M, observer, D, st, tried, na
             sr = span_rows(F, H, L, sp.Matrix.vstack(M, *extra), LAMBDA, time)
             if not sr.possible:
                 continue
+            further = []
             for lam in sr.stable:
-                if not any(_same_number(lam, w) for w in more):
+                same = next((w for w in more if _same_number(lam, w)), None)
+                if same is None:
                     rows_phi, js, _ = _family(F, H, L0, lam)
                     if rows_phi:
                         more[lam] = (sp.Matrix.vstack(*rows_phi), sp.Matrix.vstack(*js))
-            order = list(lams) + [lam for lam in sr.stable if lam in more and lam not in lams]
+                        same = lam
+                if same is not None and same not in lams and same not in further:
+                    further.append(same)
+            order = list(lams) + further
             found = _span_design(more, order, H, M, observer, D, st, tried, names, tuple(extra))
             if found is not None:
                 return found
@@ -767,13 +772,16 @@ def _promising_sets(F, H, L, L0, M, Q, grid, q, time, e=1) -> list:
         x = float(lam)
         S = _float_left_null(np.vstack([L0n @ (Fn - x * np.eye(n)), Hn]))
         fams[lam] = S[:, :L0n.shape[0]] @ L0n
+    sizes = sorted(len(N) for N in fams.values())
+    if not sizes or (e + 1) * sizes[len(sizes) // 2] <= Qn.shape[1]:
+        return []  # e + 1 generic families: fewer unknowns than conditions Σ Φ_i Q = 0
     scored = []
     for lams in itertools.combinations(grid, e + 1):
         Ns = [fams[v] for v in lams]
         if any(not len(N) for N in Ns):
             continue
         Y = _float_left_null(np.vstack([N @ Qn for N in Ns]))
-        if Y.shape[0] == 0 or (e == 1 and Y.shape[0] != 1):
+        if Y.shape[0] == 0:
             continue
         rows, off = [], 0
         for N in Ns:

@@ -191,8 +191,8 @@ def one_more_row(F, H, L, M, lam, time: str) -> OneMoreRow:
     hyperplanes (METHOD §2b, "one more row").
 
     Let Q span the right null space of [M; H] (c columns) and V(λ) the rows Φ with
-    Φ L = 0 and Φ (F − λI) ∈ rowspace H. Preconditions, each checked exactly: M has q rows
-    independent modulo H; no row of any real stable λ lies in rowspace [M; H] outside
+    Φ L = 0 and Φ (F − λI) ∈ rowspace H. Preconditions, each checked exactly (M is first reduced to q
+    rows independent modulo H, which gives the same models): no row of any real stable λ lies in rowspace [M; H] outside
     rowspace H (E(λ) of :func:`span_rows` has no a-part, generically nor at its drops);
     V(λ) has the same dimension f at every real stable λ (no family jump); f = c − 1.
     Then q + 1 rows span z and one more direction modulo H, so their images Φ_i Q all lie
@@ -216,8 +216,14 @@ def one_more_row(F, H, L, M, lam, time: str) -> OneMoreRow:
     rH = exact_rank(H).rank if H.rows else 0
     rMH = exact_rank(sp.Matrix.vstack(M, H)).rank
     q, c = rMH - rH, n - rMH
-    if q != M.rows:
-        return no("the rows of M are dependent modulo the outputs")
+    if q != M.rows:  # the same models: z's rows independent modulo H
+        keep, r_have = [], rH
+        for i in range(M.rows):
+            r_trial = exact_rank(sp.Matrix.vstack(H, *keep, M[i, :])).rank
+            if r_trial > r_have:
+                keep.append(M[i, :])
+                r_have = r_trial
+        M = sp.Matrix.vstack(*keep)
     if c < 2:
         return no(f"rowspace [M; H] has codimension {c}")
     E = span_pencil(F, H, L, M, lam)

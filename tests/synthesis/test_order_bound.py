@@ -10,7 +10,7 @@ from observer_cad import PlantModel
 from observer_cad.model import extract_structure, random_model
 from observer_cad.synthesis import design_jordan
 from observer_cad.numerics import solve_left
-from observer_cad.synthesis._order_bound import (chain_order, chain_system,
+from observer_cad.synthesis._order_bound import (chain_order, chain_system, one_more_row,
                                                  estimation_order_bound, hyperplane_corners,
                                                  hyperplane_member, plane_order,
                                                  residual_order_bound)
@@ -465,12 +465,13 @@ def test_vector_z_joint_chain_proves_minimal():
     d = design_jordan(m, observer="interval", estimate=M)
     assert d.k == 4 and d.certificate.passed
     cond = _minimal(d)
-    # two proofs: the joint chain polynomials of order 3, and (reported first) three rows
-    # impossible by one_more_row (a line of monic cubics); both must hold
-    assert cond.holds and ("no Jordan model of fewer rows" in cond.detail
-                           or "3 rows are impossible too" in cond.detail)
+    # two proofs, both asserted: the joint chain polynomials of order 3, and three rows
+    # impossible by one_more_row (a line of monic cubics; the one the design reports)
+    assert cond.holds and "3 rows are impossible too" in cond.detail
     F, H, _ = _matrices(m)
     assert chain_order(F, H, M, 3, LAM, "continuous", [sp.Integer(-1)]).impossible
+    more = one_more_row(F, H, sp.zeros(5, 0), M, LAM, "continuous")
+    assert more.analysed and not more.possible
     assert estimation_order_bound(F, H, M).k < 4
     Fn, Hn, Mn = (np.array(X.tolist(), dtype=float) for X in (F, H, M))
     rng = np.random.default_rng(2)

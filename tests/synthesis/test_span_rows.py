@@ -148,7 +148,7 @@ def _third_stable_roots(F, H, M, time, count=25):
     _, sv, Vt = np.linalg.svd(np.vstack([Mn, Hn]))
     Q = Vt[int(np.sum(sv > 1e-10 * sv[0])):].T
 
-    def normal(v):
+    def normal(v):  # (the grids avoid the eigenvalues of F below)
         W = Hn @ np.linalg.solve(Fn - v * np.eye(n), Q)
         c = np.cross(W[0], W[1])
         return c / np.linalg.norm(c)
@@ -159,6 +159,13 @@ def _third_stable_roots(F, H, M, time, count=25):
     else:
         grid = np.linspace(-0.97, 0.97, count)
         fine = np.linspace(-0.9999, 0.9999, 6000)
+    eig = np.linalg.eigvals(Fn)
+
+    def regular(v):
+        return np.min(np.abs(eig - v)) > 1e-6 * (1 + abs(v))
+
+    grid = [v for v in grid if regular(v)]
+    fine = np.array([v for v in fine if regular(v)])
     Nf = np.array([normal(v) for v in fine])
     for i in range(1, len(Nf)):  # follow the normal continuously
         if Nf[i] @ Nf[i - 1] < 0:
@@ -206,20 +213,34 @@ def test_one_more_row_possible_where_the_pair_design_exists(seed):
 
 
 def test_one_more_row_not_analysed_outside_its_case():
-    """Outside its case one_more_row says so: rows inside rowspace [M; H] exist (the
-    five-state plant of z = (x1, x2), where two rows do it), and symbolic parameters."""
-    m = random_model(5, 2, 0, seed=0, time="continuous")
-    st = extract_structure(m)
-    F, H = sp.Matrix(st.F), sp.Matrix(st.H)
-    M = _first_rows(5, 2)
-    more = one_more_row(F, H, sp.zeros(5, 0), M, LAM, "continuous")
-    assert not more.analysed and "codimension 1" in more.evidence
-    m7 = random_model(7, 2, 0, seed=0, time="continuous")
-    st7 = extract_structure(m7)
-    F7, H7 = sp.Matrix(st7.F), sp.Matrix(st7.H)
-    more = one_more_row(F7 + sp.diag(sp.Symbol("a"), *([0] * 6)), H7, sp.zeros(7, 0),
+    """Outside its case one_more_row says so and claims nothing: rowspace [M; H] of
+    codimension 1 (five states), rows inside rowspace [M; H] for λ generic (seven states,
+    three outputs), symbolic parameters."""
+    def parts(n, l, seed):  # noqa: E741
+        st = extract_structure(random_model(n, l, 0, seed=seed, time="continuous"))
+        return sp.Matrix(st.F), sp.Matrix(st.H)
+
+    F, H = parts(5, 2, 0)
+    more = one_more_row(F, H, sp.zeros(5, 0), _first_rows(5, 2), LAM, "continuous")
+    assert not more.analysed and not more.possible and "codimension 1" in more.evidence
+    F, H = parts(7, 3, 0)
+    more = one_more_row(F, H, sp.zeros(7, 0), _first_rows(7, 2), LAM, "continuous")
+    assert not more.analysed and "rows inside rowspace [M; H] exist" in more.evidence
+    F, H = parts(7, 2, 0)
+    more = one_more_row(F + sp.diag(sp.Symbol("a"), *([0] * 6)), H, sp.zeros(7, 0),
                         _first_rows(7, 2), LAM, "continuous")
     assert not more.analysed and "symbolic" in more.evidence
+
+
+def test_one_more_row_reduces_dependent_rows_of_z():
+    """z = (x1, x1 + y1, x2): the same models as z = (x1, x2) (the middle row is x1 plus
+    an output), so the same verdict — impossible for the seed-1 plant."""
+    st = extract_structure(random_model(7, 2, 0, seed=1, time="continuous"))
+    F, H = sp.Matrix(st.F), sp.Matrix(st.H)
+    M = sp.Matrix.vstack(_first_rows(7, 1), _first_rows(7, 1) + H[0, :], _first_rows(7, 2)[1, :])
+    more = one_more_row(F, H, sp.zeros(7, 0), M, LAM, "continuous")
+    plain = one_more_row(F, H, sp.zeros(7, 0), _first_rows(7, 2), LAM, "continuous")
+    assert more.analysed and not more.possible and more.evidence == plain.evidence
 
 
 def _special_plant():
