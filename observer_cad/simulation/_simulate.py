@@ -522,13 +522,16 @@ def _vector_fn(args, exprs):
     return call
 
 
-def _integrate_runs(f, X, U, pvals, t, *, discrete: bool) -> None:
-    """Fill X (states × runs × steps) from its first column: one step of every run at a
-    time, on arrays over the runs (the classic RK4 in continuous time)."""
-    nx, nu = X.shape[0], U.shape[0]
+def _integrate(f, X, U, pvals, t, *, discrete: bool) -> None:
+    """Fill X from its first step: X is states × runs × steps (arrays over the runs) or,
+    for a single run, states × steps (numpy float64 scalars: the same numpy arithmetic —
+    powers printed by :class:`_SameBitsPrinter` — at a fraction of the per-operation
+    overhead of one-element arrays, so run 0 of a batch bit for bit). U: inputs × (runs ×)
+    steps; pvals: the parameters (arrays over the runs, or the run's values). The classic
+    RK4 in continuous time."""
     for i in range(t.size - 1):
-        u = [U[j, :, i] for j in range(nu)]
-        cur = [X[j, :, i] for j in range(nx)]
+        u = list(U[..., i])
+        cur = list(X[..., i])
         if discrete:
             nxt = f(*cur, *u, *pvals)
         else:
@@ -539,29 +542,7 @@ def _integrate_runs(f, X, U, pvals, t, *, discrete: bool) -> None:
             k4 = f(*[c + h * k for c, k in zip(cur, k3)], *u, *pvals)
             nxt = [c + h / 6 * (a + 2 * b + 2 * cc + d)
                    for c, a, b, cc, d in zip(cur, k1, k2, k3, k4)]
-        for j in range(nx):
-            X[j, :, i + 1] = nxt[j]
-
-
-def _integrate_one_run(f, X, U, pvals, t, *, discrete: bool) -> None:
-    """:func:`_integrate_runs` for a single run, on numpy float64 scalars instead of
-    one-element arrays: the same numpy arithmetic and ufunc loops (so the same numbers,
-    NaN and inf included) at a fraction of the per-operation overhead. X is states ×
-    steps, U inputs × steps, pvals the run's parameter values."""
-    for i in range(t.size - 1):
-        u = list(U[:, i])
-        cur = list(X[:, i])
-        if discrete:
-            nxt = f(*cur, *u, *pvals)
-        else:
-            h = t[i + 1] - t[i]
-            k1 = f(*cur, *u, *pvals)
-            k2 = f(*[c + h / 2 * k for c, k in zip(cur, k1)], *u, *pvals)
-            k3 = f(*[c + h / 2 * k for c, k in zip(cur, k2)], *u, *pvals)
-            k4 = f(*[c + h * k for c, k in zip(cur, k3)], *u, *pvals)
-            nxt = [c + h / 6 * (a + 2 * b + 2 * cc + d)
-                   for c, a, b, cc, d in zip(cur, k1, k2, k3, k4)]
-        X[:, i + 1] = nxt
+        X[..., i + 1] = nxt
 
 
 def simulate(model: PlantModel, observer: Observer | None, scenario: Scenario, *,
@@ -633,10 +614,10 @@ def simulate(model: PlantModel, observer: Observer | None, scenario: Scenario, *
     nx = X.shape[0]
     with np.errstate(all="ignore"):  # non-finite values are reported below, not warned
         if R == 1:
-            _integrate_one_run(f_joint.raw, X[:, 0, :], U[:, 0, :], [v[0] for v in pvals],
-                               t, discrete=m.time == "discrete")
+            _integrate(f_joint.raw, X[:, 0, :], U[:, 0, :], [v[0] for v in pvals], t,
+                       discrete=m.time == "discrete")
         else:
-            _integrate_runs(f_joint, X, U, pvals, t, discrete=m.time == "discrete")
+            _integrate(f_joint, X, U, pvals, t, discrete=m.time == "discrete")
     cols = {"t": np.broadcast_to(t, (R, N)).copy()}
     for j, s in enumerate(xs):
         cols[s.name] = X[j]

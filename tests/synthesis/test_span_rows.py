@@ -96,6 +96,18 @@ def test_one_more_row_proven_when_q_rows_are_impossible(n, l, q, seed, k_before)
     _rows_ok(d, F, H, M)
 
 
+def _checked_z12_design(n, seed, time, k):
+    """The virtual sensor of z = (x1, x2) for random_model(n, 2, 0): k rows, certified,
+    proven minimal, rows checked by :func:`_rows_ok`. Returns (design, F, H, M)."""
+    m = random_model(n, 2, 0, seed=seed, time=time)
+    st = extract_structure(m)
+    F, H, M = sp.Matrix(st.F), sp.Matrix(st.H), _first_rows(n, 2)
+    d = design_jordan(m, observer="virtual-sensor", estimate=M)
+    assert d.k == k and d.certificate.passed and _minimal(d).holds
+    _rows_ok(d, F, H, M)
+    return d, F, H, M
+
+
 @pytest.mark.parametrize("seed", [0, 2])
 def test_q_plus_one_rows_through_a_pair_of_lambdas(seed):
     """Seven states, two outputs, z = (x1, x2): two rows are impossible, and no extra row
@@ -103,13 +115,8 @@ def test_q_plus_one_rows_through_a_pair_of_lambdas(seed):
     whose images modulo [M; H] share one line: a pair of rational λ fixes the line, the
     third λ is an exact root found for it (not in any list). Checked independently:
     the row identities, distinct stable λ, and modulo [M; H] the rows are collinear."""
-    m = random_model(7, 2, 0, seed=seed, time="continuous")
-    st = extract_structure(m)
-    F, H, M = sp.Matrix(st.F), sp.Matrix(st.H), _first_rows(7, 2)
-    d = design_jordan(m, observer="virtual-sensor", estimate=M)
-    assert d.k == 3 and d.certificate.passed
-    assert _minimal(d).holds and "impossible for every real stable λ" in _minimal(d).detail
-    _rows_ok(d, F, H, M)
+    d, F, H, M = _checked_z12_design(7, seed, "continuous", 3)
+    assert "impossible for every real stable λ" in _minimal(d).detail
     lams = d.lambdas
     assert len(set(lams)) == 3 and all(v < 0 for v in lams)
     assert any(v not in range(-7, 0) for v in lams)  # a λ outside the default list
@@ -124,13 +131,8 @@ def test_q_plus_two_rows_through_three_lambdas(seed, time):
     a plane U modulo [M; H] and a fourth λ (an exact root) completes four rows — proven
     minimal. Checked: the row identities, and modulo [M; H] the four rows span exactly two
     dimensions."""
-    m = random_model(8, 2, 0, seed=seed, time=time)
-    st = extract_structure(m)
-    F, H, M = sp.Matrix(st.F), sp.Matrix(st.H), _first_rows(8, 2)
-    d = design_jordan(m, observer="virtual-sensor", estimate=M)
-    assert d.k == 4 and d.certificate.passed
-    assert _minimal(d).holds and "subspace bound" in _minimal(d).detail
-    _rows_ok(d, F, H, M)
+    d, F, H, M = _checked_z12_design(8, seed, time, 4)
+    assert "subspace bound" in _minimal(d).detail
     assert len(set(d.lambdas)) == 4
     Q = sp.Matrix.hstack(*sp.Matrix.vstack(M, H).nullspace())
     assert (d.matrices.Phi * Q).rank() == 2
@@ -189,15 +191,10 @@ def test_q_plus_one_rows_proven_impossible(seed, time):
     λ — a hyperplane of monic cubics decided exactly (one sign at the corners). So four
     rows are minimal (before: least order in [3, 4]). Confirmed in floating point: no
     pair (λ₁, λ₂) of a grid has a third stable λ."""
-    m = random_model(7, 2, 0, seed=seed, time=time)
-    st = extract_structure(m)
-    F, H, M = sp.Matrix(st.F), sp.Matrix(st.H), _first_rows(7, 2)
+    d, F, H, M = _checked_z12_design(7, seed, time, 4)
     more = one_more_row(F, H, sp.zeros(7, 0), M, LAM, time)
     assert more.analysed and not more.possible and "one sign" in more.evidence
-    d = design_jordan(m, observer="virtual-sensor", estimate=M)
-    assert d.k == 4 and d.certificate.passed
-    assert _minimal(d).holds and "3 rows are impossible too" in _minimal(d).detail
-    _rows_ok(d, F, H, M)
+    assert "3 rows are impossible too" in _minimal(d).detail
     assert _third_stable_roots(F, H, M, time) == 0
 
 
