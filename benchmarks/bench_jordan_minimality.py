@@ -11,8 +11,10 @@ continuous; 1/3, discrete), an unmeasured block with modes −2 ± √2 (k = 2 w
 λ), an unmeasured companion block with an irreducible cubic (three CRootOf λ, k = 3),
 random plants (one with a decoupled disturbance, one with seven states), a plant with
 symbolic parameters whose λ are −a and −b (designed with the parameters kept symbolic),
-and z with two components (test_span_rows.py): two rows that need λ = −5/2, and three
-rows where two are impossible for every λ (the defaults gave four before).
+and z with two components (test_span_rows.py): two rows that need λ = −5/2, three
+rows where two are impossible for every λ (the defaults gave four before), and two plants
+with a decoupled disturbance where one row fewer than a basis modulo the outputs is
+decided exactly (test_signs_and_boxes.py).
 For each: ``design_jordan`` with the default λ list requested (what the search did before:
 −1, −2, … / 1/2, 1/4, …) and with the new search (defaults plus the exact special λ). Reported: k (or "none" when the defaults give
 no design), the λ found, median wall and CPU time of ``--runs`` calls. Target: the new
@@ -104,6 +106,14 @@ def cases(slow: bool):
     # four rows (the subspace bound) through three λ fixing a plane modulo [M; H]
     out.append(("`random_model(8, 2, 0, seed=0)`, z = (x1, x2) (5 rows before the triple search)",
                 random_model(8, 2, 0, seed=0, time="continuous"), sp.eye(8)[:2, :], 4))
+    # a basis modulo the outputs (six rows), each λ with one row: one row fewer decided
+    # exactly (one_row_short) — possible through five λ (two quadratic surds), or impossible
+    out.append(("`random_model(8, 2, 1, seed=1)`, z = (x1, x2), disturbance decoupled (6 rows"
+                " before one row short)", random_model(8, 2, 1, seed=1, time="continuous"),
+                sp.eye(8)[:2, :], 5))
+    out.append(("`random_model(8, 2, 1, seed=0, time='discrete')`, z = (x1, x2), disturbance"
+                " decoupled (5 rows impossible)", random_model(8, 2, 1, seed=0, time="discrete"),
+                sp.eye(8)[:2, :], 6))
     if slow:
         out.append(("unmeasured companion block, λ³ + 6λ² + 8λ + 1", PlantModel(
             name="cubic", time="continuous", states=[x1, x2, x3, x4], inputs=[u], outputs=[x4],

@@ -42,7 +42,7 @@ from ._nonlinear import substitute_arguments
 from ._poles import default_eigenvalues
 from ._lambda_search import family_jump_lambdas, one_row_lambdas, span_rows
 from ._order_bound import (chain_order, estimation_order_bound, nonlinear_jordan_bound,
-                           one_more_row,
+                           one_more_row, one_row_short,
                            residual_order_bound, spread_lambdas)
 from ._reduced import is_stable, jordan_equations, observer_symbols, output_symbols
 from ._signature import residual_response
@@ -373,6 +373,14 @@ def design_jordan(model: PlantModel, *, observer: str, estimate=None,
                 if alt is not None:
                     chosen = alt
                     break
+    short = None  # a basis modulo H: can one row fewer do it? (decided exactly, f = 1)
+    if (chosen is not None and M is not None and M.rows > 1 and span is not None
+            and len(chosen) == n - _rank(H) > span.q + 1):
+        short = one_row_short(F, H, L if decoupled else sp.zeros(n, 0), M, LAMBDA, work.time)
+        if short.possible and short.lambdas:
+            alt = _rows_at(F, H, L0, short.lambdas, observer, D, M, st, tried, names)
+            if alt is not None:
+                chosen = alt
     for size in range(1, n) if chosen is None else ():  # fewest rows first, every strategy
         chosen = _combination_rows(pool, n, observer, H, D, M, st, tried, names, (size,))
         if chosen is None and sums:  # the basis rows alone do not do it: generic members too
@@ -438,7 +446,8 @@ def design_jordan(model: PlantModel, *, observer: str, estimate=None,
                               F, H, L if decoupled else sp.zeros(n, 0), M, C,
                               [sp.Matrix(t.row) for t in st.terms], k_, LAMBDA, work.time,
                               lam_list)) if st.terms and M is not None and not lambdas
-                          else None, several=M is not None and M.rows > 1, more=more)
+                          else None, several=M is not None and M.rows > 1, more=more,
+                          short=short)
     conds.append(minimal)
     choice = (f"k = {k}: rows with λ = ({', '.join(map(str, lams))}) chosen from"
               f" {len(pool)} candidate row(s) for λ in {{{', '.join(map(str, lam_list))}}};"
@@ -526,6 +535,18 @@ def _check_rows(rows, size, observer, H, D, M, st, tried, names=()):
     if not ok and len(tried) < 12:
         tried.append(f"k={size}, λ = ({', '.join(str(r[0]) for r in rows)}): {why}")
     return ok
+
+
+def _rows_at(F, H, L0, lams, observer, D, M, st, tried, names=()):
+    """One row of each λ (families of one row each, :func:`one_row_short`) when they
+    satisfy the task, else None."""
+    rows = []
+    for lam in lams:
+        rows_phi, rows_j, _ = _family(F, H, L0, lam)
+        if len(rows_phi) != 1:
+            return None
+        rows.append((lam, rows_phi[0], rows_j[0]))
+    return rows if _check_rows(rows, len(rows), observer, H, D, M, st, tried, names) else None
 
 
 def _rows_in_rowspace(family, H):
@@ -978,7 +999,7 @@ def _special_lambdas(observer, F, H, L0, L, M, time):
 
 def _minimality(observer, k, n, lams, lam_list, adm, requested, one_row, jumps, time,
                 bound, chains=(), span=None, nonlinear=None, several=False,
-                more=None) -> Condition:
+                more=None, short=None) -> Condition:
     """Why fewer rows are impossible, as far as it is proven (METHOD §2b). ``bound(k)``
     gives the :class:`OrderBound` of every reduced model of the task (any F*); ``chains``
     the :class:`ChainOrder` of each order m (z = M x, every λ admissible). A Jordan
@@ -1007,6 +1028,12 @@ def _minimality(observer, k, n, lams, lam_list, adm, requested, one_row, jumps, 
                          " (rank [M; H] − rank H); exactly that many is impossible for every"
                          f" real stable λ ({span.evidence}); and {span.q + 1} rows are impossible"
                          f" too: {more.evidence}", ref, required=False)
+    if (short is not None and short.analysed and not short.possible and k == short.k + 1
+            and not requested):
+        return Condition(name, True, found + f"k = {k} rows form a basis modulo the outputs;"
+                         f" {short.k} rows are impossible for every real stable λ, and a model"
+                         " of fewer rows would extend to that many by rows of further λ:"
+                         f" {short.evidence}", ref, required=False)
     if requested:
         why = f"k = {k} for the requested λ only; other λ were not searched"
         proven = False
@@ -1066,6 +1093,8 @@ def _minimality(observer, k, n, lams, lam_list, adm, requested, one_row, jumps, 
             least += f"; {span.q + 1} rows: {more.evidence}"
             if no_more:
                 lo = max(lo, span.q + 2)
+    if short is not None:
+        least += f"; {short.k} rows: {short.evidence}"
     return Condition(name, False, found + f"{why}; the lower bound over every F* is {b.k}{where}"
                      f" ({b.evidence}){least}, so the least order of a Jordan model lies in"
                      f" [{lo}, {k}]", ref, required=False)

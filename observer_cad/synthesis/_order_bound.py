@@ -44,7 +44,8 @@ import itertools
 import numpy as np
 import sympy as sp
 
-from ..numerics import exact_rank, left_null_echelon, left_null_space, solve_left
+from ..numerics import exact_rank, gordan_alternative, left_null_echelon, left_null_space, solve_left
+from ._box_cover import box_cover
 from ._canonical import krylov_blocks, member_to_phi
 from sympy.polys.matrices import DomainMatrix
 
@@ -53,7 +54,7 @@ from ._lambda_search import (exact_real_roots, family_jump_lambdas, rank_drop_la
 from ._reduced import is_stable
 
 __all__ = ["OrderBound", "ChainOrder", "estimation_order_bound", "residual_order_bound",
-           "nonlinear_jordan_bound", "OneMoreRow", "one_more_row",
+           "nonlinear_jordan_bound", "OneMoreRow", "one_more_row", "one_row_short", "family_order",
            "chain_order", "chain_system", "hyperplane_functional", "hyperplane_corners",
            "hyperplane_member", "plane_order", "spread_lambdas", "MAX_SUBSETS"]
 
@@ -172,17 +173,20 @@ def nonlinear_jordan_bound(F, H, L, M, C, A_rows, k: int, lam, time: str, tries,
 
 @dataclasses.dataclass(frozen=True)
 class OneMoreRow:
-    """Can q + 1 rows give z = M x when q = rank [M; H] − rank H rows cannot?
+    """Can k rows give z = M x — k = q + 1 (:func:`one_more_row`) or k = n − rank H − 1
+    (:func:`one_row_short`), q = rank [M; H] − rank H?
 
-    ``analysed``: False when the case is outside what :func:`one_more_row` decides
-    (``evidence`` says why); ``possible``: some w gives q + 1 distinct real stable λ (a
-    necessary condition; a design still has to be built and certified); ``lambdas``: such
-    λ when found (exact); ``evidence``: one line."""
+    ``analysed``: False when the case is outside what is decided (``evidence`` says why);
+    ``possible``: some w gives k distinct real stable λ (a necessary condition; a design
+    still has to be built and certified); ``lambdas``: such λ when found (exact);
+    ``evidence``: one line; ``k``: the number of rows asked about (0 when not analysed
+    before it was known)."""
 
     analysed: bool
     possible: bool
     lambdas: tuple
     evidence: str
+    k: int = 0
 
 
 def one_more_row(F, H, L, M, lam, time: str) -> OneMoreRow:
@@ -191,10 +195,11 @@ def one_more_row(F, H, L, M, lam, time: str) -> OneMoreRow:
     hyperplanes (METHOD §2b, "one more row").
 
     Let Q span the right null space of [M; H] (c columns) and V(λ) the rows Φ with
-    Φ L = 0 and Φ (F − λI) ∈ rowspace H. Preconditions, each checked exactly (M is first reduced to q
-    rows independent modulo H, which gives the same models): no row of any real stable λ lies in rowspace [M; H] outside
-    rowspace H (E(λ) of :func:`span_rows` has no a-part, generically nor at its drops);
-    V(λ) has the same dimension f at every real stable λ (no family jump); f = c − 1.
+    Φ L = 0 and Φ (F − λI) ∈ rowspace H. Preconditions, each checked exactly (M is first
+    reduced to q rows independent modulo H, which gives the same models): no row of any
+    real stable λ lies in rowspace [M; H] outside rowspace H (E(λ) of :func:`span_rows`
+    has no a-part, generically nor at its drops); V(λ) has the same dimension f at every
+    real stable λ (no family jump); f = c − 1.
     Then q + 1 rows span z and one more direction modulo H, so their images Φ_i Q all lie
     on one line w ≠ 0; none is 0 and no two share a λ (either would put a row of V(λ)
     inside rowspace [M; H]). So w ∈ W(λ_i) = V(λ_i) Q at q + 1 distinct real stable λ_i,
@@ -203,19 +208,42 @@ def one_more_row(F, H, L, M, lam, time: str) -> OneMoreRow:
     p_w form a linear family of polynomials of degree ≤ D = deg ν (of dimension c when
     no w has p_w ≡ 0). D < q + 1: impossible. D = q + 1: every root must be real,
     distinct and stable, and the monic members are an affine family of dimension c − 1,
-    decided exactly as the chain polynomials are (a point, a line, a plane or a
-    hyperplane). Otherwise not analysed."""
+    decided as the chain polynomials are (:func:`family_order`). Otherwise not
+    analysed."""
+    return _hyperplane_rows(F, H, L, M, lam, time, short=False)
+
+
+def one_row_short(F, H, L, M, lam, time: str) -> OneMoreRow:
+    """Decide exactly whether a Jordan model of z = M x with n − rank H − 1 rows (one
+    fewer than a basis modulo the outputs) can exist when each λ has one row (f = 1):
+    the dual of :func:`one_more_row` (METHOD §2b, "one row short").
+
+    Same preconditions (no row inside rowspace [M; H] outside rowspace H, no family jump).
+    k = n − rank H − 1 = q + c − 1 independent rows span z modulo H and c − 1 more
+    directions, so their images Φ_i Q span a hyperplane w^⊥ of the c dimensions modulo
+    rowspace [M; H]. With f = 1 each λ has one row, Φ = v(λ) up to scale, and its image
+    γ(λ) = v(λ) Q is never 0 (precondition), so w·γ(λ_i) = 0 at k distinct real stable
+    λ_i. With γ made primitive, p_w(λ) = γ(λ)·w is a linear family of polynomials of
+    degree ≤ D = deg γ, decided as in :func:`one_more_row`. Conversely k such roots give
+    k rows with images in w^⊥; when they are independent modulo H they span z (the design
+    checks and certifies that)."""
+    return _hyperplane_rows(F, H, L, M, lam, time, short=True)
+
+
+def _hyperplane_rows(F, H, L, M, lam, time: str, short: bool) -> OneMoreRow:
     F, H, L, M = (sp.Matrix(X) for X in (F, H, L, M))
     if set().union(*(X.free_symbols for X in (F, H, L, M))):
         return OneMoreRow(False, False, (), "not analysed: symbolic parameters")
     n = F.rows
+    what = "one row short" if short else "one more row"
 
-    def no(why):
-        return OneMoreRow(False, False, (), f"one more row not analysed: {why}")
+    def no(why, k=0):
+        return OneMoreRow(False, False, (), f"{what} not analysed: {why}", k)
 
     rH = exact_rank(H).rank if H.rows else 0
     rMH = exact_rank(sp.Matrix.vstack(M, H)).rank
     q, c = rMH - rH, n - rMH
+    k = q + c - 1 if short else q + 1
     if q != M.rows:  # the same models: z's rows independent modulo H
         keep, r_have = [], rH
         for i in range(M.rows):
@@ -225,23 +253,23 @@ def one_more_row(F, H, L, M, lam, time: str) -> OneMoreRow:
                 r_have = r_trial
         M = sp.Matrix.vstack(*keep)
     if c < 2:
-        return no(f"rowspace [M; H] has codimension {c}")
+        return no(f"rowspace [M; H] has codimension {c}", k)
     E = span_pencil(F, H, L, M, lam)
     if any(not v[:, :M.rows].is_zero_matrix for v in left_null_space(E)[0]):
-        return no("rows inside rowspace [M; H] exist for λ generic")
+        return no("rows inside rowspace [M; H] exist for λ generic", k)
     _, drop = rank_drop_lambdas(E, lam, time, "E(λ)", "rows inside rowspace [M; H]")
     if not drop.analysed:  # pragma: no cover - singular compressions (probability 0)
-        return no(drop.evidence)
+        return no(drop.evidence, k)
     for v in drop.stable:
         if any(not b[:, :M.rows].is_zero_matrix for b in left_null_space(E.subs(lam, v))[0]):
-            return no(f"at λ = {v} a row lies inside rowspace [M; H]")
+            return no(f"at λ = {v} a row lies inside rowspace [M; H]", k)
     L0 = (sp.Matrix.vstack(*left_null_space(L)[0]) if L.cols else sp.eye(n))
     if L0.rows == 0:
-        return no("no row has Φ L = 0")
+        return no("no row has Φ L = 0", k)
     jumps = family_jump_lambdas(F, H, L0, lam, time)
     if not jumps.analysed or jumps.stable:
         return no("the family of rows grows at λ = " + ", ".join(map(str, jumps.stable))
-                  if jumps.stable else jumps.evidence)
+                  if jumps.stable else jumps.evidence, k)
     rows = []
     for v in left_null_space(sp.Matrix.vstack(L0 * (F - lam * sp.eye(n)), H))[0]:
         phi = (v[:, :L0.rows] * L0).applyfunc(sp.together)
@@ -251,67 +279,66 @@ def one_more_row(F, H, L, M, lam, time: str) -> OneMoreRow:
             rows.append(phi)
     Q = sp.Matrix.hstack(*sp.Matrix.vstack(M, H).nullspace())
     f = len(rows)
-    if f != c - 1:
-        return no(f"the images of the rows modulo rowspace [M; H] have dimension {f}, not"
-                  f" {c - 1} (a hyperplane of the {c} dimensions)")
-    G = (sp.Matrix.vstack(*rows) * Q).applyfunc(sp.expand)
-    nu = []
-    for j in range(c):
-        minor = G[:, [i for i in range(c) if i != j]]
-        dm = DomainMatrix.from_Matrix(minor).convert_to(sp.QQ[lam])
-        nu.append((-1) ** j * sp.QQ[lam].to_sympy(dm.det()))
+    G = (sp.Matrix.vstack(*rows) * Q).applyfunc(sp.expand) if rows else sp.zeros(0, c)
+    if short:
+        if f != 1:
+            return no(f"each λ has {f} rows, not one", k)
+        # fewer rows nest: a model of k' < k rows takes a row of a further λ while the rows
+        # of all λ (the coefficient rows of v(λ)) and H span more than n − 2 dimensions
+        deg = max(sp.degree(e, lam) for e in rows[0] if e != 0)
+        coeffs = sp.Matrix([[sp.Poly(e, lam).coeff_monomial(lam ** i) for e in rows[0]]
+                            for i in range(deg + 1)])
+        if exact_rank(sp.Matrix.vstack(coeffs, H)).rank < n - 1:
+            return no("the rows of all λ and H span fewer than n − 1 dimensions (models of"
+                      " fewer rows need not extend to k)", k)
+        nu = list(G)
+        space = "modulo rowspace [M; H] the row of λ has the image γ(λ)"
+        need = f"{k} rows need a hyperplane w^⊥ with γ(λ)·w = 0 at {k} distinct real stable λ"
+    else:
+        if f != c - 1:
+            return no(f"the images of the rows modulo rowspace [M; H] have dimension {f}, not"
+                      f" {c - 1} (a hyperplane of the {c} dimensions)", k)
+        nu = []
+        for j in range(c):
+            minor = G[:, [i for i in range(c) if i != j]]
+            dm = DomainMatrix.from_Matrix(minor).convert_to(sp.QQ[lam])
+            nu.append((-1) ** j * sp.QQ[lam].to_sympy(dm.det()))
+        space = "modulo rowspace [M; H] the rows of λ span the hyperplane ν(λ)^⊥, ν(λ)"
+        need = f"q + 1 = {k} rows need a w with ν(λ)·w = 0 at {k} distinct real stable λ"
     g = sp.gcd_list(nu)
     if g == 0:
-        return no("the images of the rows are dependent for λ generic")
+        return no("the images of the rows are dependent for λ generic", k)
     nu = [sp.cancel(e / g) for e in nu]
     polys = [sp.Poly(e, lam) for e in nu]
     D = max(p.degree() for p in polys)
     coef = sp.Matrix([[p.coeff_monomial(lam ** i) for i in range(D + 1)] for p in polys])
-    fam = (f"modulo rowspace [M; H] the rows of λ span the hyperplane ν(λ)^⊥, ν(λ) ="
-           f" ({', '.join(str(sp.factor(e)) for e in nu)}); q + 1 = {q + 1} rows need a w"
-           f" with ν(λ)·w = 0 at {q + 1} distinct real stable λ")
+    name = "γ" if short else "ν"
+    fam = f"{space} = ({', '.join(str(sp.factor(e)) for e in nu)}); {need}"
     if exact_rank(coef).rank < c:
-        return no(f"{fam}, but some w ≠ 0 has ν(λ)·w ≡ 0")
-    if D < q + 1:
-        return OneMoreRow(True, False, (), f"{fam}: ν(λ)·w has degree ≤ {D} < {q + 1},"
-                          f" so no choice of real stable λ gives {q + 1} rows")
-    if D > q + 1:
-        return no(f"{fam}: ν(λ)·w has degree {D} > {q + 1} (at least {q + 1} of its roots"
-                  " stable: not decided)")
+        return no(f"{fam}, but some w ≠ 0 has {name}(λ)·w ≡ 0", k)
+    if D < k:
+        return OneMoreRow(True, False, (), f"{fam}: {name}(λ)·w has degree ≤ {D} < {k},"
+                          f" so no choice of real stable λ gives {k} rows", k)
+    if D > k:
+        return no(f"{fam}: {name}(λ)·w has degree {D} > {k} (at least {k} of its roots"
+                  " stable: not decided)", k)
     m = D
     j0 = next(j for j, p in enumerate(polys) if p.degree() == m)
     lc0 = polys[j0].LC()
-    p0 = sp.expand(nu[j0] / lc0)
-    dirs = [sp.expand(nu[j] - polys[j].coeff_monomial(lam ** m) / lc0 * nu[j0])
+    p0 = sp.Poly(sp.expand(nu[j0] / lc0), lam)
+    a0 = [-p0.coeff_monomial(lam ** i) for i in range(m)]
+    dirs = [[-sp.Poly(sp.expand(nu[j] - polys[j].coeff_monomial(lam ** m) / lc0 * nu[j0]),
+                      lam).coeff_monomial(lam ** i) for i in range(m)]
             for j in range(c) if j != j0]
-    d = len(dirs)
-
-    def roots_ok(p):
-        return _stable_distinct_roots(p, lam, m, time)
-
-    if d >= m:
-        order = ChainOrder(m, "free", d, None, (), "every monic p of that degree")
-        return OneMoreRow(True, True, (), f"{fam}: {order.evidence}")
-    if d == 1:
-        order = _pencil_order(m, p0, dirs[0], lam, time, roots_ok)
-    elif d == m - 1:
-        a0 = [-sp.Poly(p0, lam).coeff_monomial(lam ** i) for i in range(m)]
-        av = [[-sp.Poly(e, lam).coeff_monomial(lam ** i) for i in range(m)] for e in dirs]
-        ell = hyperplane_functional(m, a0, av)
-        ok, text = hyperplane_corners(ell, time)
-        p = hyperplane_member(ell, time, lam) if ok else None
-        order = ChainOrder(m, "hyperplane", d, p, roots_ok(p) if p is not None else (),
-                           text if p is None or not ok else f"{text}; p(λ) = {sp.factor(p)}")
-        if ok and p is None:  # pragma: no cover - the walk always ends at a member
-            return OneMoreRow(True, True, (), f"{fam}: {text}")
-    elif d == 2:
-        order = plane_order(m, p0, dirs, lam, time, roots_ok)
-    else:
-        return no(f"{fam}: the monic p_w form a {d}-parameter family of degree {m}")
+    order = family_order(m, a0, dirs, lam, time)
     if order.lambdas:
-        return OneMoreRow(True, True, tuple(order.lambdas), f"{fam}: {order.evidence}")
+        return OneMoreRow(True, True, tuple(order.lambdas), f"{fam}: {order.evidence}", k)
+    if order.verdict == "free" and order.dim >= m:  # every monic p of degree m
+        return OneMoreRow(True, True, (), f"{fam}: {order.evidence}", k)
+    if not order.decided:
+        return no(f"{fam}: {order.evidence}", k)
     return OneMoreRow(True, False, (), f"{fam}: {order.evidence}, so no choice of real"
-                      f" stable λ gives {q + 1} rows")
+                      f" stable λ gives {k} rows", k)
 
 
 def _nonlinear_evidence(parts) -> str:
@@ -384,8 +411,11 @@ class ChainOrder:
     ``verdict``: "empty" (no such p: no model of order m), "unique" (one p; its roots are
     every model's eigenvalues), "line" (a one-parameter family, decided exactly),
     "hyperplane" (one linear condition on p, decided exactly), "plane" (a two-parameter
-    family, decided exactly), "free" (an affine family of dimension 3 … m − 2, searched;
-    undecided when nothing is found; or ``dim`` ≥ m: every monic p), "symbolic" (parameters: a member whose roots are rational functions of
+    family, decided exactly), "signs" (a family of dimension 3 … m − 2 in which no
+    member has coefficients of one sign: ruled out exactly), "box" (such a family ruled out
+    exactly by :func:`box_cover`), "free" (an affine family of
+    dimension 3 … m − 2, searched; undecided when nothing is found; or ``dim`` ≥ m: every
+    monic p), "symbolic" (parameters: a member whose roots are rational functions of
     them was looked for; undecided when none is found); ``polynomial``: the unique p, or
     the member found with ``lambdas`` as its roots; ``lambdas``: m distinct real stable
     roots of a member (exact; with parameters, stable at their defaults), () when none was
@@ -403,8 +433,8 @@ class ChainOrder:
     @property
     def impossible(self) -> bool:
         """No member has m distinct real stable roots (decided exactly)."""
-        return self.verdict == "empty" or (self.verdict in ("unique", "line", "hyperplane",
-                                                            "plane") and not self.lambdas)
+        return self.verdict in ("empty", "signs", "box") or (
+            self.verdict in ("unique", "line", "hyperplane", "plane") and not self.lambdas)
 
     @property
     def decided(self) -> bool:
@@ -490,6 +520,21 @@ def chain_order(F, H, M, m: int, lam, time: str, tries, L=None, defaults=None) -
     a0 = [X0[0, i] for i in range(m)]
     basis, _ = left_null_space(A)
     dirs = _independent([[v[0, i] for i in range(m)] for v in basis])
+    return family_order(m, a0, dirs, lam, time, tries)
+
+
+def family_order(m: int, a0, dirs, lam, time: str, tries=()) -> ChainOrder:
+    """Decide whether the affine family of monic p(λ) = λᵐ − Σ_i (a0_i + Σ_j t_j v_ji) λⁱ
+    (``dirs`` = the v_j, independent) has a member with m distinct real stable roots.
+
+    By the family's dimension d: a point, a line, a hyperplane (d = m − 1) and a plane are
+    decided exactly; d ≥ m: every monic p; 3 ≤ d ≤ m − 2: first the sign test
+    (:func:`_sign_order`: a member with every root real and stable has coefficients of one
+    sign — after λ = (μ + 1)/(μ − 1) in discrete time — so a Gordan certificate that none
+    has rules the order out exactly), then members through d pinned roots (``tries``, then
+    seeded samples), then a cover of the root box by cells on which the family's
+    conditions cannot all vanish (:func:`box_cover`, exact); undecided when none of them
+    settles it."""
     d = len(dirs)
 
     def poly(a):
@@ -512,6 +557,10 @@ def chain_order(F, H, M, m: int, lam, time: str, tries, L=None, defaults=None) -
         return _pencil_order(m, poly(a0), sp.expand(-sum(dirs[0][i] * lam ** i
                                                           for i in range(m))), lam, time,
                              roots_ok)
+    if 3 <= d <= m - 2:
+        signs = _sign_order(m, a0, dirs, lam, time)
+        if signs is not None:
+            return signs
 
     def pinned(subset):
         a = _pinned(a0, dirs, subset, poly(a0), lam)
@@ -540,10 +589,56 @@ def chain_order(F, H, M, m: int, lam, time: str, tries, L=None, defaults=None) -
     if d == 2:  # a plane: exact cell decomposition in (t1, t2)
         return plane_order(m, poly(a0), [sp.expand(-sum(v[i] * lam ** i for i in range(m)))
                                           for v in dirs], lam, time, roots_ok)
+    cover = box_cover(m, _annihilators(m, a0, dirs), time)
+    if cover.proven:
+        return ChainOrder(m, "box", d, None, (), f"m = {m}: a {d}-parameter family of p;"
+                          f" {cover.evidence}: no Jordan model of order {m}")
     return ChainOrder(m, "free", d, None, (),
                       f"m = {m}: a {d}-parameter family of p; none through {d} of the tried λ"
-                      f" nor of {SAMPLES} sampled sets has only real, distinct, stable roots"
-                      " (undecided)")
+                      f" nor of {SAMPLES} sampled sets has only real, distinct, stable roots;"
+                      f" the box cover is {cover.evidence} (undecided)")
+
+
+def _annihilators(m, a0, dirs) -> list:
+    """Rational functionals ℓ (weights of the coefficients of λ⁰ … λᵐ) whose common zeros
+    among monic p of degree m are exactly the family p = λᵐ − Σ (a0_i + Σ_j t_j v_ji) λⁱ."""
+    gens = sp.Matrix([[-a for a in a0] + [1]] + [[-v[i] for i in range(m)] + [0] for v in dirs])
+    return [list(v) for v in gens.nullspace()]
+
+
+def _sign_order(m, a0, dirs, lam, time) -> ChainOrder | None:
+    """Order m ruled out exactly when no member of the family has coefficients of one
+    sign (None when some member has, or the alternative is undecided).
+
+    A monic p with every root real and < 0 is Π (λ + r_i), r_i > 0: every coefficient
+    positive. In discrete time (roots in (−1, 1)) the same holds for
+    p̃(μ) = (μ − 1)ᵐ p((μ + 1)/(μ − 1)) = Π ((1 − λ_i) μ + (1 + λ_i)). The coefficients are
+    linear in (s, t) for s p0 + Σ t_j d_j, so "some member has them all positive" is
+    A (s, t) > 0 for a rational A (s > 0 follows: the leading coefficient of p, resp.
+    p̃(1) = 2ᵐ, is s), and Gordan's alternative gives a certificate y ≥ 0, y ≠ 0,
+    yᵀ A = 0 when none has (:func:`gordan_alternative`, verified exactly)."""
+    gens = [sp.expand(lam ** m - sum(a0[i] * lam ** i for i in range(m)))]
+    gens += [sp.expand(-sum(v[i] * lam ** i for i in range(m))) for v in dirs]
+    if time != "continuous":
+        mu = sp.Dummy("mu")
+        gens = [sp.expand(sp.cancel(g.subs(lam, (mu + 1) / (mu - 1)) * (mu - 1) ** m)
+                          ).subs(mu, lam) for g in gens]
+    A = sp.Matrix([[sp.Poly(g, lam).coeff_monomial(lam ** i) for g in gens]
+                   for i in range(m + 1)])
+    if not all(e.is_Rational for e in A):
+        return None
+    alt = gordan_alternative(A)
+    if not alt.infeasible:
+        return None
+    what = ("p(λ)" if time == "continuous" else
+            f"(μ − 1)^{m} p((μ + 1)/(μ − 1))")
+    roots = "real and < 0" if time == "continuous" else "real in (−1, 1)"
+    y = ", ".join(str(e) for e in alt.y)
+    return ChainOrder(m, "signs", len(dirs), None, (),
+                      f"m = {m}: a {len(dirs)}-parameter family of p; no member has the"
+                      f" coefficients of {what} all of one sign (Gordan: y = ({y}) ≥ 0 annuls"
+                      f" them on the whole family), but every root {roots} makes them all"
+                      f" positive: no Jordan model of order {m}")
 
 
 def _symbolic_chain(A, B, m, lam, tries, dec, defaults, time) -> ChainOrder:
