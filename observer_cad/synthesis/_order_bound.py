@@ -254,6 +254,19 @@ def _hyperplane_rows(F, H, L, M, lam, time: str, short: bool) -> OneMoreRow:
         M = sp.Matrix.vstack(*keep)
     if c < 2:
         return no(f"rowspace [M; H] has codimension {c}", k)
+    L0 = (sp.Matrix.vstack(*left_null_space(L)[0]) if L.cols else sp.eye(n))
+    if L0.rows == 0:
+        return no("no row has Φ L = 0", k)
+    rows = []
+    for v in left_null_space(sp.Matrix.vstack(L0 * (F - lam * sp.eye(n)), H))[0]:
+        phi = (v[:, :L0.rows] * L0).applyfunc(sp.together)
+        den = sp.lcm_list([sp.fraction(e)[1] for e in phi])
+        phi = (phi * den).applyfunc(sp.cancel)
+        if not phi.is_zero_matrix:
+            rows.append(phi)
+    f = len(rows)
+    if short and f != 1:
+        return no(f"each λ has {f} rows, not one", k)
     E = span_pencil(F, H, L, M, lam)
     if any(not v[:, :M.rows].is_zero_matrix for v in left_null_space(E)[0]):
         return no("rows inside rowspace [M; H] exist for λ generic", k)
@@ -263,26 +276,16 @@ def _hyperplane_rows(F, H, L, M, lam, time: str, short: bool) -> OneMoreRow:
     for v in drop.stable:
         if any(not b[:, :M.rows].is_zero_matrix for b in left_null_space(E.subs(lam, v))[0]):
             return no(f"at λ = {v} a row lies inside rowspace [M; H]", k)
-    L0 = (sp.Matrix.vstack(*left_null_space(L)[0]) if L.cols else sp.eye(n))
-    if L0.rows == 0:
-        return no("no row has Φ L = 0", k)
     jumps = family_jump_lambdas(F, H, L0, lam, time)
     if not jumps.analysed or jumps.stable:
         return no("the family of rows grows at λ = " + ", ".join(map(str, jumps.stable))
                   if jumps.stable else jumps.evidence, k)
-    rows = []
-    for v in left_null_space(sp.Matrix.vstack(L0 * (F - lam * sp.eye(n)), H))[0]:
-        phi = (v[:, :L0.rows] * L0).applyfunc(sp.together)
-        den = sp.lcm_list([sp.fraction(e)[1] for e in phi])
-        phi = (phi * den).applyfunc(sp.cancel)
-        if not phi.is_zero_matrix:
-            rows.append(phi)
+    if not short and f != c - 1:
+        return no(f"the images of the rows modulo rowspace [M; H] have dimension {f}, not"
+                  f" {c - 1} (a hyperplane of the {c} dimensions)", k)
     Q = sp.Matrix.hstack(*sp.Matrix.vstack(M, H).nullspace())
-    f = len(rows)
     G = (sp.Matrix.vstack(*rows) * Q).applyfunc(sp.expand) if rows else sp.zeros(0, c)
     if short:
-        if f != 1:
-            return no(f"each λ has {f} rows, not one", k)
         # fewer rows nest: a model of k' < k rows takes a row of a further λ while the rows
         # of all λ (the coefficient rows of v(λ)) and H span more than n − 2 dimensions
         deg = max(sp.degree(e, lam) for e in rows[0] if e != 0)
@@ -295,9 +298,6 @@ def _hyperplane_rows(F, H, L, M, lam, time: str, short: bool) -> OneMoreRow:
         space = "modulo rowspace [M; H] the row of λ has the image γ(λ)"
         need = f"{k} rows need a hyperplane w^⊥ with γ(λ)·w = 0 at {k} distinct real stable λ"
     else:
-        if f != c - 1:
-            return no(f"the images of the rows modulo rowspace [M; H] have dimension {f}, not"
-                      f" {c - 1} (a hyperplane of the {c} dimensions)", k)
         nu = []
         for j in range(c):
             minor = G[:, [i for i in range(c) if i != j]]

@@ -186,6 +186,18 @@ def test_one_output_chain_family_ruled_out_by_signs(time):
 
 
 @pytest.mark.slow
+@pytest.mark.parametrize("n, seed, time, k", [(8, 2, "continuous", 6), (8, 1, "discrete", 6),
+                                              (9, 1, "continuous", 7)])
+def test_one_output_design_proven_minimal(n, seed, time, k):
+    """Designs whose least order was only known to lie in [k − 1, k]: order k − 1 is now
+    ruled out (signs or box cover), so the k rows found are minimal; certified."""
+    d = design_jordan(random_model(n, 1, 0, seed=seed, time=time), observer="virtual-sensor",
+                      estimate="x1")
+    assert d.k == k and d.certificate.passed and _minimal(d).holds
+    assert "no Jordan model of fewer rows" in _minimal(d).detail
+
+
+@pytest.mark.slow
 def test_one_output_chain_family_ruled_out_by_the_box_cover():
     """random_model(9, 1, 0, seed=1), continuous: order 6, a 4-parameter family with
     members of positive coefficients; the box cover rules it out."""
@@ -267,3 +279,12 @@ def test_one_row_short_possible_builds_the_smaller_design(n, k_before):
     assert PH.rank(simplify=True) == d.k + H.rank()
     assert sp.Matrix.vstack(PH, M).rank(simplify=True) == PH.rank(simplify=True)
     assert any(not v.is_rational for v in d.lambdas)
+
+
+def test_one_row_short_not_analysed_outside_its_case():
+    """Two rows per λ (no decoupled input): one_row_short says so and claims nothing."""
+    st_ = extract_structure(random_model(7, 2, 0, seed=0, time="continuous"))
+    M = sp.zeros(2, 7)
+    M[0, 0] = M[1, 1] = 1
+    r = one_row_short(sp.Matrix(st_.F), sp.Matrix(st_.H), sp.zeros(7, 0), M, LAM, "continuous")
+    assert not r.analysed and not r.possible and "each λ has 2 rows" in r.evidence
