@@ -28,7 +28,7 @@ import math
 import numpy as np
 import sympy as sp
 
-__all__ = ["BoxCover", "box_cover", "BOX_CELLS", "BOX_DEPTH"]
+__all__ = ["BoxCover", "box_cover", "BOX_CELLS", "BOX_DEPTH", "PROBES"]
 
 #: cells examined at most before giving up (undecided)
 BOX_CELLS = 6000
@@ -39,6 +39,9 @@ BOX_DEPTH = 7
 #: initial cells per axis (2: the halves of (−1, 1))
 _START = 2
 
+#: cells not excluded that are probed after each halving, at most (spread over the list)
+PROBES = 400
+
 #: a float LP margin above this is taken as "c found" (then verified in integers)
 _MARGIN = 1e-12
 
@@ -47,12 +50,14 @@ _MARGIN = 1e-12
 class BoxCover:
     """``proven``: every cell of the ordered chamber was excluded (no member has all m
     roots real and stable); ``cells``: cells examined; ``depth``: halvings used;
-    ``evidence``: one line."""
+    ``evidence``: one line; ``found``: what ``probe`` returned for a cell that could not
+    be excluded (a member, so the family is possible), else None."""
 
     proven: bool
     cells: int
     depth: int
     evidence: str
+    found: object = None
 
 
 def _integer_rows(functionals) -> list:
@@ -65,10 +70,15 @@ def _integer_rows(functionals) -> list:
 
 
 def box_cover(m: int, functionals, time: str, *, max_cells: int = BOX_CELLS,
-              max_depth: int = BOX_DEPTH) -> BoxCover:
+              max_depth: int = BOX_DEPTH, probe=None) -> BoxCover:
     """Try to prove that no monic p of degree m with ℓ_k(p) = 0 for every row ℓ_k of
     ``functionals`` (rational, m + 1 entries: the weights of the coefficients of λ⁰ … λᵐ)
-    has m real stable roots (module docstring)."""
+    has m real stable roots (module docstring).
+
+    ``probe(mu)``, optional: called with the centre (rationals μ_1 < … < μ_m) of up to
+    :data:`PROBES` cells that are not excluded after each halving; a cell that cannot be
+    excluded usually holds a member, so the probe (e.g. pinning roots there) may find it.
+    Whatever truthy value it returns ends the cover (``found``)."""
     from scipy.optimize import linprog  # lazy: scipy costs ~0.3 s to import
 
     ell = _integer_rows(functionals)
@@ -159,6 +169,15 @@ def box_cover(m: int, functionals, time: str, *, max_cells: int = BOX_CELLS,
                             f" {depth} halvings): on each, a combination of the {r} conditions"
                             " is of one sign at every vertex, hence on the whole cell (multi-"
                             "affine), so no member has its roots real and stable")
+        if probe is not None and depth >= 1:
+            for lo, hi in left[::max(1, len(left) // PROBES)][:PROBES]:
+                centre = tuple(sp.Rational(a + b, top) - 1 for a, b in zip(lo, hi))
+                if len(set(centre)) < m:
+                    continue
+                got = probe(centre)
+                if got:
+                    return BoxCover(False, examined, depth, "a member found in a cell that"
+                                    " could not be excluded", got)
         if depth == max_depth:
             break
         cells = []

@@ -589,7 +589,37 @@ def family_order(m: int, a0, dirs, lam, time: str, tries=()) -> ChainOrder:
     if d == 2:  # a plane: exact cell decomposition in (t1, t2)
         return plane_order(m, poly(a0), [sp.expand(-sum(v[i] * lam ** i for i in range(m)))
                                           for v in dirs], lam, time, roots_ok)
-    cover = box_cover(m, _annihilators(m, a0, dirs), time)
+    A0f = np.array([float(v) for v in a0])
+    Df = np.array([[float(v) for v in row] for row in dirs])
+
+    def probe(mu):  # the cell's centre as roots: pin d of them (floats first, then exactly)
+        lams = [(u + 1) / (u - 1) if time == "continuous" else u for u in mu]
+        for subset in (lams[:d], lams[-d:], lams[::2][:d], lams[1::2][:d]):
+            if len(subset) < d or len(set(subset)) < d:
+                continue
+            xs = np.array([float(v) for v in subset])
+            V = np.vander(xs, m, increasing=True)  # p(x) = xᵐ − (a0 + Σ w_r dir_r)·(1, x, …)
+            try:
+                w = np.linalg.solve(V @ Df.T, xs ** m - V @ A0f)
+            except np.linalg.LinAlgError:
+                continue
+            r = np.roots(np.r_[1.0, -(A0f + w @ Df)[::-1]])
+            if (np.max(np.abs(r.imag)) > 1e-9 or len(np.unique(np.round(r.real, 9))) < m
+                    or not all(is_stable(sp.Float(v), time) for v in r.real)):
+                continue
+            exact = [sp.Rational(v).limit_denominator(1000) for v in subset]
+            p = pinned(exact) if len(set(exact)) == d else None
+            rts = roots_ok(p) if p is not None else ()
+            if rts:
+                return p, rts, exact
+        return None
+
+    cover = box_cover(m, _annihilators(m, a0, dirs), time, probe=probe)
+    if cover.found:
+        p, rts, subset = cover.found
+        return ChainOrder(m, "free", d, p, rts, f"m = {m}: a {d}-parameter family of p;"
+                          f" through λ = {', '.join(map(str, subset))} (a cell the box cover"
+                          f" could not exclude): p(λ) = {sp.factor(p)}")
     if cover.proven:
         return ChainOrder(m, "box", d, None, (), f"m = {m}: a {d}-parameter family of p;"
                           f" {cover.evidence}: no Jordan model of order {m}")

@@ -288,3 +288,26 @@ def test_one_row_short_not_analysed_outside_its_case():
     M[0, 0] = M[1, 1] = 1
     r = one_row_short(sp.Matrix(st_.F), sp.Matrix(st_.H), sp.zeros(7, 0), M, LAM, "continuous")
     assert not r.analysed and not r.possible and "each λ has 2 rows" in r.evidence
+
+
+@pytest.mark.slow
+def test_member_the_search_misses_is_found_in_a_cell_of_the_cover():
+    """Roots −1/2, −1, …, −3 and four random directions (m = 6): the pinned search over
+    seeded samples misses every member, the box cover cannot exclude the cells around one
+    and its probe (pinning four roots at a cell's centre) finds a member. Checked here: p
+    is in the family (p − member in the span of the directions) with six distinct real
+    negative roots."""
+    rng = np.random.default_rng(3)
+    rng.integers(-5, 6, (3, 5))  # (the draws of the m = 5 family before it)
+    m = 6
+    member = sp.expand(sp.prod([LAM + sp.Rational(i + 1, 2) for i in range(m)]))
+    a0 = [-c for c in _coefficients(member, m)]
+    dirs = [[sp.Integer(int(v)) for v in rng.integers(-5, 6, m)] for _ in range(m - 2)]
+    c = family_order(m, a0, dirs, LAM, "continuous")
+    assert c.lambdas and "could not exclude" in c.evidence
+    assert len(set(c.lambdas)) == m and all(v < 0 for v in c.lambdas)
+    assert all(sp.simplify(c.polynomial.subs(LAM, v)) == 0 for v in c.lambdas)
+    diff = [sp.Poly(sp.expand(c.polynomial - member), LAM).coeff_monomial(LAM ** i)
+            for i in range(m)]
+    D = sp.Matrix([[-v for v in row] for row in dirs])
+    assert sp.Matrix.vstack(D, sp.Matrix([diff])).rank() == D.rank()
