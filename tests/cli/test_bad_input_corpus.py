@@ -510,7 +510,8 @@ def test_cache_fault(tmp_path, capsys, fault):
 
 
 # ----------------------------------------------------------------------------- subprocesses
-@pytest.mark.parametrize("argv_kind", ["scenario_payload", "gain_payload", "model_nan", "nonfinite"])
+@pytest.mark.parametrize("argv_kind", ["scenario_payload", pytest.param("gain_payload", marks=pytest.mark.slow),
+                                       pytest.param("model_nan", marks=pytest.mark.slow), "nonfinite"])
 def test_through_a_real_process(work, argv_kind):
     if argv_kind == "scenario_payload":
         sc = _write_scenario(work, json.dumps({"steps": 5, "signals": {"u": PAYLOAD + " * 0"}}))

@@ -340,7 +340,7 @@ def _fine_rk4(A, b, x, h, sub=4000):
     return x
 
 
-@pytest.mark.parametrize("h", [0.01, 0.3, 2.0])
+@pytest.mark.parametrize("h", [pytest.param(0.01, marks=pytest.mark.slow), 0.3, 2.0])
 def test_zoh_step_is_the_exact_solution(h):
     o, A = _linear_observer()
     f = observer_step(o, h=h, discretisation="zoh")

@@ -152,7 +152,7 @@ def _extreme_tank(sign):
                     "rho1": {"uniform": [-0.5, 0.5]}, "rho2": {"uniform": [-0.5, 0.5]}}})
 
 
-@pytest.mark.parametrize("sign", [1, -1])
+@pytest.mark.parametrize("sign", [1, pytest.param(-1, marks=pytest.mark.slow)])
 def test_nonlinear_tank_bound_is_tight(tank, tank_observer, sign):
     """With w1 ≡ ∓w* one copy obeys the plant's own equation: the declared bound is
     exactly enough (zero violations) and 10 % less is not."""
@@ -254,7 +254,8 @@ def drive_design(drive, lam):
     return design_jordan(drive, observer="interval", estimate="x2", lambdas=[lam])
 
 
-@pytest.mark.parametrize("lam", [sp.Rational(4, 5), sp.Rational(3, 4), sp.Rational(-1, 2)])
+@pytest.mark.parametrize("lam", [sp.Rational(4, 5), pytest.param(sp.Rational(3, 4), marks=pytest.mark.slow),
+                                 sp.Rational(-1, 2)])
 def test_drive_inclusion(drive, models_dir, lam):
     """λ = 4/5: Φ = (0, 1, 0), the fault does not enter (D* = 0); λ = 3/4: D* = Φ D = 125,
     the fault d bounded by its declared interval; λ = −1/2: F* < 0, both bounds use the
