@@ -44,7 +44,8 @@ import itertools
 import numpy as np
 import sympy as sp
 
-from ..numerics import exact_rank, gordan_alternative, left_null_echelon, left_null_space, solve_left
+from ..numerics import (exact_rank, gordan_alternative, left_null_echelon, left_null_space,
+                        solve_left)
 from ._box_cover import box_cover
 from ._canonical import krylov_blocks, member_to_phi
 from sympy.polys.matrices import DomainMatrix
@@ -54,7 +55,8 @@ from ._lambda_search import (exact_real_roots, family_jump_lambdas, rank_drop_la
 from ._reduced import is_stable
 
 __all__ = ["OrderBound", "ChainOrder", "estimation_order_bound", "residual_order_bound",
-           "nonlinear_jordan_bound", "OneMoreRow", "one_more_row", "one_row_short", "family_order",
+           "nonlinear_jordan_bound", "OneMoreRow", "one_more_row", "one_row_short",
+           "family_order",
            "chain_order", "chain_system", "hyperplane_functional", "hyperplane_corners",
            "hyperplane_member", "plane_order", "spread_lambdas", "MAX_SUBSETS"]
 
@@ -644,8 +646,8 @@ def _sign_order(m, a0, dirs, lam, time) -> ChainOrder | None:
     positive. In discrete time (roots in (−1, 1)) the same holds for
     p̃(μ) = (μ − 1)ᵐ p((μ + 1)/(μ − 1)) = Π ((1 − λ_i) μ + (1 + λ_i)). The coefficients are
     linear in (s, t) for s p0 + Σ t_j d_j, so "some member has them all positive" is
-    A (s, t) > 0 for a rational A (s > 0 follows: the leading coefficient of p, resp.
-    p̃(1) = 2ᵐ, is s), and Gordan's alternative gives a certificate y ≥ 0, y ≠ 0,
+    A (s, t) > 0 for a rational A (s > 0 follows: s is the leading coefficient of p, and
+    p̃(1) = 2ᵐ s), and Gordan's alternative gives a certificate y ≥ 0, y ≠ 0,
     yᵀ A = 0 when none has (:func:`gordan_alternative`, verified exactly)."""
     gens = [sp.expand(lam ** m - sum(a0[i] * lam ** i for i in range(m)))]
     gens += [sp.expand(-sum(v[i] * lam ** i for i in range(m))) for v in dirs]
