@@ -14,7 +14,7 @@ symbolic parameters whose λ are −a and −b (designed with the parameters kep
 and z with two components (test_span_rows.py): two rows that need λ = −5/2, three
 rows where two are impossible for every λ (the defaults gave four before), and two plants
 with a decoupled disturbance where one row fewer than a basis modulo the outputs is
-decided exactly (test_signs_and_boxes.py).
+decided exactly and impossible (test_signs_and_boxes.py).
 For each: ``design_jordan`` with the default λ list requested (what the search did before:
 −1, −2, … / 1/2, 1/4, …) and with the new search (defaults plus the exact special λ). Reported: k (or "none" when the defaults give
 no design), the λ found, median wall and CPU time of ``--runs`` calls. Target: the new
@@ -111,10 +111,10 @@ def cases(slow: bool):
     out.append(("`random_model(8, 2, 0, seed=0)`, z = (x1, x2) (5 rows before the triple search)",
                 random_model(8, 2, 0, seed=0, time="continuous"), sp.eye(8)[:2, :], 4))
     # a basis modulo the outputs (six rows), each λ with one row: one row fewer decided
-    # exactly (one_row_short) — possible through five λ (two quadratic surds), or impossible
-    out.append(("`random_model(8, 2, 1, seed=1)`, z = (x1, x2), disturbance decoupled (6 rows"
-                " before one row short)", random_model(8, 2, 1, seed=1, time="continuous"),
-                sp.eye(8)[:2, :], 5))
+    # exactly (one_row_short) and impossible, so six rows are minimal (before: [5, 6])
+    out.append(("`random_model(8, 2, 1, seed=0)`, z = (x1, x2), disturbance decoupled (5 rows"
+                " impossible)", random_model(8, 2, 1, seed=0, time="continuous"),
+                sp.eye(8)[:2, :], 6))
     out.append(("`random_model(8, 2, 1, seed=0, time='discrete')`, z = (x1, x2), disturbance"
                 " decoupled (5 rows impossible)", random_model(8, 2, 1, seed=0, time="discrete"),
                 sp.eye(8)[:2, :], 6))
