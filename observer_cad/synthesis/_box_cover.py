@@ -18,15 +18,16 @@ is spent (then: undecided).
 
 Exactness: the cells' corners are dyadic, μ = 2u/2ᴶ − 1, and g is evaluated in integers
 (each factor scaled by the positive 2ᴶ); c is found by a float linear programme for each
-cell, rationalised, and c·g(v) > 0 checked in integers at every vertex."""
+cell and c·g(v) > 0 checked in integers at every vertex (:func:`positive_combination`)."""
 from __future__ import annotations
 
 import dataclasses
 import itertools
 import math
 
-import numpy as np
 import sympy as sp
+
+from ..numerics import positive_combination
 
 __all__ = ["BoxCover", "box_cover", "BOX_CELLS", "BOX_DEPTH", "PROBES"]
 
@@ -41,9 +42,6 @@ _START = 2
 
 #: cells not excluded that are probed after each halving, at most (spread over the list)
 PROBES = 400
-
-#: a float LP margin above this is taken as "c found" (then verified in integers)
-_MARGIN = 1e-12
 
 
 @dataclasses.dataclass(frozen=True)
@@ -117,28 +115,10 @@ def box_cover(m: int, functionals, time: str, *, max_cells: int = BOX_CELLS,
         hint = last[0]
         if hint is not None and all(sum(c * x for c, x in zip(hint, row)) > 0 for row in V):
             return hint
-        if r == 1:
-            signs = {(row[0] > 0) - (row[0] < 0) for row in V}
-            if len(signs) == 1 and 0 not in signs:
-                last[0] = (signs.pop(),)
-                return last[0]
-            return None
-        Vf = np.array([[float(x) for x in row] for row in V])
-        norms = np.linalg.norm(Vf, axis=1)
-        if np.any(norms == 0):
-            return None
-        Vf /= norms[:, None]
-        res = linprog(np.r_[np.zeros(r), -1.0], A_ub=np.c_[-Vf, np.ones(len(V))],
-                      b_ub=np.zeros(len(V)), bounds=[(-1.0, 1.0)] * r + [(None, 1.0)],
-                      method="highs")
-        if res.status != 0 or -res.fun <= _MARGIN:
-            return None
-        for scale in (10 ** 6, 10 ** 9, 10 ** 12):
-            c = tuple(int(round(x * scale)) for x in res.x[:r])
-            if all(sum(ci * x for ci, x in zip(c, row)) > 0 for row in V):
-                last[0] = c
-                return c
-        return None
+        c = positive_combination(V, linprog=linprog)
+        if c is not None:
+            last[0] = c
+        return c
 
     def meets_chamber(lo, hi):  # some u_1 < … < u_m with lo_i ≤ u_i ≤ hi_i (cells are
         # closed and cover the box, so the cells meeting the open chamber cover it)

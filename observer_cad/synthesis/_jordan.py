@@ -51,7 +51,7 @@ from ._jordan_float import design_jordan_float
 from ._canonical import FLOAT_AUTO_N
 from ..model import Structure, extract_structure
 from ..numerics import denominator_conditions, echelon_rows, exact_rank, exact_rank_value, left_null_echelon, left_null_space, nonzero_conditions, solve_left
-from ..numerics import rationalize_floats
+from ..numerics import float_left_null_space, float_rank, rationalize_floats
 
 __all__ = ["Admissible", "admissible_lambdas", "design_jordan", "design_jordan_unknown_input"]
 
@@ -766,15 +766,6 @@ def _fitted(basis, Ns, phis):
     return y if not y.is_zero_matrix else basis[0]
 
 
-def _float_left_null(A, rtol=1e-9):
-    """Rows spanning the left null space of a float matrix (SVD, relative tolerance)."""
-    if A.shape[0] == 0:
-        return np.zeros((0, 0))
-    u, sv, _ = np.linalg.svd(A)
-    r = int(np.sum(sv > rtol * (sv[0] if sv.size else 1.0))) if sv.size else 0
-    return u[:, r:].T
-
-
 def _promising_sets(F, H, L, L0, M, Q, grid, q, time, e=1) -> list:
     """Sets of e + 1 rational λ of the grid for which, in floating point, rows Φ_i of the
     λ_i with Σ Φ_i Q = 0, all images nonzero and spanning e dimensions, exist, and E(λ) of
@@ -791,7 +782,7 @@ def _promising_sets(F, H, L, L0, M, Q, grid, q, time, e=1) -> list:
     fams = {}
     for lam in grid:
         x = float(lam)
-        S = _float_left_null(np.vstack([L0n @ (Fn - x * np.eye(n)), Hn]))
+        S = float_left_null_space(np.vstack([L0n @ (Fn - x * np.eye(n)), Hn]), rtol=1e-9)[0]
         fams[lam] = S[:, :L0n.shape[0]] @ L0n
     sizes = sorted(len(N) for N in fams.values())
     if not sizes or (e + 1) * sizes[len(sizes) // 2] <= Qn.shape[1]:
@@ -801,7 +792,7 @@ def _promising_sets(F, H, L, L0, M, Q, grid, q, time, e=1) -> list:
         Ns = [fams[v] for v in lams]
         if any(not len(N) for N in Ns):
             continue
-        Y = _float_left_null(np.vstack([N @ Qn for N in Ns]))
+        Y = float_left_null_space(np.vstack([N @ Qn for N in Ns]), rtol=1e-9)[0]
         if Y.shape[0] == 0:
             continue
         rows, off = [], 0
@@ -833,7 +824,7 @@ def _promising_sets(F, H, L, L0, M, Q, grid, q, time, e=1) -> list:
                        if np.isfinite(z) and abs(z.imag) <= 1e-7 * (1 + abs(z))})
         new = [z for z in real if min(abs(z - x) for x in xs) > 1e-4 * (1 + abs(z))
                and (z < 0 if time == "continuous" else abs(z) < 1)
-               and _float_drops(A - z * B, r)]
+               and float_rank(A - z * B, rtol=1e-8).rank < r]
         if len(new) >= q - 1:
             mags = [abs(v) for v in xs + new[:q - 1]]
             # continuous: the least stiff (fastest / slowest |λ|); discrete: the fastest
@@ -860,12 +851,6 @@ def _pencil_drops(A, B) -> tuple:
         return r, None
     big = np.abs(mu) > 1 / _PAIR_MAX  # |λ − σ| < _PAIR_MAX; smaller μ: λ taken as infinite
     return r, _SHIFT + 1 / mu[big]
-
-
-def _float_drops(A, r) -> bool:
-    """A (float) has rank below r: σ_r ≤ 1e-8 σ_1."""
-    sv = np.linalg.svd(A, compute_uv=False)
-    return bool(sv[r - 1] <= 1e-8 * sv[0])
 
 
 #: the shift of :func:`_pencil_drops` (a number no λ of interest sits on)

@@ -43,7 +43,8 @@ from ..numerics import exact_rank_value, left_null_space, solve_left
 from ._reduced import is_stable
 
 __all__ = ["SpecialLambdas", "SpanRows", "one_row_lambdas", "family_jump_lambdas",
-           "rank_drop_lambdas", "span_rows", "span_pencil", "exact_real_roots"]
+           "rank_drop_lambdas", "span_rows", "span_pencil", "exact_real_roots",
+           "polynomial_row", "coefficient_rows"]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -226,6 +227,27 @@ class SpanRows:
     evidence: str
 
 
+def polynomial_row(entries) -> list:
+    """Rational functions of λ times the lcm of their denominators: a row of polynomials,
+    the same direction wherever no denominator vanishes."""
+    a = [sp.together(e) for e in entries]
+    den = sp.lcm_list([sp.fraction(e)[1] for e in a])
+    return [sp.cancel(e * den) for e in a]
+
+
+def coefficient_rows(row, lam) -> list:
+    """The nonzero coefficient vectors (of λ⁰, λ¹, …) of a row of polynomials in λ: they
+    span what the row's values span over any infinitely many λ (Vandermonde)."""
+    polys = [sp.Poly(e, lam) for e in row]
+    deg = max(p.degree() for p in polys)
+    out = []
+    for j in range(max(deg, 0) + 1):
+        coefs = [p.coeff_monomial(lam ** j) for p in polys]
+        if any(coefs):
+            out.append(coefs)
+    return out
+
+
 def span_pencil(F, H, L, M, lam):
     """E(λ) with (a, b, g) E(λ) = 0 ⇔ Φ = a M + b H has Φ L = 0 and Φ (F − λI) = (g − λ b) H:
     E(λ) = [M (F − λI), M L; H F, H L; −H, 0]."""
@@ -255,14 +277,7 @@ def span_rows(F, H, L, M, lam, time: str) -> SpanRows:
     basis, _ = left_null_space(E)
     coef = []
     for v in basis:
-        a = sp.Matrix([[sp.together(e) for e in v[:, :mrows]]])
-        den = sp.lcm_list([sp.fraction(e)[1] for e in a]) if mrows > 1 else sp.fraction(a[0])[1]
-        polys = [sp.Poly(sp.cancel(e * den), lam) for e in a]
-        deg = max(p.degree() for p in polys)
-        for j in range(max(deg, 0) + 1):
-            row = [p.coeff_monomial(lam ** j) for p in polys]
-            if any(row):
-                coef.append(row)
+        coef += coefficient_rows(polynomial_row(v[:, :mrows]), lam)
     gen = exact_rank_value(sp.Matrix(coef)) if coef else 0
     how = ("q rows span z modulo the outputs with nothing to spare, so each lies in rowspace"
            " [M; H]: Φ = a M + b H with Φ (F − λI) ∈ rowspace H" + (" and Φ L = 0" if L.cols else "")

@@ -50,8 +50,8 @@ from ._box_cover import box_cover
 from ._canonical import krylov_blocks, member_to_phi
 from sympy.polys.matrices import DomainMatrix
 
-from ._lambda_search import (exact_real_roots, family_jump_lambdas, rank_drop_lambdas,
-                             span_pencil, span_rows)
+from ._lambda_search import (coefficient_rows, exact_real_roots, family_jump_lambdas,
+                             polynomial_row, rank_drop_lambdas, span_pencil, span_rows)
 from ._reduced import is_stable
 
 __all__ = ["OrderBound", "ChainOrder", "estimation_order_bound", "residual_order_bound",
@@ -261,9 +261,7 @@ def _hyperplane_rows(F, H, L, M, lam, time: str, short: bool) -> OneMoreRow:
         return no("no row has Φ L = 0", k)
     rows = []
     for v in left_null_space(sp.Matrix.vstack(L0 * (F - lam * sp.eye(n)), H))[0]:
-        phi = (v[:, :L0.rows] * L0).applyfunc(sp.together)
-        den = sp.lcm_list([sp.fraction(e)[1] for e in phi])
-        phi = (phi * den).applyfunc(sp.cancel)
+        phi = sp.Matrix([polynomial_row(v[:, :L0.rows] * L0)])
         if not phi.is_zero_matrix:
             rows.append(phi)
     f = len(rows)
@@ -290,9 +288,7 @@ def _hyperplane_rows(F, H, L, M, lam, time: str, short: bool) -> OneMoreRow:
     if short:
         # fewer rows nest: a model of k' < k rows takes a row of a further λ while the rows
         # of all λ (the coefficient rows of v(λ)) and H span more than n − 2 dimensions
-        deg = max(sp.degree(e, lam) for e in rows[0] if e != 0)
-        coeffs = sp.Matrix([[sp.Poly(e, lam).coeff_monomial(lam ** i) for e in rows[0]]
-                            for i in range(deg + 1)])
+        coeffs = sp.Matrix(coefficient_rows(rows[0], lam))
         if exact_rank(sp.Matrix.vstack(coeffs, H)).rank < n - 1:
             return no("the rows of all λ and H span fewer than n − 1 dimensions (models of"
                       " fewer rows need not extend to k)", k)
@@ -752,11 +748,9 @@ def hyperplane_functional(m, a0, dirs) -> list:
     """The hyperplane of monic p as a linear form ℓ on polynomials of degree ≤ m with
     ℓ(p) = 0 exactly for its members: ``[ℓ(1), ℓ(λ), …, ℓ(λᵐ)]``.
 
-    p = λᵐ − Σ a_i λⁱ with a ∈ a0 + span(dirs); for the normal ν of span(dirs) the members
-    are ν·a = ν·a0, i.e. Σ_{i<m} ν_i q_i + (ν·a0) q_m = 0 for p = Σ q_i λⁱ."""
-    normal = sp.Matrix(dirs).nullspace()
-    nv = list(normal[0])
-    return [nv[i] for i in range(m)] + [sum(nv[i] * a0[i] for i in range(m))]
+    p = λᵐ − Σ a_i λⁱ with a ∈ a0 + span(dirs) (m − 1 directions): the one functional
+    of :func:`_annihilators`."""
+    return _annihilators(m, a0, dirs)[0]
 
 
 def hyperplane_corners(ell, time: str) -> tuple:
