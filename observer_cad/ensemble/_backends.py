@@ -8,8 +8,10 @@ chunk, which carries its global run indices, so results never depend on the back
 * ``payload`` is shared by every chunk and may be large (the C source of the compiled
   engine, a scenario, a design): it is sent **once per worker** — threads share it;
   loky workers receive it pickled once in their initializer (a new payload restarts
-  the reusable pool, the same payload reuses it warm); Dask workers receive it through
-  ``client.scatter(payload, broadcast=True)``.
+  the reusable pool, the same payload reuses it warm); Dask workers receive its pickled
+  bytes through ``client.scatter(blob, broadcast=True)`` and unpickle them once per
+  worker process (checked against the client's SHA-256), even when Dask copies the
+  bytes between workers a second time, as it may under load.
 * Compiled code travels as a :class:`~observer_cad.codegen.LibrarySpec` inside the
   payload and is loaded on the worker with :func:`~observer_cad.codegen.load_library`
   (from the worker machine's content-hashed cache; never a pickled ctypes object).
@@ -113,8 +115,11 @@ class Interrupted(KeyboardInterrupt):
 
 # --- worker side -------------------------------------------------------------------------
 
-#: per-process payloads of the loky pool, by token (installed by the initializer)
+#: per-process payloads by token: installed by the loky initializer, or on a Dask
+#: worker by the first chunk that needs it (under the lock: a Dask worker may run
+#: several threads)
 _PAYLOADS: dict = {}
+_PAYLOADS_LOCK = threading.Lock()
 
 
 def _install_payload(token: str, blob: bytes) -> None:
@@ -128,6 +133,22 @@ def _call_installed(token: str, task, chunk):
 
 
 def _call_with(task, payload, chunk):
+    return task(payload, chunk)
+
+
+def _call_unpickled(token: str, blob: bytes, task, chunk):
+    """Dask: the payload travels as its pickled bytes and is unpickled here once per
+    worker process, whatever Dask does with the bytes (under load a worker may fetch
+    a scattered value from a peer a second time), after its SHA-256 is checked
+    against the token computed by the client."""
+    with _PAYLOADS_LOCK:
+        if token not in _PAYLOADS:
+            if _token(blob) != token:
+                raise RuntimeError("the ensemble payload received by this Dask worker"
+                                   " does not match the one the client sent")
+            _PAYLOADS.clear()  # one payload at a time: an earlier map's is garbage
+            _PAYLOADS[token] = pickle.loads(blob)
+        payload = _PAYLOADS[token]
     return task(payload, chunk)
 
 
@@ -403,7 +424,10 @@ def _dask(task, payload, chunks, backend, progress, guard):
             except (OSError, TimeoutError) as exc:
                 raise UsageError(f"cannot connect to the Dask scheduler at"
                                  f" {backend.address}: {exc}") from None
-        remote = client.scatter(payload, broadcast=True)
+        blob = pickle.dumps(payload, protocol=pickle.HIGHEST_PROTOCOL)
+        token = _token(blob)
+        remote = client.scatter(blob, broadcast=True)
+        del blob
         # a cluster of W workers (an existing one may have more than backend.workers)
         workers = max(1, len(client.scheduler_info().get("workers", {})) or backend.workers)
 
@@ -413,7 +437,7 @@ def _dask(task, payload, chunks, backend, progress, guard):
         got: dict = {}
 
         def submit(chunk):
-            f = client.submit(_call_with, task, remote, chunk, pure=False)
+            f = client.submit(_call_unpickled, token, remote, task, chunk, pure=False)
             ac.add(f)
             return f
 

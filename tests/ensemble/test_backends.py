@@ -103,7 +103,27 @@ def test_identical_results_dask_local_processes(spec, expected):
     assert np.array_equal(_values(got), expected)
     pids = {r[1] for _, r in got}
     assert os.getpid() not in pids and len(pids) <= 2
-    assert {r[2] for _, r in got} == {1}  # scatter(broadcast=True): once per worker
+    assert {r[2] for _, r in got} == {1}  # unpickled once per worker process
+
+
+def test_dask_payload_unpickled_once_per_process_and_checked(spec):
+    """Dask may deliver the scattered bytes to a worker twice (under load a worker
+    fetched them again from a peer, and the payload was unpickled twice there: CI,
+    stop 24); the worker-side call unpickles a token's bytes once per process, and
+    refuses bytes whose SHA-256 is not the client's token."""
+    import pickle
+
+    from observer_cad.ensemble import _backends
+    from tests.ensemble import tasks
+
+    blob = pickle.dumps(CountedPayload(spec, STEPS))
+    token = _backends._token(blob)
+    before = tasks.REBUILT["n"]
+    first = _backends._call_unpickled(token, blob, runs_counted, (0, 3))
+    again = _backends._call_unpickled(token, bytes(blob), runs_counted, (3, 2))  # a copy
+    assert tasks.REBUILT["n"] == before + 1 and first[2] == again[2] == before + 1
+    with pytest.raises(RuntimeError, match="does not match"):
+        _backends._call_unpickled("0" * 64, blob, runs_counted, (0, 1))
 
 
 def test_chunking_does_not_change_results(spec, expected):
