@@ -687,8 +687,11 @@ def _tuple_span_design(F, H, L, L0, fam, lam_list, M, observer, D, st, tried, na
     q = _rank(sp.Matrix.vstack(M, H)) - _rank(H)
     grid = [lam for lam in lam_list if lam.is_rational] + [
         v for v in _PAIR_GRID[time] if not any(v == w for w in lam_list)]
-    if e > 1:
-        grid = grid[:_TUPLE_GRID]
+    if e > 1:  # the list's first λ, then the grid spread over its range
+        head = [lam for lam in lam_list if lam.is_rational][:_TUPLE_GRID // 3]
+        rest = sorted(v for v in grid if not any(v == w for w in head))
+        slots = min(len(rest), _TUPLE_GRID - len(head))
+        grid = head + [rest[int(round(i))] for i in np.linspace(0, len(rest) - 1, slots)]
     sets = _promising_sets(F, H, L, L0, M, Q, grid, q, time, e)[:_PAIR_EXACT]
     seen = [lams for lams, _ in sets]
     if e == 1:
@@ -787,6 +790,51 @@ def _promising_sets(F, H, L, L0, M, Q, grid, q, time, e=1) -> list:
     sizes = sorted(len(N) for N in fams.values())
     if not sizes or (e + 1) * sizes[len(sizes) // 2] <= Qn.shape[1]:
         return []  # e + 1 generic families: fewer unknowns than conditions Σ Φ_i Q = 0
+    zl = np.zeros((Hn.shape[0], Ln.shape[1]))
+    probe = []  # (λ', basis of the rows' images modulo [M; H]) with e + f' = c
+    for x in _PROBE_LAMBDAS[time]:
+        S = float_left_null_space(np.vstack([L0n @ (Fn - x * np.eye(n)), Hn]), rtol=1e-9)[0]
+        W = S[:, :L0n.shape[0]] @ L0n @ Qn
+        if len(W) + e == Qn.shape[1] and float_rank(W, rtol=1e-9).rank == len(W):
+            probe.append((x, W))
+
+    def score(lams, Ns, y):
+        """(stiffness, rows) when the rows of the solution y qualify, else None."""
+        rows, off = [], 0
+        for N in Ns:
+            rows.append(y[off:off + N.shape[0]] @ N)
+            off += N.shape[0]
+        images = np.array([r @ Qn for r in rows])
+        if any(np.linalg.norm(im) < 1e-8 * max(1.0, np.linalg.norm(r))
+               for im, r in zip(images, rows)):
+            return None
+        if np.linalg.matrix_rank(images, tol=1e-8 * np.abs(images).max()) != e:
+            return None
+        extra, got = [], np.zeros((0, Qn.shape[1]))
+        for r, im in zip(rows, images):
+            trial = np.vstack([got, im])
+            if np.linalg.matrix_rank(trial, tol=1e-8 * np.abs(trial).max()) > got.shape[0]:
+                extra.append(r)
+                got = trial
+        T = np.vstack([Mn] + extra)
+        A = np.block([[T @ Fn, T @ Ln], [Hn @ Fn, Hn @ Ln], [-Hn, zl]])
+        B = np.vstack([np.hstack([T, np.zeros((T.shape[0], Ln.shape[1]))]),
+                       np.zeros((2 * Hn.shape[0], n + Ln.shape[1]))])
+        r, ev = _pencil_drops(A, B)
+        if ev is None:
+            return None
+        xs = [float(v) for v in lams]
+        real = sorted({round(float(z.real), 9) for z in ev
+                       if np.isfinite(z) and abs(z.imag) <= 1e-7 * (1 + abs(z))})
+        new = [z for z in real if min(abs(z - x) for x in xs) > 1e-4 * (1 + abs(z))
+               and (z < 0 if time == "continuous" else abs(z) < 1)
+               and float_rank(A - z * B, rtol=1e-8).rank < r]
+        if len(new) < q - 1:
+            return None
+        mags = [abs(v) for v in xs + new[:q - 1]]
+        # continuous: the least stiff (fastest / slowest |λ|); discrete: the fastest
+        return ((max(mags) / min(mags)) if time == "continuous" else max(mags)), rows
+
     scored = []
     for lams in itertools.combinations(grid, e + 1):
         Ns = [fams[v] for v in lams]
@@ -795,41 +843,17 @@ def _promising_sets(F, H, L, L0, M, Q, grid, q, time, e=1) -> list:
         Y = float_left_null_space(np.vstack([N @ Qn for N in Ns]), rtol=1e-9)[0]
         if Y.shape[0] == 0:
             continue
-        rows, off = [], 0
-        for N in Ns:
-            rows.append(Y[0, off:off + N.shape[0]] @ N)
-            off += N.shape[0]
-        images = np.array([r @ Qn for r in rows])
-        if any(np.linalg.norm(im) < 1e-8 * max(1.0, np.linalg.norm(r))
-               for im, r in zip(images, rows)):
-            continue
-        if np.linalg.matrix_rank(images, tol=1e-8 * np.abs(images).max()) != e:
-            continue
-        extra, got = [], np.zeros((0, Qn.shape[1]))
-        for r, im in zip(rows, images):
-            trial = np.vstack([got, im])
-            if np.linalg.matrix_rank(trial, tol=1e-8 * np.abs(trial).max()) > got.shape[0]:
-                extra.append(r)
-                got = trial
-        T = np.vstack([Mn] + extra)
-        zl = np.zeros((Hn.shape[0], Ln.shape[1]))
-        A = np.block([[T @ Fn, T @ Ln], [Hn @ Fn, Hn @ Ln], [-Hn, zl]])
-        B = np.vstack([np.hstack([T, np.zeros((T.shape[0], Ln.shape[1]))]),
-                       np.zeros((2 * Hn.shape[0], n + Ln.shape[1]))])
-        r, ev = _pencil_drops(A, B)
-        if ev is None:
-            continue
-        xs = [float(v) for v in lams]
-        real = sorted({round(float(z.real), 9) for z in ev
-                       if np.isfinite(z) and abs(z.imag) <= 1e-7 * (1 + abs(z))})
-        new = [z for z in real if min(abs(z - x) for x in xs) > 1e-4 * (1 + abs(z))
-               and (z < 0 if time == "continuous" else abs(z) < 1)
-               and float_rank(A - z * B, rtol=1e-8).rank < r]
-        if len(new) >= q - 1:
-            mags = [abs(v) for v in xs + new[:q - 1]]
-            # continuous: the least stiff (fastest / slowest |λ|); discrete: the fastest
-            scored.append(((max(mags) / min(mags)) if time == "continuous" else max(mags),
-                           lams, rows))
+        # the solutions form a space: its first vector, then (when it is more than a
+        # line) points of the pencil Y₀ + t Y₁ where U(t) meets the rows' image of a
+        # further λ' (:func:`_pencil_points`)
+        ys = [Y[0]] + (_pencil_points(Y, Ns, Qn, e, probe) if Y.shape[0] > 1 else [])
+        best = None
+        for y in ys:
+            got = score(lams, Ns, y)
+            if got is not None and (best is None or got[0] < best[0]):
+                best = got
+        if best is not None:
+            scored.append((best[0], lams, best[1]))
     scored.sort(key=lambda t: t[0])
     return [(lams, rows) for _, lams, rows in scored]
 
@@ -851,6 +875,69 @@ def _pencil_drops(A, B) -> tuple:
         return r, None
     big = np.abs(mu) > 1 / _PAIR_MAX  # |λ − σ| < _PAIR_MAX; smaller μ: λ taken as infinite
     return r, _SHIFT + 1 / mu[big]
+
+
+#: the further λ' at which :func:`_pencil_points` looks for points of the pencil
+_PROBE_LAMBDAS = {"continuous": tuple(-np.logspace(-1.5, 3, 91)),
+                  "discrete": tuple(np.linspace(-0.975, 0.975, 79))}
+#: the most pencil points of one set scored by :func:`_promising_sets`
+_PENCIL_POINTS = 3
+
+
+def _real_roots(coeffs):
+    """The real roots of the polynomials whose coefficients (highest first) are the
+    columns of ``coeffs``: in closed form for degree ≤ 2 (vectorised), else np.roots."""
+    deg = coeffs.shape[0] - 1
+    if deg == 1:
+        a, b = coeffs
+        ok = np.abs(a) > 1e-12 * np.abs(b)
+        return -b[ok] / a[ok]
+    if deg == 2:
+        a, b, c = coeffs
+        lin = np.abs(a) <= 1e-12 * (np.abs(b) + np.abs(c))
+        disc = b * b - 4 * a * c
+        ok = ~lin & (disc >= 0)
+        sq = np.sqrt(disc[ok])
+        q = -0.5 * (b[ok] + np.copysign(sq, b[ok]))  # no cancellation
+        out = [q / a[ok], np.divide(c[ok], q, out=np.full(q.shape, np.nan), where=q != 0)]
+        keep = lin & (np.abs(b) > 0)
+        out.append(-c[keep] / b[keep])
+        r = np.concatenate(out)
+        return r[np.isfinite(r)]
+    return np.array([float(r.real) for j in range(coeffs.shape[1])
+                     for r in np.roots(coeffs[:, j]) if abs(r.imag) <= 1e-9 * (1 + abs(r))])
+
+
+def _pencil_points(Y, Ns, Qn, e, probe) -> list:
+    """Solutions y = Y₀ + t Y₁ (normalised) of a set whose solutions Σ y_i N_i Q = 0 form
+    more than a line, chosen where the images U(t) of its first e rows meet the image
+    W(λ') of the rows of a further λ' (e + dim W = c: det [U(t); W(λ')] = 0, a
+    polynomial of degree ≤ e in t, interpolated at e + 1 points, its real roots): along
+    the pencil U and the further λ move, and a sweep at fixed t would step over the
+    narrow stretches where they are stable. At most :data:`_PENCIL_POINTS`, spread over
+    the λ' (floats; the caller scores each and the exact solve decides)."""
+    if not probe or len(Ns) < e:
+        return []
+    ts = np.arange(e + 1, dtype=float) - e / 2
+    Ws = np.array([W for _, W in probe])  # (P, f', c)
+    dets = []
+    for t in ts:
+        y, off, U = Y[0] + t * Y[1], 0, []
+        for N in Ns[:e]:
+            U.append(y[off:off + N.shape[0]] @ N @ Qn)
+            off += N.shape[0]
+        U = np.array(U)
+        dets.append(np.linalg.det(np.concatenate(
+            [np.broadcast_to(U, (len(probe),) + U.shape), Ws], axis=1)))
+    coeffs = np.linalg.solve(np.vander(ts, e + 1), np.array(dets))  # (e + 1, P)
+    coeffs = coeffs[:, np.any(np.abs(coeffs) > 1e-12 * np.abs(coeffs).max(initial=0.0),
+                              axis=0)]
+    roots = np.sort(_real_roots(coeffs))
+    if not len(roots):
+        return []
+    picks = [roots[int(i)] for i in np.linspace(0, len(roots) - 1, min(_PENCIL_POINTS,
+                                                                        len(roots)))]
+    return [(Y[0] + t * Y[1]) / np.linalg.norm(Y[0] + t * Y[1]) for t in picks]
 
 
 #: the shift of :func:`_pencil_drops` (a number no λ of interest sits on)
