@@ -110,6 +110,14 @@ def cases(slow: bool):
     # four rows (the subspace bound) through three λ fixing a plane modulo [M; H]
     out.append(("`random_model(8, 2, 0, seed=0)`, z = (x1, x2) (5 rows before the triple search)",
                 random_model(8, 2, 0, seed=0, time="continuous"), sp.eye(8)[:2, :], 4))
+    # four rows through a point of the solution pencil of three λ (U moves along it; the
+    # fourth λ is stable on a short stretch only) from a grid spread over its range
+    out.append(("`random_model(8, 2, 0, seed=2)`, z = (x1, x2) (5 rows before the pencil"
+                " points)", random_model(8, 2, 0, seed=2, time="continuous"),
+                sp.eye(8)[:2, :], 4))
+    out.append(("`random_model(8, 2, 0, seed=2, time='discrete')`, z = (x1, x2) (5 rows"
+                " before the spread grid)", random_model(8, 2, 0, seed=2, time="discrete"),
+                sp.eye(8)[:2, :], 4))
     # a basis modulo the outputs (six rows), each λ with one row: one row fewer decided
     # exactly (one_row_short) and impossible, so six rows are minimal (before: [5, 6])
     out.append(("`random_model(8, 2, 1, seed=0)`, z = (x1, x2), disturbance decoupled (5 rows"

@@ -689,7 +689,9 @@ def _tuple_span_design(F, H, L, L0, fam, lam_list, M, observer, D, st, tried, na
         v for v in _PAIR_GRID[time] if not any(v == w for w in lam_list)]
     if e > 1:  # the list's first λ, then the grid spread over its range
         head = [lam for lam in lam_list if lam.is_rational][:_TUPLE_GRID // 3]
-        rest = sorted(v for v in grid if not any(v == w for w in head))
+        top = _TUPLE_STIFF * (abs(head[0]) if head else 1)
+        rest = sorted(v for v in grid if not any(v == w for w in head)
+                      and (time != "continuous" or abs(v) <= top))
         slots = min(len(rest), _TUPLE_GRID - len(head))
         grid = head + [rest[int(round(i))] for i in np.linspace(0, len(rest) - 1, slots)]
     sets = _promising_sets(F, H, L, L0, M, Q, grid, q, time, e)[:_PAIR_EXACT]
@@ -730,7 +732,10 @@ def _tuple_span_design(F, H, L, L0, fam, lam_list, M, observer, D, st, tried, na
             if not sr.possible:
                 continue
             further = []
-            for lam in sr.stable:
+            # rows inside rowspace [T; H] at every λ but finitely many (e + f > c): the
+            # list's λ serve as well as any
+            generic = [] if sr.stable else [v for v in lam_list if v not in lams]
+            for lam in list(sr.stable) + generic:
                 same = next((w for w in more if _same_number(lam, w)), None)
                 if same is None:
                     rows_phi, js, _ = _family(F, H, L0, lam)
@@ -959,6 +964,9 @@ _PAIR_EXACT = 6
 _TUPLE_E_MAX = 2
 #: grid values scanned for sets of three or more λ (the first of the list and the grid)
 _TUPLE_GRID = 14
+#: continuous time: the grid for sets of three or more λ stops at this many times the
+#: list's first |λ| (stiffer sets are rarely needed and make stiff observers)
+_TUPLE_STIFF = 100
 
 
 #: extra-row choices tried per e by :func:`_extended_span_design`

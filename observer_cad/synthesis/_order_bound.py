@@ -270,6 +270,9 @@ def _hyperplane_rows(F, H, L, M, lam, time: str, short: bool) -> OneMoreRow:
     E = span_pencil(F, H, L, M, lam)
     if any(not v[:, :M.rows].is_zero_matrix for v in left_null_space(E)[0]):
         return no("rows inside rowspace [M; H] exist for λ generic", k)
+    if not short and f != c - 1:  # (before the exact drops and jumps: cheaper)
+        return no(f"the images of the rows modulo rowspace [M; H] have dimension {f}, not"
+                  f" {c - 1} (a hyperplane of the {c} dimensions)", k)
     _, drop = rank_drop_lambdas(E, lam, time, "E(λ)", "rows inside rowspace [M; H]")
     if not drop.analysed:  # pragma: no cover - singular compressions (probability 0)
         return no(drop.evidence, k)
@@ -280,9 +283,6 @@ def _hyperplane_rows(F, H, L, M, lam, time: str, short: bool) -> OneMoreRow:
     if not jumps.analysed or jumps.stable:
         return no("the family of rows grows at λ = " + ", ".join(map(str, jumps.stable))
                   if jumps.stable else jumps.evidence, k)
-    if not short and f != c - 1:
-        return no(f"the images of the rows modulo rowspace [M; H] have dimension {f}, not"
-                  f" {c - 1} (a hyperplane of the {c} dimensions)", k)
     Q = sp.Matrix.hstack(*sp.Matrix.vstack(M, H).nullspace())
     G = (sp.Matrix.vstack(*rows) * Q).applyfunc(sp.expand) if rows else sp.zeros(0, c)
     if short:

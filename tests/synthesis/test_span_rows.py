@@ -134,7 +134,7 @@ def test_q_plus_two_rows_through_three_lambdas(seed, time):
     minimal. Checked: the row identities, and modulo [M; H] the four rows span exactly two
     dimensions. Seed 2 (both times; before: five rows, least order in [4, 5]) needs a
     point of the pencil of solutions of its triple — U moves along it, and the fourth λ
-    is stable only on a short stretch (continuous: with λ of −8 … −50) — and a triple
+    is stable only on a short stretch (continuous: with λ of −8 … −30) — and a triple
     spread over the grid (discrete: 1/2, 3/4, 15/16)."""
     d, F, H, M = _checked_z12_design(8, seed, time, 4)
     assert "subspace bound" in _minimal(d).detail
