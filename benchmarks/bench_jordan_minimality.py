@@ -118,6 +118,11 @@ def cases(slow: bool):
     out.append(("`random_model(8, 2, 0, seed=2, time='discrete')`, z = (x1, x2) (5 rows"
                 " before the spread grid)", random_model(8, 2, 0, seed=2, time="discrete"),
                 sp.eye(8)[:2, :], 4))
+    # four rows (the subspace bound) impossible: no plane of R⁴ meets the rows' images at
+    # four stable λ (two_more_rows: a quadratic form < 0 on the root box), five minimal
+    out.append(("`random_model(8, 2, 0, seed=8, time='discrete')`, z = (x1, x2) (4 rows"
+                " impossible)", random_model(8, 2, 0, seed=8, time="discrete"),
+                sp.eye(8)[:2, :], 5))
     # a basis modulo the outputs (six rows), each λ with one row: one row fewer decided
     # exactly (one_row_short) and impossible, so six rows are minimal (before: [5, 6])
     out.append(("`random_model(8, 2, 1, seed=0)`, z = (x1, x2), disturbance decoupled (5 rows"

@@ -29,7 +29,7 @@ import sympy as sp
 
 from ..numerics import positive_combination
 
-__all__ = ["BoxCover", "box_cover", "BOX_CELLS", "BOX_DEPTH", "PROBES"]
+__all__ = ["BoxCover", "box_cover", "quadric_cover", "BOX_CELLS", "BOX_DEPTH", "PROBES"]
 
 #: cells examined at most before giving up (undecided)
 BOX_CELLS = 6000
@@ -67,6 +67,144 @@ def _integer_rows(functionals) -> list:
     return rows
 
 
+def _factor(ui: int, top: int, time: str) -> tuple:
+    """(constant, λ coefficient) of the root factor at u, times top/2: (μ − 1) λ − (μ + 1)
+    (continuous) or λ − μ (discrete), μ = 2u/top − 1."""
+    return (-ui, ui - top) if time == "continuous" else (top // 2 - ui, top // 2)
+
+
+def _product(key, top, time, m) -> list:
+    """The coefficients of λ⁰ … λᵐ of the product of the root factors at the u of key."""
+    coef = [1] + [0] * m
+    for ui in key:
+        b, a = _factor(ui, top, time)
+        new = [0] * (m + 1)
+        for j, cj in enumerate(coef):
+            if cj:
+                new[j] += cj * b
+                if j + 1 <= m:
+                    new[j + 1] += cj * a
+        coef = new
+    return coef
+
+
+def _meets_chamber(lo, hi) -> bool:
+    """Some u_1 < … < u_m with lo_i ≤ u_i ≤ hi_i (cells are closed and cover the box, so
+    the cells meeting the open chamber cover it)."""
+    x = lo[0]
+    for a, b in zip(lo[1:], hi[1:]):
+        if x >= b:
+            return False
+        x = max(x, a)
+    return True
+
+
+def _halves(lo, hi, m) -> list:
+    mid = tuple((a + b) // 2 for a, b in zip(lo, hi))
+    out = []
+    for pick in itertools.product((0, 1), repeat=m):
+        lo2 = tuple(md if p else a for p, a, md in zip(pick, lo, mid))
+        hi2 = tuple(b if p else md for p, b, md in zip(pick, hi, mid))
+        if _meets_chamber(lo2, hi2):
+            out.append((lo2, hi2))
+    return out
+
+
+def quadric_cover(m: int, S, time: str, *, equality: bool, max_cells: int = BOX_CELLS,
+                  max_depth: int = BOX_DEPTH) -> BoxCover:
+    """Try to prove that no p = Π (λ − λ_i) with m real stable roots (repeated or not)
+    has q(p) ≥ 0 — or q(p) = 0 when ``equality`` — for the quadratic form
+    q(p) = aᵀ S a of its coefficient vector a (λ⁰ … λᵐ; S rational symmetric).
+
+    With the roots mapped to μ ∈ [−1, 1] as in :func:`box_cover`, a(μ) is a nonzero
+    multiple of the coefficients (q is homogeneous of degree 2, so its sign is kept) and
+    multi-affine, so q(a(μ)) is multi-quadratic. On a cell with vertex values a_v
+    (v ∈ {0, 1}ᵐ), its Bernstein coefficients of degree (2, …, 2) are
+    b_α = 2^(−#{α_i = 1}) Σ_{v + w = α} a_vᵀ S a_w (the product rule of Bernstein forms), and
+    q lies between the least and the largest b_α on the cell (the Bernstein polynomials are
+    ≥ 0 and sum to 1). A cell is excluded when every b_α < 0 (or, for the equality, every
+    b_α is of one strict sign), checked in integers; cells are halved as in
+    :func:`box_cover`. ``found``: a cell centre (μ) where q ≥ 0 in floating point (a root
+    set where the condition holds, so the cover cannot close), when one is met."""
+    S = sp.Matrix(S)
+    den = math.lcm(*[int(sp.Rational(v).q) for v in S])
+    Si = [[int(sp.Rational(S[i, j]) * den) for j in range(m + 1)] for i in range(m + 1)]
+    levels = max_depth + int(math.log2(_START))
+    top = 2 ** levels
+    cache: dict = {}
+
+    def vertex(u):
+        key = tuple(sorted(u))
+        got = cache.get(key)
+        if got is None:
+            a = _product(key, top, time, m)
+            got = (a, [sum(Si[i][j] * a[j] for j in range(m + 1)) for i in range(m + 1)])
+            cache[key] = got
+        return got
+
+    def bernstein_signs(lo, hi):
+        verts = list(itertools.product((0, 1), repeat=m))
+        vals = {v: vertex(tuple(h if b else l for b, l, h in zip(v, lo, hi))) for v in verts}
+        gram = {}
+        signs = set()
+        for alpha in itertools.product((0, 1, 2), repeat=m):
+            total = 0
+            choices = [((0, 0),) if x == 0 else ((1, 1),) if x == 2 else ((0, 1), (1, 0))
+                       for x in alpha]
+            for pairs in itertools.product(*choices):
+                v = tuple(p[0] for p in pairs)
+                w = tuple(p[1] for p in pairs)
+                k = (v, w) if v <= w else (w, v)
+                g = gram.get(k)
+                if g is None:
+                    g = sum(x * y for x, y in zip(vals[k[0]][0], vals[k[1]][1]))
+                    gram[k] = g
+                total += g
+            signs.add((total > 0) - (total < 0))
+            if 0 in signs or (not equality and 1 in signs) or len(signs) > 1:
+                return False
+        return True
+
+    def value(mu):  # floats: q at the root set μ
+        a = _product(tuple(int(round((x + 1) * top / 2)) for x in mu), top, time, m)
+        return sum(Si[i][j] * a[i] * a[j] for i in range(m + 1) for j in range(m + 1))
+
+    step = top // _START
+    cells = [(tuple(i * step for i in ix), tuple((i + 1) * step for i in ix))
+             for ix in itertools.combinations_with_replacement(range(_START), m)]
+    what = "= 0" if equality else "≥ 0"
+    examined = 0
+    for depth in range(max_depth + 1):
+        left = []
+        for lo, hi in cells:
+            examined += 1
+            if examined > max_cells:
+                return BoxCover(False, examined - 1, depth,
+                                f"not proven: {max_cells} cells examined, {len(left)} at depth"
+                                f" {depth} not excluded yet")
+            if not bernstein_signs(lo, hi):
+                left.append((lo, hi))
+        if not left:
+            return BoxCover(True, examined, depth,
+                            f"covered by {examined} cells of the ordered root box (μ ∈ [−1, 1]^{m},"
+                            f" {depth} halvings): on each, every Bernstein coefficient of the"
+                            f" quadratic form is {'of one strict sign' if equality else '< 0'},"
+                            f" so no root set, real and stable, has it {what}")
+        for lo, hi in left[::max(1, len(left) // PROBES)][:PROBES]:
+            centre = tuple((a + b) / top - 1 for a, b in zip(lo, hi))
+            if not equality and value(centre) >= 0:
+                return BoxCover(False, examined, depth, f"the form is {what} at the root set"
+                                f" μ = ({', '.join(f'{x:.4g}' for x in centre)})", centre)
+        if depth == max_depth:
+            break
+        if any(b - a < 2 for lo, hi in left for a, b in zip(lo, hi)):
+            return BoxCover(False, examined, depth, "not proven: cells at the finest grid"
+                            " are not excluded")
+        cells = [c for lo, hi in left for c in _halves(lo, hi, m)]
+    return BoxCover(False, examined, max_depth,
+                    f"not proven: after {max_depth} halvings cells remain that are not excluded")
+
+
 def box_cover(m: int, functionals, time: str, *, max_cells: int = BOX_CELLS,
               max_depth: int = BOX_DEPTH, probe=None) -> BoxCover:
     """Try to prove that no monic p of degree m with ℓ_k(p) = 0 for every row ℓ_k of
@@ -91,19 +229,7 @@ def box_cover(m: int, functionals, time: str, *, max_cells: int = BOX_CELLS,
         key = tuple(sorted(u))
         got = cache.get(key)
         if got is None:
-            coef = [1] + [0] * m  # the coefficients of λ⁰ … λᵐ of the product
-            for ui in key:
-                if time == "continuous":  # (μ − 1) λ − (μ + 1), times top/2
-                    a, b = ui - top, -ui
-                else:  # λ − μ, times top/2
-                    a, b = top // 2, top // 2 - ui
-                new = [0] * (m + 1)
-                for j, cj in enumerate(coef):
-                    if cj:
-                        new[j] += cj * b
-                        if j + 1 <= m:
-                            new[j + 1] += cj * a
-                coef = new
+            coef = _product(key, top, time, m)
             got = tuple(sum(w * cj for w, cj in zip(row, coef)) for row in ell)
             cache[key] = got
         return got
@@ -119,15 +245,6 @@ def box_cover(m: int, functionals, time: str, *, max_cells: int = BOX_CELLS,
         if c is not None:
             last[0] = c
         return c
-
-    def meets_chamber(lo, hi):  # some u_1 < … < u_m with lo_i ≤ u_i ≤ hi_i (cells are
-        # closed and cover the box, so the cells meeting the open chamber cover it)
-        x = lo[0]
-        for a, b in zip(lo[1:], hi[1:]):
-            if x >= b:
-                return False
-            x = max(x, a)
-        return True
 
     step = top // _START
     cells = [(tuple(i * step for i in ix), tuple((i + 1) * step for i in ix))
@@ -160,16 +277,9 @@ def box_cover(m: int, functionals, time: str, *, max_cells: int = BOX_CELLS,
                                     " could not be excluded", got)
         if depth == max_depth:
             break
-        cells = []
-        for lo, hi in left:
-            if any(b - a < 2 for a, b in zip(lo, hi)):
-                return BoxCover(False, examined, depth, "not proven: cells at the finest grid"
-                                " are not excluded (a member may exist)")
-            mid = tuple((a + b) // 2 for a, b in zip(lo, hi))
-            for pick in itertools.product((0, 1), repeat=m):
-                lo2 = tuple(md if p else a for p, a, md in zip(pick, lo, mid))
-                hi2 = tuple(b if p else md for p, b, md in zip(pick, hi, mid))
-                if meets_chamber(lo2, hi2):
-                    cells.append((lo2, hi2))
+        if any(b - a < 2 for lo, hi in left for a, b in zip(lo, hi)):
+            return BoxCover(False, examined, depth, "not proven: cells at the finest grid"
+                            " are not excluded (a member may exist)")
+        cells = [c for lo, hi in left for c in _halves(lo, hi, m)]
     return BoxCover(False, examined, max_depth,
                     f"not proven: after {max_depth} halvings cells remain that are not excluded")

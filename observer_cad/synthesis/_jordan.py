@@ -42,7 +42,7 @@ from ._nonlinear import substitute_arguments
 from ._poles import default_eigenvalues
 from ._lambda_search import family_jump_lambdas, one_row_lambdas, span_rows
 from ._order_bound import (chain_order, estimation_order_bound, nonlinear_jordan_bound,
-                           one_more_row, one_row_short,
+                           one_more_row, one_row_short, two_more_rows,
                            residual_order_bound, spread_lambdas)
 from ._reduced import is_stable, jordan_equations, observer_symbols, output_symbols
 from ._signature import residual_response
@@ -381,6 +381,11 @@ def design_jordan(model: PlantModel, *, observer: str, estimate=None,
             alt = _rows_at(F, H, L0, short.lambdas, observer, D, M, st, tried, names)
             if alt is not None:
                 chosen = alt
+    plane = None  # q + 3 rows found: can q + 2 do it? (decided exactly for planes of R⁴)
+    if (chosen is not None and M is not None and M.rows > 1 and span is not None
+            and span.analysed and not span.possible and len(chosen) == span.q + 3
+            and not lambdas):
+        plane = two_more_rows(F, H, L if decoupled else sp.zeros(n, 0), M, LAMBDA, work.time)
     for size in range(1, n) if chosen is None else ():  # fewest rows first, every strategy
         chosen = _combination_rows(pool, n, observer, H, D, M, st, tried, names, (size,))
         if chosen is None and sums:  # the basis rows alone do not do it: generic members too
@@ -447,7 +452,7 @@ def design_jordan(model: PlantModel, *, observer: str, estimate=None,
                               [sp.Matrix(t.row) for t in st.terms], k_, LAMBDA, work.time,
                               lam_list)) if st.terms and M is not None and not lambdas
                           else None, several=M is not None and M.rows > 1, more=more,
-                          short=short)
+                          short=short, plane=plane)
     conds.append(minimal)
     choice = (f"k = {k}: rows with λ = ({', '.join(map(str, lams))}) chosen from"
               f" {len(pool)} candidate row(s) for λ in {{{', '.join(map(str, lam_list))}}};"
@@ -1079,7 +1084,7 @@ def _special_lambdas(observer, F, H, L0, L, M, time):
 
 def _minimality(observer, k, n, lams, lam_list, adm, requested, one_row, jumps, time,
                 bound, chains=(), span=None, nonlinear=None, several=False,
-                more=None, short=None) -> Condition:
+                more=None, short=None, plane=None) -> Condition:
     """Why fewer rows are impossible, as far as it is proven (METHOD §2b). ``bound(k)``
     gives the :class:`OrderBound` of every reduced model of the task (any F*); ``chains``
     the :class:`ChainOrder` of each order m (z = M x, every λ admissible). A Jordan
@@ -1175,6 +1180,14 @@ def _minimality(observer, k, n, lams, lam_list, adm, requested, one_row, jumps, 
                 lo = max(lo, span.q + 2)
     if short is not None:
         least += f"; {short.k} rows: {short.evidence}"
+    if (plane is not None and plane.analysed and not plane.possible and lo >= plane.k
+            and k == plane.k + 1):
+        return Condition(name, True, found + f"{why}; every Jordan model has at least"
+                         f" {plane.k} rows (the lower bound over every F* is {b.k}{where}:"
+                         f" {b.evidence}{least}), and exactly {plane.k} are impossible for every"
+                         f" real stable λ: {plane.evidence}", ref, required=False)
+    if plane is not None:
+        least += f"; {plane.k} rows: {plane.evidence}"
     return Condition(name, False, found + f"{why}; the lower bound over every F* is {b.k}{where}"
                      f" ({b.evidence}){least}, so the least order of a Jordan model lies in"
                      f" [{lo}, {k}]", ref, required=False)

@@ -46,7 +46,7 @@ import sympy as sp
 
 from ..numerics import (exact_rank, gordan_alternative, left_null_echelon, left_null_space,
                         solve_left)
-from ._box_cover import box_cover
+from ._box_cover import box_cover, quadric_cover
 from ._canonical import krylov_blocks, member_to_phi
 from sympy.polys.matrices import DomainMatrix
 
@@ -55,7 +55,7 @@ from ._lambda_search import (coefficient_rows, exact_real_roots, family_jump_lam
 from ._reduced import is_stable
 
 __all__ = ["OrderBound", "ChainOrder", "estimation_order_bound", "residual_order_bound",
-           "nonlinear_jordan_bound", "OneMoreRow", "one_more_row", "one_row_short",
+           "nonlinear_jordan_bound", "OneMoreRow", "one_more_row", "one_row_short", "two_more_rows",
            "family_order",
            "chain_order", "chain_system", "hyperplane_functional", "hyperplane_corners",
            "hyperplane_member", "plane_order", "spread_lambdas", "MAX_SUBSETS"]
@@ -175,8 +175,9 @@ def nonlinear_jordan_bound(F, H, L, M, C, A_rows, k: int, lam, time: str, tries,
 
 @dataclasses.dataclass(frozen=True)
 class OneMoreRow:
-    """Can k rows give z = M x — k = q + 1 (:func:`one_more_row`) or k = n − rank H − 1
-    (:func:`one_row_short`), q = rank [M; H] − rank H?
+    """Can k rows give z = M x — k = q + 1 (:func:`one_more_row`), k = q + 2
+    (:func:`two_more_rows`) or k = n − rank H − 1 (:func:`one_row_short`),
+    q = rank [M; H] − rank H?
 
     ``analysed``: False when the case is outside what is decided (``evidence`` says why);
     ``possible``: some w gives k distinct real stable λ (a necessary condition; a design
@@ -212,7 +213,7 @@ def one_more_row(F, H, L, M, lam, time: str) -> OneMoreRow:
     distinct and stable, and the monic members are an affine family of dimension c − 1,
     decided as the chain polynomials are (:func:`family_order`). Otherwise not
     analysed."""
-    return _hyperplane_rows(F, H, L, M, lam, time, short=False)
+    return _hyperplane_rows(F, H, L, M, lam, time, "more")
 
 
 def one_row_short(F, H, L, M, lam, time: str) -> OneMoreRow:
@@ -229,15 +230,46 @@ def one_row_short(F, H, L, M, lam, time: str) -> OneMoreRow:
     degree ≤ D = deg γ, decided as in :func:`one_more_row`. Conversely k such roots give
     k rows with images in w^⊥; when they are independent modulo H they span z (the design
     checks and certifies that)."""
-    return _hyperplane_rows(F, H, L, M, lam, time, short=True)
+    return _hyperplane_rows(F, H, L, M, lam, time, "short")
 
 
-def _hyperplane_rows(F, H, L, M, lam, time: str, short: bool) -> OneMoreRow:
+def two_more_rows(F, H, L, M, lam, time: str) -> OneMoreRow:
+    """Decide exactly whether a Jordan model of z = M x with q + 2 rows can exist when the
+    rows of each λ have a 2-dimensional image W(λ) modulo rowspace [M; H] in c = 4
+    dimensions — 2-planes of R⁴, lines of P³ (METHOD §2b, "two more rows").
+
+    Same preconditions as :func:`one_more_row` (M reduced to q rows; no row of a real
+    stable λ inside rowspace [M; H] outside rowspace H; no family jump), and fewer rows
+    ruled out by the caller. Then the q + 2 rows of a model are independent modulo H and
+    their images span a plane U; r rows at one λ_i put an r-dimensional U ∩ W(λ_i) there.
+    With π(λ) the primitive vector of 2 × 2 minors of a polynomial basis of W(λ) (the
+    Plücker vector of W(λ) at every λ), U meets W(λ) iff P_U(λ) = p_U ∧ π(λ) = 0, linear in
+    U's Plücker vector p_U, and r rows at λ_i make λ_i a root of order ≥ r (r rows of a
+    basis at λ_i lie in U). So P_U, of degree ≤ D = deg π, has q + 2 real stable roots
+    counted with multiplicity, unless P_U ≡ 0. With the linear map T: p ↦ p ∧ π(λ):
+
+    * D < q + 2: impossible when no plane has P_U ≡ 0 (ker T = 0, or one-dimensional and
+      spanned by a κ with κ ∧ κ ≠ 0: not a plane);
+    * D = q + 2 and T onto the polynomials of degree ≤ D: P_U = s · Π (λ − λ_i) with a
+      its coefficient vector, and p_U = s R a + t κ (R a right inverse of T) must be
+      decomposable, (s R a + t κ) ∧ (s R a + t κ) = 0 with s ≠ 0: for ker T = span κ
+      (κ ∧ κ ≠ 0) a real (s, t) exists iff Δ(a) = (R a ∧ κ)² − (R a ∧ R a)(κ ∧ κ) ≥ 0; for
+      ker T = 0, iff R a ∧ R a = 0. Both are quadratic forms in a; the roots' box is
+      covered by cells on which the form's Bernstein coefficients exclude it
+      (:func:`quadric_cover`, exact).
+
+    Anything else is not analysed; a root set where the condition holds is reported (the
+    design search then has to find the rows)."""
+    return _hyperplane_rows(F, H, L, M, lam, time, "plane")
+
+
+def _hyperplane_rows(F, H, L, M, lam, time: str, kind: str) -> OneMoreRow:
     F, H, L, M = (sp.Matrix(X) for X in (F, H, L, M))
     if set().union(*(X.free_symbols for X in (F, H, L, M))):
         return OneMoreRow(False, False, (), "not analysed: symbolic parameters")
     n = F.rows
-    what = "one row short" if short else "one more row"
+    short = kind == "short"
+    what = {"short": "one row short", "more": "one more row", "plane": "two more rows"}[kind]
 
     def no(why, k=0):
         return OneMoreRow(False, False, (), f"{what} not analysed: {why}", k)
@@ -245,7 +277,7 @@ def _hyperplane_rows(F, H, L, M, lam, time: str, short: bool) -> OneMoreRow:
     rH = exact_rank(H).rank if H.rows else 0
     rMH = exact_rank(sp.Matrix.vstack(M, H)).rank
     q, c = rMH - rH, n - rMH
-    k = q + c - 1 if short else q + 1
+    k = q + c - 1 if short else q + 1 if kind == "more" else q + 2
     if q != M.rows:  # the same models: z's rows independent modulo H
         keep, r_have = [], rH
         for i in range(M.rows):
@@ -270,9 +302,12 @@ def _hyperplane_rows(F, H, L, M, lam, time: str, short: bool) -> OneMoreRow:
     E = span_pencil(F, H, L, M, lam)
     if any(not v[:, :M.rows].is_zero_matrix for v in left_null_space(E)[0]):
         return no("rows inside rowspace [M; H] exist for λ generic", k)
-    if not short and f != c - 1:  # (before the exact drops and jumps: cheaper)
+    if kind == "more" and f != c - 1:  # (before the exact drops and jumps: cheaper)
         return no(f"the images of the rows modulo rowspace [M; H] have dimension {f}, not"
                   f" {c - 1} (a hyperplane of the {c} dimensions)", k)
+    if kind == "plane" and (f, c) != (2, 4):
+        return no(f"the images of the rows modulo rowspace [M; H] have dimension {f} of {c},"
+                  " not planes of 4 dimensions", k)
     _, drop = rank_drop_lambdas(E, lam, time, "E(λ)", "rows inside rowspace [M; H]")
     if not drop.analysed:  # pragma: no cover - singular compressions (probability 0)
         return no(drop.evidence, k)
@@ -285,6 +320,8 @@ def _hyperplane_rows(F, H, L, M, lam, time: str, short: bool) -> OneMoreRow:
                   if jumps.stable else jumps.evidence, k)
     Q = sp.Matrix.hstack(*sp.Matrix.vstack(M, H).nullspace())
     G = (sp.Matrix.vstack(*rows) * Q).applyfunc(sp.expand) if rows else sp.zeros(0, c)
+    if kind == "plane":
+        return _plane_rows(G, k, lam, time, no)
     if short:
         # fewer rows nest: a model of k' < k rows takes a row of a further λ while the rows
         # of all λ (the coefficient rows of v(λ)) and H span more than n − 2 dimensions
@@ -337,6 +374,67 @@ def _hyperplane_rows(F, H, L, M, lam, time: str, short: bool) -> OneMoreRow:
         return no(f"{fam}: {order.evidence}", k)
     return OneMoreRow(True, False, (), f"{fam}: {order.evidence}, so no choice of real"
                       f" stable λ gives {k} rows", k)
+
+
+def _plane_rows(G, k, lam, time, no) -> OneMoreRow:
+    """:func:`two_more_rows` once its preconditions hold: ``G`` (2 × 4) the images of a
+    polynomial basis of the rows of λ modulo rowspace [M; H]."""
+    pairs = list(itertools.combinations(range(4), 2))
+    minors = []
+    for S in pairs:
+        dm = DomainMatrix.from_Matrix(G[:, list(S)]).convert_to(sp.QQ[lam])
+        minors.append(sp.QQ[lam].to_sympy(dm.det()))
+    g = sp.gcd_list(minors)
+    if g == 0:
+        return no("the images of the rows are dependent for λ generic", k)
+    pi = [sp.cancel(e / g) for e in minors]
+    D = max(sp.degree(e, lam) for e in pi)
+    # p ∧ p' = Σ_S ε_S p_{S^c} p'_S over the pairs S of {0, 1, 2, 3} (ε_S the sign of S S^c)
+    comp = {S: tuple(sorted(set(range(4)) - set(S))) for S in pairs}
+    eps = {S: (-1) ** sum(1 for i in S for j in comp[S] if i > j) for S in pairs}
+    Om = sp.zeros(6, 6)
+    for i, S in enumerate(pairs):
+        Om[pairs.index(comp[S]), i] = eps[S]
+    C = sp.Matrix([[sp.Poly(e, lam).coeff_monomial(lam ** j) for j in range(D + 1)] for e in pi])
+    T = (Om * C).T  # coefficients of p ∧ π(λ), λ⁰ … λᴰ, as a map of p
+    kernel = T.nullspace()
+    fam = ("modulo rowspace [M; H] the rows of λ span planes W(λ) of 4 dimensions, Plücker"
+           f" vector π(λ) = ({', '.join(str(sp.factor(e)) for e in pi)}); {k} rows need a plane"
+           f" U with p_U ∧ π(λ) = 0 at {k} real stable λ (counted with multiplicity)")
+
+    def plane(v):  # a decomposable vector (the Plücker vector of a plane)
+        return (v.T * Om * v)[0] == 0
+
+    if len(kernel) > 1 or (kernel and plane(kernel[0])):
+        return no(f"{fam}, but a plane U may have p_U ∧ π(λ) ≡ 0", k)
+    if D < k:
+        return OneMoreRow(True, False, (), f"{fam}: p_U ∧ π(λ) has degree ≤ {D} < {k} and"
+                          f" vanishes identically for no plane, so no choice of real stable λ"
+                          f" gives {k} rows", k)
+    if D > k:
+        return no(f"{fam}: p_U ∧ π(λ) has degree {D} > {k} (at least {k} of its roots stable:"
+                  " not decided)", k)
+    if T.rank() != D + 1:
+        return no(f"{fam}: the p ∧ π(λ) are not every polynomial of degree ≤ {D}", k)
+    R = T.T * (T * T.T).inv()  # T R = I
+    if kernel:
+        kap = kernel[0]
+        K = (kap.T * Om * kap)[0]
+        w = R.T * Om * kap
+        form = w * w.T - K * R.T * Om * R  # Δ(a) = (R a ∧ κ)² − (R a ∧ R a)(κ ∧ κ)
+        need = "Δ(a) = (R a ∧ κ)² − (R a ∧ R a)(κ ∧ κ) ≥ 0 for its coefficients a"
+    else:
+        form = R.T * Om * R
+        need = "R a ∧ R a = 0 for its coefficients a"
+    cover = quadric_cover(k, form, time, equality=not kernel)
+    if cover.proven:
+        return OneMoreRow(True, False, (), f"{fam}; a plane exists iff {need}: {cover.evidence},"
+                          f" so no choice of real stable λ gives {k} rows", k)
+    if cover.found is not None:
+        lams = [(x + 1) / (x - 1) if time == "continuous" else x for x in cover.found]
+        return no(f"{fam}; a plane exists iff {need}, which holds at λ ≈"
+                  f" ({', '.join(f'{v:.4g}' for v in lams)}): {k} rows are not ruled out", k)
+    return no(f"{fam}; a plane exists iff {need}: {cover.evidence}", k)
 
 
 def _nonlinear_evidence(parts) -> str:

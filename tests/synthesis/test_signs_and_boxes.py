@@ -13,7 +13,7 @@ from hypothesis import given, settings, strategies as st
 from observer_cad.model import extract_structure, random_model
 from observer_cad.numerics import gordan_alternative, left_null_space
 from observer_cad.synthesis import design_jordan
-from observer_cad.synthesis._box_cover import box_cover
+from observer_cad.synthesis._box_cover import box_cover, quadric_cover
 from observer_cad.synthesis._jordan import _rows_at
 from observer_cad.synthesis._order_bound import chain_order, family_order, one_row_short
 
@@ -317,3 +317,26 @@ def test_member_the_search_misses_is_found_in_a_cell_of_the_cover():
             for i in range(m)]
     D = sp.Matrix([[-v for v in row] for row in dirs])
     assert sp.Matrix.vstack(D, sp.Matrix([diff])).rank() == D.rank()
+
+
+# --- quadric cover -------------------------------------------------------------------------
+
+def _p_at_two_form(m):
+    """q(a) = p(2)², p = Σ a_i λⁱ: a quadratic form in the coefficients."""
+    v = sp.Matrix([2 ** i for i in range(m + 1)])
+    return v * v.T
+
+
+@pytest.mark.parametrize("time", ["continuous", "discrete"])
+def test_quadric_cover_by_hand(time):
+    """p(2) ≠ 0 when every root is stable (< 0, or in (−1, 1)): −p(2)² ≥ 0 and p(2)² = 0
+    are impossible — proven; p(2)² ≥ 0 holds everywhere — a root set is reported; the
+    discriminant of a quadratic is 0 at a double root — never proven."""
+    S = _p_at_two_form(3)
+    assert quadric_cover(3, -S, time, equality=False).proven
+    assert quadric_cover(3, S, time, equality=True).proven
+    got = quadric_cover(3, S, time, equality=False)
+    assert not got.proven and got.found is not None
+    disc = sp.Matrix([[0, 0, -2], [0, 1, 0], [-2, 0, 0]])  # a1² − 4 a0 a2
+    assert not quadric_cover(2, disc, time, equality=True, max_cells=300).proven
+    assert not quadric_cover(2, -disc, time, equality=False, max_cells=300).proven

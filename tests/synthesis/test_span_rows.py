@@ -11,7 +11,7 @@ from observer_cad import PlantModel
 from observer_cad.model import extract_structure, random_model
 from observer_cad.synthesis import design_jordan
 from observer_cad.synthesis._lambda_search import span_rows
-from observer_cad.synthesis._order_bound import one_more_row
+from observer_cad.synthesis._order_bound import one_more_row, two_more_rows
 
 LAM = sp.Symbol("lambda")
 
@@ -331,3 +331,81 @@ def test_vectorised_real_roots_agree_with_numpy():
             c = np.trim_zeros(C[:, j], "f")
             want += [r.real for r in np.roots(c) if abs(r.imag) < 1e-12]
         assert np.allclose(got, np.sort(want), rtol=1e-9, atol=1e-12)
+
+
+# --- two more rows: planes of R⁴ -----------------------------------------------------------
+
+def _real_transversals(F, H, M, lams):
+    """Floating point, independent of two_more_rows: the number of real planes U of the
+    4 dimensions modulo rowspace [M; H] meeting the image W(λ_i) of the rows of each of
+    four λ_i (the lines of P³ meeting four lines). W(λ) from a numeric left null space of
+    [F − λI; H], Plücker vectors from 2 × 2 minors; U satisfies four linear conditions
+    p_U ∧ p_i = 0 and the Klein quadric p_U ∧ p_U = 0."""
+    Fn, Hn, Mn = (np.array(X.tolist(), dtype=float) for X in (F, H, M))
+    n = Fn.shape[0]
+    _, sv, Vt = np.linalg.svd(np.vstack([Mn, Hn]))
+    Q = Vt[int(np.sum(sv > 1e-10 * sv[0])):].T
+    pairs = [(0, 1), (0, 2), (0, 3), (1, 2), (1, 3), (2, 3)]
+
+    def wedge(p, r):
+        return p[0] * r[5] - p[1] * r[4] + p[2] * r[3] + p[3] * r[2] - p[4] * r[1] + p[5] * r[0]
+
+    rows = []
+    for v in lams:
+        A = np.vstack([Fn - v * np.eye(n), Hn])
+        _, s, Vt2 = np.linalg.svd(A.T)
+        null = Vt2[int(np.sum(s > 1e-10 * s[0])):]
+        W = null[:, :n] @ Q
+        p = np.array([np.linalg.det(W[:, list(S)]) for S in pairs])
+        rows.append([p[5], -p[4], p[3], p[2], -p[1], p[0]])  # x ↦ x ∧ p as a row
+    _, s, Vt3 = np.linalg.svd(np.array(rows))
+    a, b = Vt3[-2], Vt3[-1]  # the pencil of solutions (4 conditions on 6 coordinates)
+    qa, qab, qb = wedge(a, a), wedge(a, b), wedge(b, b)
+    return 2 if qab * qab - qa * qb > 0 else 0
+
+
+def _max_real_transversals(F, H, M, time, rng, count=600):
+    best = 0
+    for _ in range(count):
+        lams = (-np.exp(rng.uniform(-3, 5, 4)) if time == "continuous"
+                else rng.uniform(-0.99, 0.99, 4))
+        best = max(best, _real_transversals(F, H, M, lams))
+    return best
+
+
+def test_two_more_rows_impossible_and_checked_in_floats():
+    """random_model(8, 2, 0, seed=8, time='discrete'), z = (x1, x2): q = 2, each λ has
+    two rows whose images modulo [M; H] are planes of 4 dimensions; four rows (the
+    subspace bound) are impossible — a plane meeting four such planes needs a quadratic
+    form ≥ 0 that the cover shows < 0 on the whole stable root box. In floats, no sampled
+    stable quadruple has a real transversal; the continuous seed-2 plant, where four rows
+    exist, has them (the check can see one)."""
+    st = extract_structure(random_model(8, 2, 0, seed=8, time="discrete"))
+    F, H, M = sp.Matrix(st.F), sp.Matrix(st.H), _first_rows(8, 2)
+    r = two_more_rows(F, H, sp.zeros(8, 0), M, LAM, "discrete")
+    assert r.analysed and not r.possible and r.k == 4
+    assert "Bernstein" in r.evidence
+    assert _max_real_transversals(F, H, M, "discrete", np.random.default_rng(0)) == 0
+    st2 = extract_structure(random_model(8, 2, 0, seed=2, time="continuous"))
+    F2, H2 = sp.Matrix(st2.F), sp.Matrix(st2.H)
+    r2 = two_more_rows(F2, H2, sp.zeros(8, 0), M, LAM, "continuous")
+    assert not r2.analysed and "not ruled out" in r2.evidence
+    assert _real_transversals(F2, H2, M, [-30, -15, -8, -19.95]) == 2
+    assert _max_real_transversals(F2, H2, M, "continuous", np.random.default_rng(0)) == 2
+
+
+def test_two_more_rows_not_analysed_outside_its_case():
+    """Seven states (c = 3): not planes of four dimensions; says so, claims nothing."""
+    st = extract_structure(random_model(7, 2, 0, seed=0, time="continuous"))
+    r = two_more_rows(sp.Matrix(st.F), sp.Matrix(st.H), sp.zeros(7, 0), _first_rows(7, 2),
+                      LAM, "continuous")
+    assert not r.analysed and not r.possible and "not planes of 4 dimensions" in r.evidence
+
+
+@pytest.mark.slow
+def test_two_more_rows_proves_five_rows_minimal():
+    """The design of that plant: five rows (before: least order in [4, 5]), proven."""
+    m = random_model(8, 2, 0, seed=8, time="discrete")
+    d = design_jordan(m, observer="virtual-sensor", estimate=_first_rows(8, 2))
+    assert d.k == 5 and d.certificate.passed and _minimal(d).holds
+    assert "exactly 4 are impossible for every real stable λ" in _minimal(d).detail
