@@ -97,45 +97,37 @@ def cases(slow: bool):
         name="special_span", time="continuous", states=[x1, x2, x3, x4, x5], inputs=[u],
         outputs=[x3, x4], dynamics=[x3, -sp.Rational(5, 2) * x2 + u, x1 + x4, -x4 + x5 + x1,
                                     -2 * x5 + x2]), sp.eye(5)[:2, :], 2))
-    out.append(("`random_model(6, 2, 0, seed=0)`, z = (x1, x2) (4 rows before span_rows)", random_model(
-        6, 2, 0, seed=0, time="continuous"), sp.eye(6)[:2, :], 3))
+    out.append(_z12(6, 0, 0, "continuous", " (4 rows before span_rows)", 3))
     # two rows impossible, no extra row of a listed λ gives three: a pair of λ fixes the
     # line the three rows share modulo [M; H], the third λ is an exact root for the pair
-    out.append(("`random_model(7, 2, 0, seed=0)`, z = (x1, x2) (4 rows before the pair search)",
-                random_model(7, 2, 0, seed=0, time="continuous"), sp.eye(7)[:2, :], 3))
+    out.append(_z12(7, 0, 0, "continuous", " (4 rows before the pair search)", 3))
     # its discrete-time twin: three rows impossible (decided exactly), so four are minimal
-    out.append(("`random_model(7, 2, 0, seed=0, time='discrete')`, z = (x1, x2) (3 rows"
-                " impossible)", random_model(7, 2, 0, seed=0, time="discrete"),
-                sp.eye(7)[:2, :], 4))
+    out.append(_z12(7, 0, 0, "discrete", " (3 rows impossible)", 4))
     # four rows (the subspace bound) through three λ fixing a plane modulo [M; H]
-    out.append(("`random_model(8, 2, 0, seed=0)`, z = (x1, x2) (5 rows before the triple search)",
-                random_model(8, 2, 0, seed=0, time="continuous"), sp.eye(8)[:2, :], 4))
+    out.append(_z12(8, 0, 0, "continuous", " (5 rows before the triple search)", 4))
     # four rows through a point of the solution pencil of three λ (U moves along it; the
     # fourth λ is stable on a short stretch only) from a grid spread over its range
-    out.append(("`random_model(8, 2, 0, seed=2)`, z = (x1, x2) (5 rows before the pencil"
-                " points)", random_model(8, 2, 0, seed=2, time="continuous"),
-                sp.eye(8)[:2, :], 4))
-    out.append(("`random_model(8, 2, 0, seed=2, time='discrete')`, z = (x1, x2) (5 rows"
-                " before the spread grid)", random_model(8, 2, 0, seed=2, time="discrete"),
-                sp.eye(8)[:2, :], 4))
+    out.append(_z12(8, 0, 2, "continuous", " (5 rows before the pencil points)", 4))
+    out.append(_z12(8, 0, 2, "discrete", " (5 rows before the spread grid)", 4))
     # four rows (the subspace bound) impossible: no plane of R⁴ meets the rows' images at
     # four stable λ (two_more_rows: a quadratic form < 0 on the root box), five minimal
-    out.append(("`random_model(8, 2, 0, seed=8, time='discrete')`, z = (x1, x2) (4 rows"
-                " impossible)", random_model(8, 2, 0, seed=8, time="discrete"),
-                sp.eye(8)[:2, :], 5))
+    out.append(_z12(8, 0, 8, "discrete", " (4 rows impossible)", 5))
     # a basis modulo the outputs (six rows), each λ with one row: one row fewer decided
     # exactly (one_row_short) and impossible, so six rows are minimal (before: [5, 6])
-    out.append(("`random_model(8, 2, 1, seed=0)`, z = (x1, x2), disturbance decoupled (5 rows"
-                " impossible)", random_model(8, 2, 1, seed=0, time="continuous"),
-                sp.eye(8)[:2, :], 6))
-    out.append(("`random_model(8, 2, 1, seed=0, time='discrete')`, z = (x1, x2), disturbance"
-                " decoupled (5 rows impossible)", random_model(8, 2, 1, seed=0, time="discrete"),
-                sp.eye(8)[:2, :], 6))
+    for time in ("continuous", "discrete"):
+        out.append(_z12(8, 1, 0, time, ", disturbance decoupled (5 rows impossible)", 6))
     if slow:
         out.append(("unmeasured companion block, λ³ + 6λ² + 8λ + 1", PlantModel(
             name="cubic", time="continuous", states=[x1, x2, x3, x4], inputs=[u], outputs=[x4],
             dynamics=[x2, x3, -x1 - 8 * x2 - 6 * x3 + u, -x4 + u]), "x1", 3))
     return out
+
+
+def _z12(n, p, seed, time, note, k):
+    """A row of the table: z = (x1, x2) of random_model(n, 2, p, seed=seed, time=time)."""
+    where = "" if time == "continuous" else ", time='discrete'"
+    return (f"`random_model({n}, 2, {p}, seed={seed}{where})`, z = (x1, x2){note}",
+            random_model(n, 2, p, seed=seed, time=time), sp.eye(n)[:2, :], k)
 
 
 def _timed(model, z, lambdas):

@@ -110,6 +110,47 @@ def _halves(lo, hi, m) -> list:
     return out
 
 
+def _cover(m: int, top: int, excluded, proven: str, probe, probe_from: int, max_cells: int,
+           max_depth: int) -> BoxCover:
+    """The cover loop shared by :func:`box_cover` and :func:`quadric_cover`: cells of the
+    ordered chamber (integer corners u ∈ [0, top]) are examined with ``excluded(lo, hi)``,
+    the ones left are halved, at most ``max_cells`` cells and ``max_depth`` halvings.
+    From depth ``probe_from`` on, ``probe(lo, hi)`` is called on up to :data:`PROBES` cells
+    left (spread over them); a (evidence, found) pair it returns ends the cover.
+    ``proven``: the evidence after "covered by … cells" when every cell is excluded."""
+    step = top // _START
+    cells = [(tuple(i * step for i in ix), tuple((i + 1) * step for i in ix))
+             for ix in itertools.combinations_with_replacement(range(_START), m)]
+    examined = 0
+    for depth in range(max_depth + 1):
+        left = []
+        for lo, hi in cells:
+            examined += 1
+            if examined > max_cells:
+                return BoxCover(False, examined - 1, depth,
+                                f"not proven: {max_cells} cells examined, {len(left)} at depth"
+                                f" {depth} not excluded yet")
+            if not excluded(lo, hi):
+                left.append((lo, hi))
+        if not left:
+            return BoxCover(True, examined, depth,
+                            f"covered by {examined} cells of the ordered root box"
+                            f" (μ ∈ [−1, 1]^{m}, {depth} halvings): {proven}")
+        if probe is not None and depth >= probe_from:
+            for lo, hi in left[::max(1, len(left) // PROBES)][:PROBES]:
+                got = probe(lo, hi)
+                if got is not None:
+                    return BoxCover(False, examined, depth, got[0], got[1])
+        if depth == max_depth:
+            break
+        if any(b - a < 2 for lo, hi in left for a, b in zip(lo, hi)):
+            return BoxCover(False, examined, depth, "not proven: cells at the finest grid"
+                            " are not excluded (a root set may satisfy the conditions)")
+        cells = [c for lo, hi in left for c in _halves(lo, hi, m)]
+    return BoxCover(False, examined, max_depth,
+                    f"not proven: after {max_depth} halvings cells remain that are not excluded")
+
+
 def quadric_cover(m: int, S, time: str, *, equality: bool, max_cells: int = BOX_CELLS,
                   max_depth: int = BOX_DEPTH) -> BoxCover:
     """Try to prove that no p = Π (λ − λ_i) with m real stable roots (repeated or not)
@@ -165,44 +206,23 @@ def quadric_cover(m: int, S, time: str, *, equality: bool, max_cells: int = BOX_
                 return False
         return True
 
-    def value(mu):  # floats: q at the root set μ
+    def value(mu):  # q at the root set μ (rounded to the grid: exact there)
         a = _product(tuple(int(round((x + 1) * top / 2)) for x in mu), top, time, m)
         return sum(Si[i][j] * a[i] * a[j] for i in range(m + 1) for j in range(m + 1))
 
-    step = top // _START
-    cells = [(tuple(i * step for i in ix), tuple((i + 1) * step for i in ix))
-             for ix in itertools.combinations_with_replacement(range(_START), m)]
     what = "= 0" if equality else "≥ 0"
-    examined = 0
-    for depth in range(max_depth + 1):
-        left = []
-        for lo, hi in cells:
-            examined += 1
-            if examined > max_cells:
-                return BoxCover(False, examined - 1, depth,
-                                f"not proven: {max_cells} cells examined, {len(left)} at depth"
-                                f" {depth} not excluded yet")
-            if not bernstein_signs(lo, hi):
-                left.append((lo, hi))
-        if not left:
-            return BoxCover(True, examined, depth,
-                            f"covered by {examined} cells of the ordered root box (μ ∈ [−1, 1]^{m},"
-                            f" {depth} halvings): on each, every Bernstein coefficient of the"
-                            f" quadratic form is {'of one strict sign' if equality else '< 0'},"
-                            f" so no root set, real and stable, has it {what}")
-        for lo, hi in left[::max(1, len(left) // PROBES)][:PROBES]:
-            centre = tuple((a + b) / top - 1 for a, b in zip(lo, hi))
-            if not equality and value(centre) >= 0:
-                return BoxCover(False, examined, depth, f"the form is {what} at the root set"
-                                f" μ = ({', '.join(f'{x:.4g}' for x in centre)})", centre)
-        if depth == max_depth:
-            break
-        if any(b - a < 2 for lo, hi in left for a, b in zip(lo, hi)):
-            return BoxCover(False, examined, depth, "not proven: cells at the finest grid"
-                            " are not excluded")
-        cells = [c for lo, hi in left for c in _halves(lo, hi, m)]
-    return BoxCover(False, examined, max_depth,
-                    f"not proven: after {max_depth} halvings cells remain that are not excluded")
+
+    def probe(lo, hi):
+        centre = tuple((a + b) / top - 1 for a, b in zip(lo, hi))
+        if equality or value(centre) < 0:
+            return None
+        mu = ", ".join(f"{x:.4g}" for x in centre)
+        return f"the form is {what} at the root set μ = ({mu})", centre
+
+    return _cover(m, top, bernstein_signs,
+                  "on each, every Bernstein coefficient of the quadratic form is"
+                  f" {'of one strict sign' if equality else '< 0'}, so no root set, real and"
+                  f" stable, has it {what}", probe, 0, max_cells, max_depth)
 
 
 def box_cover(m: int, functionals, time: str, *, max_cells: int = BOX_CELLS,
@@ -246,40 +266,12 @@ def box_cover(m: int, functionals, time: str, *, max_cells: int = BOX_CELLS,
             last[0] = c
         return c
 
-    step = top // _START
-    cells = [(tuple(i * step for i in ix), tuple((i + 1) * step for i in ix))
-             for ix in itertools.combinations_with_replacement(range(_START), m)]
-    examined = 0
-    for depth in range(max_depth + 1):
-        left = []
-        for lo, hi in cells:
-            examined += 1
-            if examined > max_cells:
-                return BoxCover(False, examined - 1, depth,
-                                f"not proven: {max_cells} cells examined, {len(left)} at depth"
-                                f" {depth} not excluded yet")
-            if excluded(lo, hi) is None:
-                left.append((lo, hi))
-        if not left:
-            return BoxCover(True, examined, depth,
-                            f"covered by {examined} cells of the ordered root box (μ ∈ [−1, 1]^{m},"
-                            f" {depth} halvings): on each, a combination of the {r} conditions"
-                            " is of one sign at every vertex, hence on the whole cell (multi-"
-                            "affine), so no member has its roots real and stable")
-        if probe is not None and depth >= 1:
-            for lo, hi in left[::max(1, len(left) // PROBES)][:PROBES]:
-                centre = tuple(sp.Rational(a + b, top) - 1 for a, b in zip(lo, hi))
-                if len(set(centre)) < m:
-                    continue
-                got = probe(centre)
-                if got:
-                    return BoxCover(False, examined, depth, "a member found in a cell that"
-                                    " could not be excluded", got)
-        if depth == max_depth:
-            break
-        if any(b - a < 2 for lo, hi in left for a, b in zip(lo, hi)):
-            return BoxCover(False, examined, depth, "not proven: cells at the finest grid"
-                            " are not excluded (a member may exist)")
-        cells = [c for lo, hi in left for c in _halves(lo, hi, m)]
-    return BoxCover(False, examined, max_depth,
-                    f"not proven: after {max_depth} halvings cells remain that are not excluded")
+    def member(lo, hi):
+        centre = tuple(sp.Rational(a + b, top) - 1 for a, b in zip(lo, hi))
+        got = probe(centre) if len(set(centre)) == m else None
+        return ("a member found in a cell that could not be excluded", got) if got else None
+
+    return _cover(m, top, lambda lo, hi: excluded(lo, hi) is not None,
+                  f"on each, a combination of the {r} conditions is of one sign at every vertex,"
+                  " hence on the whole cell (multi-affine), so no member has its roots real and"
+                  " stable", member if probe is not None else None, 1, max_cells, max_depth)
