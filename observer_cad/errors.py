@@ -50,3 +50,15 @@ class ExpressionError(UsageError):
 class NonFiniteError(ObserverCadError):
     """A simulation produced a value that is not finite (NaN or ±inf). The CLI exits
     with status 4 (not 2: the input was well-formed, the trajectory left the domain)."""
+
+
+def describe_failure(exc: BaseException) -> tuple[bool, str]:
+    """One line for an exception that is not an :class:`ObserverCadError`, and whether it
+    is an internal error (a bug to report) rather than the environment's: a Python
+    package that is not installed is named, with the command that installs it."""
+    if isinstance(exc, ModuleNotFoundError) and exc.name:
+        top = exc.name.split(".")[0]
+        return False, (f"the Python package {top!r} is not installed (observer-cad needs it"
+                       f" here): python3 -m pip install {top}")
+    first = str(exc).splitlines()[0] if str(exc) else ""
+    return True, f"internal error: {type(exc).__name__}: {first}"

@@ -46,7 +46,7 @@ import numpy as np
 import sympy as sp
 
 from ..files import atomic_write_text
-from ..errors import ObserverCadError, UsageError
+from ..errors import ObserverCadError, UsageError, describe_failure
 from ..model import load_model
 from ..reporting import format_design, format_observer, format_structure
 from ..model import extract_structure
@@ -360,7 +360,7 @@ def _run_case(i: int, n: int, case: Case, models_dir: Path, models: dict, engine
         out.error = str(exc).splitlines()[0]
         log(f"        FAILED: {out.error}")
     except Exception as exc:  # noqa: BLE001 - one broken case must not stop the demo
-        out.error = f"internal error: {type(exc).__name__}: {str(exc).splitlines()[0] if str(exc) else ''}"
+        out.error = describe_failure(exc)[1]
         log(f"        FAILED: {out.error}")
     return out
 
@@ -448,8 +448,7 @@ def _run_diagnosability(ex: DiagnosabilityExample, models_dir: Path, engine: _En
         out.error = f"{step}: {str(exc).splitlines()[0]}"
         log(f"        FAILED: {out.error}")
     except Exception as exc:  # noqa: BLE001 - a broken step must not stop the demo
-        out.error = (f"{step}: internal error: {type(exc).__name__}:"
-                     f" {str(exc).splitlines()[0] if str(exc) else ''}")
+        out.error = f"{step}: {describe_failure(exc)[1]}"
         log(f"        FAILED: {out.error}")
     return out
 

@@ -23,7 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import ObserverCadError
+from ..errors import ObserverCadError, describe_failure
 from ..model import load_model
 from ..observers import build_observer, decide, decision_rule, guaranteed_threshold, min_detectable_fault
 from ..simulation import FaultCase, evaluate_ensemble, fault_free, load_scenario, simulate
@@ -139,7 +139,7 @@ def run_evaluation(models_dir: Path, fig_dir: Path, log) -> EvaluationOutcome:
         out.error = f"{step}: {str(exc).splitlines()[0]}"
         log(f"        FAILED: {out.error}")
     except Exception as exc:  # noqa: BLE001 - a broken step must not stop the demo
-        out.error = f"{step}: internal error: {type(exc).__name__}: {str(exc).splitlines()[0] if str(exc) else ''}"
+        out.error = f"{step}: {describe_failure(exc)[1]}"
         log(f"        FAILED: {out.error}")
     return out
 

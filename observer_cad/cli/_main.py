@@ -11,7 +11,7 @@ import json
 import sys
 from pathlib import Path
 
-from ..errors import NonFiniteError, ObserverCadError, UsageError
+from ..errors import NonFiniteError, ObserverCadError, UsageError, describe_failure
 from ..progress import report, reporting
 
 __all__ = ["main", "build_parser"]
@@ -870,8 +870,12 @@ def main(argv=None) -> int:
     except BrokenPipeError:
         return 0
     except Exception as exc:  # noqa: BLE001 - never a bare traceback for the user
-        print(f"{PROG}: internal error: {type(exc).__name__}: {str(exc).splitlines()[0] if str(exc) else ''}"
-              " (please report this with the command that caused it)", file=sys.stderr)
+        internal, line = describe_failure(exc)
+        if not internal:  # the environment's (a package not installed), not a bug
+            print(f"{PROG}: error: {line}", file=sys.stderr)
+            return 2
+        print(f"{PROG}: {line} (please report this with the command that caused it)",
+              file=sys.stderr)
         return 1
 
 

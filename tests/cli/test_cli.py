@@ -382,3 +382,27 @@ def test_crootof_lambda_simulate_and_codegen(capsys, tmp_path):
     rc, out, err = run(capsys, ["codegen", *common, "--out", tmp_path / "c"])
     assert rc == 0, err
     assert list((tmp_path / "c").glob("*.c"))
+
+
+def test_missing_package_is_named_not_an_internal_error(capsys, monkeypatch):
+    """A dependency that is not installed (matplotlib here) is the environment's problem:
+    one line naming the package and the install command, exit 2 — not "internal error"
+    with a request to report it. Any other unexpected exception stays an internal error."""
+    import observer_cad.cli._main as cli_main
+
+    def broken(args):
+        raise ModuleNotFoundError("No module named 'matplotlib.pyplot'", name="matplotlib.pyplot")
+
+    monkeypatch.setattr(cli_main, "_cmd_show", broken)
+    rc, _, err = run(capsys, ["show", TANK])
+    assert rc == 2
+    assert err.strip() == ("observer-cad: error: the Python package 'matplotlib' is not installed"
+                           " (observer-cad needs it here): python3 -m pip install matplotlib")
+
+    def bug(args):
+        raise ZeroDivisionError("division by zero")
+
+    monkeypatch.setattr(cli_main, "_cmd_show", bug)
+    rc, _, err = run(capsys, ["show", TANK])
+    assert rc == 1 and "internal error: ZeroDivisionError: division by zero" in err
+    assert "please report" in err
