@@ -91,25 +91,55 @@ def to_domain_matrix(M) -> DomainMatrix:
     return dm.to_field()
 
 
-def _cost(K, e, assumed: set) -> tuple:
-    """How expensive is it to assume e ≠ 0 (lower is better)."""
+def _constant(K, e) -> bool:
+    """Is the nonzero entry e a constant (assuming e ≠ 0 costs nothing)?"""
     try:
         if K.is_QQ or K.is_ZZ:
-            return (0, 0, 0, 0)
+            return True
         if hasattr(e, "numer") and hasattr(e, "denom") and hasattr(e.numer, "is_ground"):
-            if e.numer.is_ground:
-                return (0, 0, 0, 0)
-            expr = K.to_sympy(e)
-        else:
-            expr = K.to_sympy(e)
-            if not expr.free_symbols:
-                return (0, 0, 0, 0)
+            return bool(e.numer.is_ground)
+        return not K.to_sympy(e).free_symbols
     except Exception:  # pragma: no cover - exotic domains
-        expr = K.to_sympy(e)
-    conds = nonzero_conditions(expr)
-    new = conds - assumed
-    size = sp.count_ops(expr)
-    return (1, len(new), len(conds), size)
+        return False
+
+
+def _cost(K, e, assumed: set) -> tuple:
+    """How expensive is it to assume e ≠ 0 (lower is better): (1, conditions not yet
+    assumed, conditions, operations), constants (0, 0, 0, 0)."""
+    if _constant(K, e):
+        return (0, 0, 0, 0)
+    expr = K.to_sympy(e)
+    factors = _factors_in_domain(K, e)
+    if factors is None:
+        conds = nonzero_conditions(expr)
+        return (1, len(conds - assumed), len(conds), sp.count_ops(expr))
+    # the factors as nonzero_conditions normalises them, compared with the assumed
+    # relations' left sides (no relation built: evaluating Ne on a long polynomial is slow)
+    have = {a.lhs for a in assumed if isinstance(a, sp.Ne)}
+    return (1, sum(f not in have for f in factors), len(factors), sp.count_ops(expr))
+
+
+def _factors_in_domain(K, e):
+    """The nonconstant irreducible factors of the numerator of e, factored in the domain
+    (a polynomial ring or rational function field), each as ``nonzero_conditions`` writes
+    it (expanded, sign normalised); None for other domains."""
+    try:
+        if K.is_FractionField:
+            num = e.numer
+        elif K.is_PolynomialRing:
+            num = e
+        else:
+            return None
+        _, facs = num.factor_list()
+    except Exception:  # pragma: no cover - a domain without factorisation
+        return None
+    out = set()
+    for f, _m in facs:
+        g = sp.expand(f.as_expr())
+        if not g.free_symbols:
+            continue
+        out.add(-g if g.could_extract_minus_sign() else g)
+    return out
 
 
 @dataclasses.dataclass(frozen=True)
@@ -159,7 +189,14 @@ def _gauss_jordan(dm: DomainMatrix, assumed: set | None = None, *, full: bool = 
                 cols.remove(c)
         if not cands:
             break
-        bi, bc = min(cands, key=lambda ic: (_cost(K, rows[ic[0]][ic[1]], conds), ic[1], ic[0]))
+        # a constant pivot costs nothing: the first one (leftmost column, then topmost
+        # row) is what the cost order picks, without factoring every other candidate
+        free = [ic for ic in cands if _constant(K, rows[ic[0]][ic[1]])]
+        if free:
+            bi, bc = min(free, key=lambda ic: (ic[1], ic[0]))
+        else:
+            bi, bc = min(cands, key=lambda ic: (_cost(K, rows[ic[0]][ic[1]], conds), ic[1],
+                                                ic[0]))
         rows[r], rows[bi] = rows[bi], rows[r]
         p = rows[r][bc]
         pc = nonzero_conditions(K.to_sympy(p)) if not (K.is_QQ or K.is_ZZ) else frozenset()

@@ -344,8 +344,14 @@ def design_jordan(model: PlantModel, *, observer: str, estimate=None,
         L_span = L if decoupled else sp.zeros(n, 0)
         more = one_more_row(F, H, L_span, M, LAMBDA, work.time)
         # q + e rows whose images modulo [M; H] lie in e dimensions (e = 1: one line),
-        # e = 1 skipped when decided impossible
-        for e in range(1 + (more.analysed and not more.possible), _TUPLE_E_MAX + 1):
+        # e = 1 skipped when decided impossible; then e = c − f, where the rows of one
+        # further λ generically meet U at finitely many λ (c = n − rank [M; H], f rows
+        # per λ; smaller e need specially placed sets, which the scan rarely hits)
+        f_rows = sorted(v[0].rows for v in fam.values())[len(fam) // 2] if fam else 0
+        generic_e = n - _rank(sp.Matrix.vstack(M, H)) - f_rows
+        es = list(range(1 + (more.analysed and not more.possible), _TUPLE_E_MAX + 1))
+        es += [generic_e] if _TUPLE_E_MAX < generic_e <= _TUPLE_E_CAP else []
+        for e in es:
             if len(chosen) <= span.q + e:
                 break
             alt = _tuple_span_design(F, H, L_span, L0, fam, lam_list, M, observer, D, st,
@@ -914,8 +920,22 @@ def _real_roots(coeffs):
         out.append(-c[keep] / b[keep])
         r = np.concatenate(out)
         return r[np.isfinite(r)]
-    return np.array([float(r.real) for j in range(coeffs.shape[1])
-                     for r in np.roots(coeffs[:, j]) if abs(r.imag) <= 1e-9 * (1 + abs(r))])
+    # degree ≥ 3: the eigenvalues of the companion matrices, one batched call (each
+    # polynomial trimmed to its true degree first, as np.roots does)
+    out = []
+    for d in range(1, deg + 1):  # the columns whose leading nonzero coefficient is at deg − d
+        scale = np.abs(coeffs).max(axis=0)
+        lead = np.argmax(np.abs(coeffs) > 1e-12 * scale, axis=0)
+        cols = coeffs[:, (deg - lead == d) & (scale > 0)]
+        if not cols.shape[1]:
+            continue
+        top = cols[deg - d:]  # (d + 1, P): leading coefficient first
+        comp = np.zeros((top.shape[1], d, d))
+        comp[:, 0, :] = -(top[1:] / top[0]).T
+        comp[:, np.arange(1, d), np.arange(d - 1)] = 1.0
+        r = np.linalg.eigvals(comp).ravel()
+        out.append(r.real[np.abs(r.imag) <= 1e-9 * (1 + np.abs(r))])
+    return np.concatenate(out) if out else np.zeros(0)
 
 
 def _pencil_points(Y, Ns, Qn, e, probe) -> list:
@@ -965,8 +985,11 @@ _PAIR_GRID = {
 _PAIR_MAX = 1e5
 #: sets solved exactly after the scan
 _PAIR_EXACT = 6
-#: the largest e (q + e rows) searched through sets of e + 1 λ
+#: every e (q + e rows) up to this is searched through sets of e + 1 λ; beyond it only
+#: e = c − f (the rows of a further λ generically meet U at finitely many λ) ...
 _TUPLE_E_MAX = 2
+#: ... up to this (C(_TUPLE_GRID, e + 1) sets are scanned: 2002 for e = 4)
+_TUPLE_E_CAP = 4
 #: grid values scanned for sets of three or more λ (the first of the list and the grid)
 _TUPLE_GRID = 14
 #: continuous time: the grid for sets of three or more λ stops at this many times the
@@ -1153,9 +1176,9 @@ def _minimality(observer, k, n, lams, lam_list, adm, requested, one_row, jumps, 
     anyf = ("no residual generator of any form (any F*) with fewer states responds to every"
             " fault" if observer == "diagnostic" else "every model of any form (any F*) giving z"
             " has at least that many states")
-    if b.k == k:
-        return Condition(name, True, found + f"{why}; and k = {k} is a lower bound: {anyf}"
-                         f"{where} — {b.evidence}", ref, required=False)
+    if b.k == k:  # the bound proves it: say so first, then what the search covered
+        return Condition(name, True, found + f"k = {k} is a lower bound: {anyf}{where} —"
+                         f" {b.evidence} (the search: {why})", ref, required=False)
     if b.k > k:  # a diagnostic design whose residual misses a fault (unobservable rows)
         return Condition(name, False, found + f"{why}; but {anyf} below {b.k} states{where}"
                          f" ({b.evidence}): this design's residual does not respond to every"

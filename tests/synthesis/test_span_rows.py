@@ -143,6 +143,32 @@ def test_q_plus_two_rows_through_three_lambdas(seed, time):
     assert (d.matrices.Phi * Q).rank() == 2
 
 
+@pytest.mark.parametrize("n, seed, time, k", [
+    (9, 0, "continuous", 5), pytest.param(9, 1, "discrete", 5, marks=pytest.mark.slow),
+    pytest.param(10, 0, "continuous", 6, marks=pytest.mark.slow)])
+def test_q_plus_c_minus_f_rows_through_a_spread_set(n, seed, time, k):
+    """Nine (ten) states, two outputs, z = (x1, x2): q = 2, and modulo [M; H] (c = 5, 6
+    dimensions) each λ's rows have images in a plane (f = 2). q + e rows need their
+    images in an e-dimensional U, and a further λ's plane meets U at finitely many λ once
+    e = c − f: e + 1 rational λ with rows Σ Φ_i Q = 0 fix U, the last λ is an exact root.
+    Before (e ≤ 2 only) the design had n − 3 rows (one fewer than a basis modulo the
+    outputs, which any λ gives); now q + c − f. Not proven minimal — the subspace bound is
+    4 and q + 2 rows are not analysed for c = 5 — and the condition says so. Checked
+    independently of the design code: the row identities, the rows span z with H, and
+    modulo [M; H] the k images span exactly e = k − q dimensions."""
+    m = random_model(n, 2, 0, seed=seed, time=time)
+    st = extract_structure(m)
+    F, H, M = sp.Matrix(st.F), sp.Matrix(st.H), _first_rows(n, 2)
+    d = design_jordan(m, observer="virtual-sensor", estimate=M)
+    assert d.k == k == n - 4 and d.certificate.passed
+    _rows_ok(d, F, H, M)
+    assert len(set(d.lambdas)) == k
+    Q = sp.Matrix.hstack(*sp.Matrix.vstack(M, H).nullspace())
+    assert Q.cols == n - 4 and (d.matrices.Phi * Q).rank() == k - 2
+    cond = _minimal(d)
+    assert not cond.holds and f"lies in [4, {k}]" in cond.detail
+
+
 def _third_stable_roots(F, H, M, time, count=25):
     """Floating point, independent of the design code: for pairs (λ₁, λ₂) of a grid of
     stable λ, the line w shared by the images W(λ_i) = rowspace H (F − λ_i I)⁻¹ Q of the
@@ -317,14 +343,16 @@ def test_four_rows_need_the_roots_of_a_cubic():
 
 
 def test_vectorised_real_roots_agree_with_numpy():
-    """The closed-form real roots of the pencil scan (degree 1 and 2, vectorised) are
-    numpy's real roots of each polynomial, including leading coefficients that vanish."""
+    """The real roots of the pencil scan (closed form for degree 1 and 2, batched companion
+    matrices for 3 and 4) are numpy's real roots of each polynomial, one at a time,
+    including leading coefficients that vanish."""
     from observer_cad.synthesis._jordan import _real_roots
 
     rng = np.random.default_rng(7)
-    for deg in (1, 2):
+    for deg in (1, 2, 3, 4):
         C = rng.standard_normal((deg + 1, 300))
         C[0, :20] = 0.0  # the degree drops
+        C[:2, 20:30] = 0.0  # by two
         got = np.sort(_real_roots(C))
         want = []
         for j in range(C.shape[1]):
