@@ -96,12 +96,29 @@ def _title(d: Design) -> str:
             f" {'symbolic' if d.symbolic else 'numeric'} ({d.method} arithmetic)")
 
 
+def _approximate(values) -> str:
+    """The values to 6 significant digits when some numeric one is long to read (a rational
+    of over 24 characters, a surd, a CRootOf); "" when each reads as it is or one is
+    symbolic."""
+    if any(isinstance(v, str) for v in values):  # text is never parsed here
+        return ""
+    vals = [sp.sympify(v) for v in values]  # sympy numbers, or Python ints and floats
+    if not all(v.is_number for v in vals):
+        return ""
+    if not any(not v.is_Rational or len(str(v)) > 24 for v in vals):
+        return ""
+    return ", ".join(f"{float(sp.re(sp.N(v, 20))):.6g}" for v in vals)
+
+
 @with_full_int_text  # equations may carry rationals of any length
 def format_design(d: Design) -> str:
     """A design as a control engineer reads it: matrices, equations, conditions."""
     out = [_title(d), ""]
     if d.lambdas:
         out.append(f"  λ = ({', '.join(str(v) for v in d.lambdas)})")
+        approx = _approximate(d.lambdas)
+        if approx:
+            out.append(f"  λ ≈ ({approx})")
     if d.closed_loop_eigenvalues:
         out.append(f"  closed-loop eigenvalues: {', '.join(str(v) for v in d.closed_loop_eigenvalues)}")
     for name, M in d.ordered_matrices:

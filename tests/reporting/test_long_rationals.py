@@ -52,6 +52,26 @@ def test_design_with_a_long_rational_prints_and_serialises(models_dir):
     assert "≈" in format_matrix("F*", mats["F_star"])
 
 
+def test_long_or_irrational_lambdas_are_also_shown_approximately(models_dir):
+    """The exact λ line stays; a second line gives every λ to 6 digits when one is long
+    (a rational of over 24 characters, a surd, a CRootOf) — not for short rationals, and
+    not when a λ is a symbol."""
+    d = design_jordan(load_model(str(models_dir / "three_tank_linear.py")),
+                      observer="virtual-sensor", estimate="x1")
+    assert "λ ≈" not in format_design(d)
+    x = sp.Symbol("x")
+    lams = (sp.Rational(-10 ** 30 - 7, 10 ** 29), -2 - sp.sqrt(2),
+            sp.CRootOf(x ** 3 + 6 * x ** 2 + 8 * x + 1, 0), sp.Rational(-1, 3))
+    text = format_design(dataclasses.replace(d, lambdas=lams))
+    exact = next(line for line in text.splitlines() if line.startswith("  λ = ("))
+    assert str(lams[0]) in exact  # exact, in full
+    approx = next(line for line in text.splitlines() if line.startswith("  λ ≈ ("))
+    got = [float(v) for v in approx[len("  λ ≈ ("):-1].split(", ")]
+    assert got == pytest.approx([float(v) for v in lams], rel=1e-5)
+    a = sp.Symbol("a")
+    assert "λ ≈" not in format_design(dataclasses.replace(d, lambdas=(-a, HUGE)))
+
+
 @pytest.mark.slow  # ~10 s: the seed-004 design of a 12-state float-based plant
 def test_seed_004_virtual_sensor_of_a_float_plant():
     from observer_cad.synthesis._virtual import design_virtual_sensor_canonical
