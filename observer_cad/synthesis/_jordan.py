@@ -338,24 +338,35 @@ def design_jordan(model: PlantModel, *, observer: str, estimate=None,
     if M is not None and chosen is None:  # directed: M ∈ rowspace(H) + Σ_λ rowspace(N_λ L0)
         chosen = _directed_rows(fam, lam_list, H, M, n, observer, D, st, tried, names,
                                 tuple(c.lambdas for c in chains if c.lambdas))
+    bounds: dict = {}  # the lower bound over every F* for k rows (computed once per k)
+
+    def bound(k_):
+        if k_ not in bounds:
+            bounds[k_] = _order_bound(observer, F, H, L, D, M, st, k_, decoupled)
+        return bounds[k_]
+
     more = None  # q rows impossible: can q + 1 do it? (decided exactly in some cases)
     if (chosen is not None and M is not None and M.rows > 1 and span is not None
             and span.analysed and not span.possible and len(chosen) > span.q + 1):
         L_span = L if decoupled else sp.zeros(n, 0)
-        more = one_more_row(F, H, L_span, M, LAMBDA, work.time)
         # q + e rows whose images modulo [M; H] lie in e dimensions (e = 1: one line),
-        # e = 1 skipped when decided impossible; then e = c − f, where the rows of one
-        # further λ generically meet U at finitely many λ (c = n − rank [M; H], f rows
-        # per λ; smaller e need specially placed sets, which the scan rarely hits)
+        # from the least e the lower bound over every F* allows, e = 1 skipped when
+        # decided impossible; then e = c − f, where the rows of one further λ
+        # generically meet U at finitely many λ (c = n − rank [M; H], f rows per λ;
+        # smaller e need specially placed sets, which the scan rarely hits)
+        e_least = max(1, bound(len(chosen)).k - span.q)
+        if e_least == 1:  # (the bound does not already rule out q + 1 rows)
+            more = one_more_row(F, H, L_span, M, LAMBDA, work.time)
+            e_least += more.analysed and not more.possible
         f_rows = sorted(v[0].rows for v in fam.values())[len(fam) // 2] if fam else 0
         generic_e = n - _rank(sp.Matrix.vstack(M, H)) - f_rows
-        es = list(range(1 + (more.analysed and not more.possible), _TUPLE_E_MAX + 1))
-        es += [generic_e] if _TUPLE_E_MAX < generic_e <= _TUPLE_E_CAP else []
+        es = list(range(e_least, _TUPLE_E_MAX + 1))
+        es += [generic_e] if max(_TUPLE_E_MAX, e_least - 1) < generic_e <= _TUPLE_E_CAP else []
         for e in es:
             if len(chosen) <= span.q + e:
                 break
             alt = _tuple_span_design(F, H, L_span, L0, fam, lam_list, M, observer, D, st,
-                                     tried, names, work.time, e, more.lambdas)
+                                     tried, names, work.time, e, more.lambdas if more else ())
             if alt is not None and len(alt) < len(chosen):
                 chosen = alt
                 break
@@ -451,8 +462,7 @@ def design_jordan(model: PlantModel, *, observer: str, estimate=None,
                                  nonlinear, k, decoupled)
     conds.append(Condition("certificate", cert.passed, cert.summary(), "METHOD §2"))
     minimal = _minimality(observer, k, n, lams, lam_list, adm, bool(lambdas), one_row, jumps,
-                          work.time, lambda k_: _order_bound(observer, F, H, L, D, M, st, k_,
-                                                             decoupled), chains, span,
+                          work.time, bound, chains, span,
                           (lambda k_: nonlinear_jordan_bound(
                               F, H, L if decoupled else sp.zeros(n, 0), M, C,
                               [sp.Matrix(t.row) for t in st.terms], k_, LAMBDA, work.time,

@@ -211,8 +211,10 @@ def one_more_row(F, H, L, M, lam, time: str) -> OneMoreRow:
     p_w form a linear family of polynomials of degree ≤ D = deg ν (of dimension c when
     no w has p_w ≡ 0). D < q + 1: impossible. D = q + 1: every root must be real,
     distinct and stable, and the monic members are an affine family of dimension c − 1,
-    decided as the chain polynomials are (:func:`family_order`). Otherwise not
-    analysed."""
+    decided as the chain polynomials are (:func:`family_order`). For q = 2, f = 2, c = 4
+    (the images are lines of P³) a necessary condition on the three λ is checked instead
+    (:func:`_line_rows`: impossible when a resultant has no real stable root). Otherwise
+    not analysed."""
     return _hyperplane_rows(F, H, L, M, lam, time, "more")
 
 
@@ -302,7 +304,8 @@ def _hyperplane_rows(F, H, L, M, lam, time: str, kind: str) -> OneMoreRow:
     E = span_pencil(F, H, L, M, lam)
     if any(not v[:, :M.rows].is_zero_matrix for v in left_null_space(E)[0]):
         return no("rows inside rowspace [M; H] exist for λ generic", k)
-    if kind == "more" and f != c - 1:  # (before the exact drops and jumps: cheaper)
+    lines = kind == "more" and (f, c, q) == (2, 4, 2)  # three rows through lines of P³
+    if kind == "more" and f != c - 1 and not lines:  # (before the exact drops and jumps)
         return no(f"the images of the rows modulo rowspace [M; H] have dimension {f}, not"
                   f" {c - 1} (a hyperplane of the {c} dimensions)", k)
     if kind == "plane" and (f, c) != (2, 4):
@@ -322,6 +325,8 @@ def _hyperplane_rows(F, H, L, M, lam, time: str, kind: str) -> OneMoreRow:
     G = (sp.Matrix.vstack(*rows) * Q).applyfunc(sp.expand) if rows else sp.zeros(0, c)
     if kind == "plane":
         return _plane_rows(G, k, lam, time, no)
+    if lines:
+        return _line_rows(G, k, lam, time, no)
     if short:
         # fewer rows nest: a model of k' < k rows takes a row of a further λ while the rows
         # of all λ (the coefficient rows of v(λ)) and H span more than n − 2 dimensions
@@ -376,25 +381,96 @@ def _hyperplane_rows(F, H, L, M, lam, time: str, kind: str) -> OneMoreRow:
                       f" stable λ gives {k} rows", k)
 
 
-def _plane_rows(G, k, lam, time, no) -> OneMoreRow:
-    """:func:`two_more_rows` once its preconditions hold: ``G`` (2 × 4) the images of a
-    polynomial basis of the rows of λ modulo rowspace [M; H]."""
+def _plucker(G, lam):
+    """(π, Ω): the primitive Plücker vector π(λ) (2 × 2 minors, over the pairs of
+    {0, 1, 2, 3}) of the plane spanned by the two rows of ``G`` (polynomials in λ), or None
+    when they are dependent for λ generic; and Ω with p ∧ p' = pᵀ Ω p'
+    (Σ_S ε_S p_{S^c} p'_S, ε_S the sign of the permutation S S^c)."""
     pairs = list(itertools.combinations(range(4), 2))
     minors = []
     for S in pairs:
         dm = DomainMatrix.from_Matrix(G[:, list(S)]).convert_to(sp.QQ[lam])
         minors.append(sp.QQ[lam].to_sympy(dm.det()))
     g = sp.gcd_list(minors)
-    if g == 0:
-        return no("the images of the rows are dependent for λ generic", k)
-    pi = [sp.cancel(e / g) for e in minors]
-    D = max(sp.degree(e, lam) for e in pi)
-    # p ∧ p' = Σ_S ε_S p_{S^c} p'_S over the pairs S of {0, 1, 2, 3} (ε_S the sign of S S^c)
     comp = {S: tuple(sorted(set(range(4)) - set(S))) for S in pairs}
     eps = {S: (-1) ** sum(1 for i in S for j in comp[S] if i > j) for S in pairs}
     Om = sp.zeros(6, 6)
     for i, S in enumerate(pairs):
         Om[pairs.index(comp[S]), i] = eps[S]
+    return (None if g == 0 else [sp.cancel(e / g) for e in minors]), Om
+
+
+def _line_rows(G, k, lam, time, no) -> OneMoreRow:
+    """:func:`one_more_row` for q = 2 when the rows of each λ have a 2-dimensional image
+    W(λ) modulo rowspace [M; H] in c = 4 dimensions (lines ℓ(λ) of P³), its preconditions
+    holding: three rows need one w ≠ 0 in W(λ_1), W(λ_2), W(λ_3) at distinct real stable
+    λ_i, so the three lines meet pairwise. Two lines meet iff π(λ_i) ∧ π(λ_j) = 0, and
+    that polynomial is divisible by (λ_i − λ_j)² (π ∧ π = 0 and π ∧ π' = ½ (π ∧ π)' = 0):
+    g(λ_i, λ_j) = π(λ_i) ∧ π(λ_j) / (λ_i − λ_j)², symmetric. A triple needs g(λ_1, λ_3) =
+    g(λ_2, λ_3) = 0, so s(λ_1, λ_2) = Res_x(g(λ_1, x), g(λ_2, x)) = 0 (which vanishes on
+    λ_1 = λ_2: divided out), and g(λ_1, λ_2) = 0, so R(λ_1) = Res_y(g(λ_1, y), s(λ_1, y))
+    = 0: a necessary condition on each λ of the triple. R with no real stable root (an
+    exact Sturm count) proves three rows impossible; otherwise not decided."""
+    pi, Om = _plucker(G, lam)
+    if pi is None:
+        return no("the images of the rows are dependent for λ generic", k)
+    x, y = sp.symbols("x y")
+    fam = ("modulo rowspace [M; H] the rows of λ span planes W(λ) of 4 dimensions (lines of"
+           f" P³), Plücker vector π(λ) = ({', '.join(str(sp.factor(e)) for e in pi)}); {k} rows"
+           f" need one w in W(λ_i) at {k} distinct real stable λ_i, so the lines meet pairwise")
+    P1 = sp.Matrix(pi)
+    P2 = sp.Matrix([e.subs(lam, x) for e in pi])
+    meet = sp.Poly(sp.expand((P1.T * Om * P2)[0]), lam, x)
+    g, r = sp.div(meet, sp.Poly((lam - x) ** 2, lam, x))
+    if not r.is_zero:  # pragma: no cover - excluded by the identity above
+        return no(f"{fam}, but π(λ) ∧ π(x) is not divisible by (λ − x)²", k)
+    if g.is_zero:
+        return no(f"{fam}, and every two of the lines meet", k)
+    if g.total_degree() == 0:
+        return OneMoreRow(True, False, (), f"{fam}: π(λ) ∧ π(x) = {g.as_expr()} · (λ − x)²,"
+                          " so no two lines meet and no choice of real stable λ gives"
+                          f" {k} rows", k)
+    g_ly = g.as_expr().subs(x, y)
+    g_lx, g_yx = g.as_expr(), g.as_expr().subs(lam, y)
+    s_ly = sp.Poly(sp.resultant(g_lx, g_yx, x), lam, y)
+    while not s_ly.is_zero:  # divide out λ = y (where the two polynomials in x coincide)
+        qt, rm = sp.div(s_ly, sp.Poly(lam - y, lam, y))
+        if not rm.is_zero:
+            break
+        s_ly = qt
+    if s_ly.is_zero:
+        return no(f"{fam}; the lines meeting two of them are never finitely many", k)
+    R = sp.Poly(sp.resultant(g_ly, s_ly.as_expr(), y), lam)
+    if R.is_zero:
+        return no(f"{fam}; the elimination of the other two λ leaves 0", k)
+    R = sp.Poly(sp.primitive(R.as_expr())[1], lam) if R.degree() > 0 else R
+    stable = _stable_root_count(R, time)
+    elim = (f"g(λ, x) = π(λ) ∧ π(x) / (λ − x)² = {sp.factor(g.as_expr())}; eliminating the"
+            f" other two λ of a triple (resultants) leaves R(λ) of degree {R.degree()}")
+    if stable == 0:
+        return OneMoreRow(True, False, (), f"{fam}: {elim} with no real stable root (Sturm),"
+                          f" so no choice of real stable λ gives {k} rows", k)
+    return no(f"{fam}: {elim}, with {stable} real stable root(s): not decided", k)
+
+
+def _stable_root_count(R, time) -> int:
+    """The number of distinct real roots of R in the open stability region (λ < 0, or
+    −1 < λ < 1), exactly (Sturm sequences)."""
+    R = R.sqf_part()
+    if R.degree() <= 0:
+        return 0
+    if time == "continuous":
+        return R.count_roots(-sp.oo, 0) - (R.eval(0) == 0)
+    return R.count_roots(-1, 1) - (R.eval(-1) == 0) - (R.eval(1) == 0)
+
+
+def _plane_rows(G, k, lam, time, no) -> OneMoreRow:
+    """:func:`two_more_rows` once its preconditions hold: ``G`` (2 × 4) the images of a
+    polynomial basis of the rows of λ modulo rowspace [M; H]."""
+    pi, Om = _plucker(G, lam)
+    if pi is None:
+        return no("the images of the rows are dependent for λ generic", k)
+    D = max(sp.degree(e, lam) for e in pi)
     C = sp.Matrix([[sp.Poly(e, lam).coeff_monomial(lam ** j) for j in range(D + 1)] for e in pi])
     T = (Om * C).T  # coefficients of p ∧ π(λ), λ⁰ … λᴰ, as a map of p
     kernel = T.nullspace()

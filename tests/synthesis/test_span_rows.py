@@ -361,6 +361,103 @@ def test_vectorised_real_roots_agree_with_numpy():
         assert np.allclose(got, np.sort(want), rtol=1e-9, atol=1e-12)
 
 
+# --- one more row through lines of P³ (f = 2, c = 4, q = 2) -------------------------------
+
+def _concurrent_triples(F, H, L, M, time, count=1500):
+    """Floating point, independent of one_more_row: approximate triples of stable λ whose
+    images W(λ) modulo rowspace [M; H] (planes of R⁴: lines of P³) meet pairwise. W(λ)
+    from a numeric left null space of [F − λI, L; H, 0] (rows (Φ, −y) with Φ L = 0 and
+    Φ (F − λI) = y H), Plücker vectors from 2 × 2 minors, normalised and followed
+    continuously over a fine grid; two lines meet where p(λ_i) ∧ p(λ_j) changes sign in
+    λ_j (away from λ_i, where it touches 0 doubly)."""
+    Fn, Hn, Ln, Mn = (np.array(X.tolist(), dtype=float).reshape(X.shape) for X in (F, H, L, M))
+    n = Fn.shape[0]
+    _, sv, Vt = np.linalg.svd(np.vstack([Mn, Hn]))
+    Q = Vt[int(np.sum(sv > 1e-10 * sv[0])):].T
+    pairs = [(0, 1), (0, 2), (0, 3), (1, 2), (1, 3), (2, 3)]
+    grid = (-np.logspace(-2.5, 3.5, count) if time == "continuous"
+            else np.linspace(-0.999, 0.999, count))
+    P, prev = [], None
+    for v in grid:
+        A = np.block([[Fn - v * np.eye(n), Ln], [Hn, np.zeros((Hn.shape[0], Ln.shape[1]))]])
+        _, s, Vt2 = np.linalg.svd(A.T)
+        W = Vt2[int(np.sum(s > 1e-10 * s[0])):, :n] @ Q
+        p = np.array([np.linalg.det(W[:, list(S)]) for S in pairs])
+        p /= np.linalg.norm(p)
+        p = -p if prev is not None and p @ prev < 0 else p
+        P.append(p)
+        prev = p
+    P = np.array(P)
+    Om = np.zeros((6, 6))
+    for i, S in enumerate(pairs):
+        C = tuple(sorted(set(range(4)) - set(S)))
+        Om[pairs.index(C), i] = (-1) ** sum(1 for a in S for b in C if a > b)
+    sgn = np.sign(P @ Om @ P.T)
+    change = sgn[:, 1:] * sgn[:, :-1] < 0
+    idx = np.arange(count)
+    change &= np.abs(idx[:, None] - idx[None, :-1]) > 3
+    partners = [set(np.nonzero(row)[0]) for row in change]
+    found = []
+    for i in range(count):
+        S = sorted(partners[i])
+        for a, j in enumerate(S):
+            for k in S[a + 1:]:
+                if any(abs(k - kk) <= 2 for kk in partners[j]):
+                    found.append((grid[i], grid[j], grid[k]))
+    return found
+
+
+def _parts(n, l, p, seed, time):  # noqa: E741
+    st = extract_structure(random_model(n, l, p, seed=seed, time=time))
+    return sp.Matrix(st.F), sp.Matrix(st.H), sp.Matrix(st.L), _first_rows(n, 2)
+
+
+@pytest.mark.parametrize("time", ["continuous", "discrete"])
+def test_three_rows_through_lines_of_p3_impossible_and_checked_in_floats(time):
+    """random_model(9, 3, 1, seed=0), z = (x1, x2), disturbance decoupled: q = 2, and the
+    two rows of each λ have images modulo [M; H] that are planes of R⁴ (f = 2, c = 4), so
+    one more row (three) needs three such lines of P³ through one point: they meet
+    pairwise, and eliminating two λ of the triple leaves a polynomial of degree 8 with no
+    real stable root — impossible (before: not analysed, f ≠ c − 1). In floats, no
+    approximate triple of pairwise meeting lines exists on a fine stable grid; on seed 1
+    (continuous), where the exact polynomial has stable roots and the case stays
+    undecided, the same check finds some (it can see one)."""
+    F, H, L, M = _parts(9, 3, 1, 0, time)
+    r = one_more_row(F, H, L, M, LAM, time)
+    assert r.analysed and not r.possible and r.k == 3
+    assert "lines of P³" in r.evidence and "no real stable root (Sturm)" in r.evidence
+    assert _concurrent_triples(F, H, L, M, time) == []
+    if time == "continuous":
+        F1, H1, L1, M1 = _parts(9, 3, 1, 1, time)
+        r1 = one_more_row(F1, H1, L1, M1, LAM, time)
+        assert not r1.analysed and "real stable root(s): not decided" in r1.evidence
+        assert _concurrent_triples(F1, H1, L1, M1, time)
+
+
+def test_stable_root_count_by_hand():
+    """The Sturm count behind the verdict: distinct roots in the open stability region
+    (the boundary 0, or ±1, excluded; repeated roots once)."""
+    from observer_cad.synthesis._order_bound import _stable_root_count
+
+    x = sp.Symbol("x")
+    assert _stable_root_count(sp.Poly((x + 1) ** 2 * (x + 2) * x * (x - 3), x), "continuous") == 2
+    assert _stable_root_count(sp.Poly((2 * x - 1) * (x + 1) * (x - 2) * (x ** 2 + 1), x),
+                              "discrete") == 1
+    assert _stable_root_count(sp.Poly(x ** 2 + 1, x), "continuous") == 0
+
+
+@pytest.mark.parametrize("time, k", [("continuous", 4),
+                                     pytest.param("discrete", 5, marks=pytest.mark.slow)])
+def test_three_rows_impossible_proves_the_design_minimal(time, k):
+    """The designs of that plant: continuous four rows (q + 2), proven minimal because
+    three are impossible (before: least order in [3, 4]); discrete five rows, proven
+    because three are impossible and four too (planes of R⁴, :func:`two_more_rows`)."""
+    m = random_model(9, 3, 1, seed=0, time=time)
+    d = design_jordan(m, observer="virtual-sensor", estimate=_first_rows(9, 2))
+    assert d.k == k and d.certificate.passed and _minimal(d).holds
+    assert "lines of P³" in _minimal(d).detail
+
+
 # --- two more rows: planes of R⁴ -----------------------------------------------------------
 
 def _real_transversals(F, H, M, lams):
