@@ -14,7 +14,9 @@ symbolic parameters whose λ are −a and −b (designed with the parameters kep
 and z with two components (test_span_rows.py): two rows that need λ = −5/2, three
 rows where two are impossible for every λ (the defaults gave four before), and two plants
 with a decoupled disturbance where one row fewer than a basis modulo the outputs is
-decided exactly and impossible (test_signs_and_boxes.py).
+decided exactly and impossible (test_signs_and_boxes.py), a nine-state plant with a
+decoupled disturbance where three rows are impossible (lines of P³), and a nine-state
+plant reaching q + c − f rows (its least order not known).
 For each: ``design_jordan`` with the default λ list requested (what the search did before:
 −1, −2, … / 1/2, 1/4, …) and with the new search (defaults plus the exact special λ). Reported: k (or "none" when the defaults give
 no design), the λ found, median wall and CPU time of ``--runs`` calls. Target: the new
@@ -118,6 +120,12 @@ def cases(slow: bool):
     # exactly (one_row_short) and impossible, so six rows are minimal (before: [5, 6])
     for time in ("continuous", "discrete"):
         out.append(_z12(8, 1, 0, time, ", disturbance decoupled (5 rows impossible)", 6))
+    # nine states, three outputs, a decoupled disturbance: three rows impossible (three
+    # lines of P³ through one point: a resultant without real stable roots), so four rows
+    # are minimal (before: [3, 4])
+    out.append(("`random_model(9, 3, 1, seed=0)`, z = (x1, x2), disturbance decoupled"
+                " (3 rows impossible)", random_model(9, 3, 1, seed=0, time="continuous"),
+                sp.eye(9)[:2, :], 4))
     # nine states: c − f = 3 more rows than q through four λ (before: six rows); the least
     # order lies in [4, 5] (q + 2 rows with e + f < c are not analysed), so the target is
     # k = 5 certified, not a proof
