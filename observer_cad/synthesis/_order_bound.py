@@ -460,8 +460,8 @@ def _stable_root_count(R, time) -> int:
     if R.degree() <= 0:
         return 0
     if time == "continuous":
-        return R.count_roots(-sp.oo, 0) - (R.eval(0) == 0)
-    return R.count_roots(-1, 1) - (R.eval(-1) == 0) - (R.eval(1) == 0)
+        return R.count_roots(-sp.oo, 0) - (R(0) == 0)
+    return R.count_roots(-1, 1) - (R(-1) == 0) - (R(1) == 0)
 
 
 def _plane_rows(G, k, lam, time, no) -> OneMoreRow:
