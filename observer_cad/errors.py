@@ -56,9 +56,16 @@ def describe_failure(exc: BaseException) -> tuple[bool, str]:
     """One line for an exception that is not an :class:`ObserverCadError`, and whether it
     is an internal error (a bug to report) rather than the environment's: a Python
     package that is not installed is named, with the command that installs it."""
-    if isinstance(exc, ModuleNotFoundError) and exc.name:
+    if (isinstance(exc, ModuleNotFoundError) and exc.name
+            and exc.name.split(".")[0] != "observer_cad"):  # (our own: a packaging bug)
         top = exc.name.split(".")[0]
+        dist = _DISTRIBUTIONS.get(top, top)
         return False, (f"the Python package {top!r} is not installed (observer-cad needs it"
-                       f" here): python3 -m pip install {top}")
+                       f" here): python3 -m pip install {dist}")
     first = str(exc).splitlines()[0] if str(exc) else ""
     return True, f"internal error: {type(exc).__name__}: {first}"
+
+
+#: import names whose PyPI distribution is named differently
+_DISTRIBUTIONS = {"flint": "python-flint", "distributed": "dask[distributed]",
+                  "nbclient": "nbclient", "yaml": "pyyaml"}

@@ -110,7 +110,10 @@ def _cost(K, e, assumed: set) -> tuple:
         return (0, 0, 0, 0)
     expr = K.to_sympy(e)
     factors = _factors_in_domain(K, e)
-    if factors is None:
+    if factors is None or any(len(getattr(g, "assumptions0", {})) > 1
+                              for g in getattr(K, "symbols", ())):
+        # (symbols with assumptions, e.g. positive: nonzero_conditions may evaluate a
+        # relation to true, which the factors compared below would not)
         conds = nonzero_conditions(expr)
         return (1, len(conds - assumed), len(conds), sp.count_ops(expr))
     # the factors as nonzero_conditions normalises them, compared with the assumed

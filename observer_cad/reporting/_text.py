@@ -103,11 +103,11 @@ def _approximate(values) -> str:
     if any(isinstance(v, str) for v in values):  # text is never parsed here
         return ""
     vals = [sp.sympify(v) for v in values]  # sympy numbers, or Python ints and floats
-    if not all(v.is_number for v in vals):
+    if not all(v.is_number and v.is_real for v in vals):
         return ""
-    if not any(not v.is_Rational or len(str(v)) > 24 for v in vals):
-        return ""
-    return ", ".join(f"{float(sp.re(sp.N(v, 20))):.6g}" for v in vals)
+    if not any(not (v.is_Rational or v.is_Float) or len(str(v)) > 24 for v in vals):
+        return ""  # rationals and floats read as they are
+    return ", ".join(f"{float(sp.N(v, 20)):.6g}" for v in vals)
 
 
 @with_full_int_text  # equations may carry rationals of any length

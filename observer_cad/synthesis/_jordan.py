@@ -912,7 +912,10 @@ _PENCIL_POINTS = 3
 
 def _real_roots(coeffs):
     """The real roots of the polynomials whose coefficients (highest first) are the
-    columns of ``coeffs``: in closed form for degree ≤ 2 (vectorised), else np.roots."""
+    columns of ``coeffs``: in closed form for degree ≤ 2 (vectorised), else the
+    eigenvalues of batched companion matrices. Leading coefficients below 1e-12 of a
+    column's largest are taken as zero (the degree drops; np.roots would instead return a
+    root near infinity)."""
     deg = coeffs.shape[0] - 1
     if deg == 1:
         a, b = coeffs
@@ -930,12 +933,12 @@ def _real_roots(coeffs):
         out.append(-c[keep] / b[keep])
         r = np.concatenate(out)
         return r[np.isfinite(r)]
-    # degree ≥ 3: the eigenvalues of the companion matrices, one batched call (each
-    # polynomial trimmed to its true degree first, as np.roots does)
+    # degree ≥ 3: the eigenvalues of the companion matrices, one batched call per degree
+    # (each polynomial trimmed to its degree first)
     out = []
+    scale = np.abs(coeffs).max(axis=0)
+    lead = np.argmax(np.abs(coeffs) > 1e-12 * scale, axis=0)
     for d in range(1, deg + 1):  # the columns whose leading nonzero coefficient is at deg − d
-        scale = np.abs(coeffs).max(axis=0)
-        lead = np.argmax(np.abs(coeffs) > 1e-12 * scale, axis=0)
         cols = coeffs[:, (deg - lead == d) & (scale > 0)]
         if not cols.shape[1]:
             continue

@@ -49,6 +49,7 @@ from ..numerics import (exact_rank, gordan_alternative, left_null_echelon, left_
 from ._box_cover import box_cover, quadric_cover
 from ._canonical import krylov_blocks, member_to_phi
 from sympy.polys.matrices import DomainMatrix
+from sympy.polys.polyfuncs import symmetrize
 
 from ._lambda_search import (coefficient_rows, exact_real_roots, family_jump_lambdas,
                              polynomial_row, rank_drop_lambdas, span_pencil, span_rows)
@@ -212,9 +213,8 @@ def one_more_row(F, H, L, M, lam, time: str) -> OneMoreRow:
     no w has p_w ≡ 0). D < q + 1: impossible. D = q + 1: every root must be real,
     distinct and stable, and the monic members are an affine family of dimension c − 1,
     decided as the chain polynomials are (:func:`family_order`). For q = 2, f = 2, c = 4
-    (the images are lines of P³) a necessary condition on the three λ is checked instead
-    (:func:`_line_rows`: impossible when a resultant has no real stable root). Otherwise
-    not analysed."""
+    (the images are lines of P³) the three lines must meet pairwise, decided through each
+    line's partners (:func:`_line_rows`). Otherwise not analysed."""
     return _hyperplane_rows(F, H, L, M, lam, time, "more")
 
 
@@ -406,11 +406,13 @@ def _line_rows(G, k, lam, time, no) -> OneMoreRow:
     holding: three rows need one w ≠ 0 in W(λ_1), W(λ_2), W(λ_3) at distinct real stable
     λ_i, so the three lines meet pairwise. Two lines meet iff π(λ_i) ∧ π(λ_j) = 0, and
     that polynomial is divisible by (λ_i − λ_j)² (π ∧ π = 0 and π ∧ π' = ½ (π ∧ π)' = 0):
-    g(λ_i, λ_j) = π(λ_i) ∧ π(λ_j) / (λ_i − λ_j)², symmetric. A triple needs g(λ_1, λ_3) =
-    g(λ_2, λ_3) = 0, so s(λ_1, λ_2) = Res_x(g(λ_1, x), g(λ_2, x)) = 0 (which vanishes on
-    λ_1 = λ_2: divided out), and g(λ_1, λ_2) = 0, so R(λ_1) = Res_y(g(λ_1, y), s(λ_1, y))
-    = 0: a necessary condition on each λ of the triple. R with no real stable root (an
-    exact Sturm count) proves three rows impossible; otherwise not decided."""
+    g(λ_i, λ_j) = π(λ_i) ∧ π(λ_j) / (λ_i − λ_j)², symmetric. g of degree 2 in each
+    variable: decided through the partners (:func:`_partner_triples`). Otherwise a triple
+    needs g(λ_1, λ_3) = g(λ_2, λ_3) = 0, so s(λ_1, λ_2) = Res_x(g(λ_1, x), g(λ_2, x)) = 0
+    (which vanishes on λ_1 = λ_2: divided out), and g(λ_1, λ_2) = 0, so R(λ_1) =
+    Res_y(g(λ_1, y), s(λ_1, y)) = 0: a necessary condition on each λ of the triple. R with
+    no real stable root (an exact Sturm count) proves three rows impossible; otherwise
+    not decided (R vanishes at torsal λ too, where g(λ, λ) = 0)."""
     pi, Om = _plucker(G, lam)
     if pi is None:
         return no("the images of the rows are dependent for λ generic", k)
@@ -430,6 +432,16 @@ def _line_rows(G, k, lam, time, no) -> OneMoreRow:
         return OneMoreRow(True, False, (), f"{fam}: π(λ) ∧ π(x) = {g.as_expr()} · (λ − x)²,"
                           " so no two lines meet and no choice of real stable λ gives"
                           f" {k} rows", k)
+    if g.degree(x) == 2:  # each line meets at most two others: the partners, exactly
+        partner = _partner_triples(g, lam, x, time)
+        if partner is not None:
+            verdict, text, lams = partner
+            if verdict == "impossible":
+                return OneMoreRow(True, False, (), f"{fam}: {text}, so no choice of real stable"
+                                  f" λ gives {k} rows", k)
+            if verdict == "possible":
+                return OneMoreRow(True, True, lams, f"{fam}: {text}", k)
+            return no(f"{fam}: {text}", k)
     g_ly = g.as_expr().subs(x, y)
     g_lx, g_yx = g.as_expr(), g.as_expr().subs(lam, y)
     s_ly = sp.Poly(sp.resultant(g_lx, g_yx, x), lam, y)
@@ -451,6 +463,156 @@ def _line_rows(G, k, lam, time, no) -> OneMoreRow:
         return OneMoreRow(True, False, (), f"{fam}: {elim} with no real stable root (Sturm),"
                           f" so no choice of real stable λ gives {k} rows", k)
     return no(f"{fam}: {elim}, with {stable} real stable root(s): not decided", k)
+
+
+def _partner_triples(g, lam, x, time):
+    """Three distinct real stable λ whose lines meet pairwise, for g(λ, x) of degree 2 in
+    each variable (π of degree 4): the partners of λ_1 — the λ whose lines meet ℓ(λ_1) —
+    are the roots of g(λ_1, x) = a x² + b x + c, so a triple is λ_1 with two distinct real
+    stable partners, neither λ_1, that meet each other: h(λ_1) = a² g(λ_2, λ_3) = 0, with
+    g(λ_2, λ_3) written in λ_2 + λ_3 = −b/a and λ_2 λ_3 = c/a (h is a quadratic form in
+    (a, b, c), so it vanishes also where g(λ_1, ·) ≡ 0). The conditions on λ_1: a ≠ 0,
+    b² − 4ac > 0, g(λ_1, λ_1) ≠ 0, both partners stable (signs of polynomials in λ_1).
+
+    h ≢ 0: every real stable root α of h is checked exactly (signs at α by interval
+    arithmetic on its isolating interval, refined until certain). h ≡ 0 (a Poncelet
+    porism: the symmetric (2, 2) correspondence closes a triangle from every point): a
+    triple exists iff the conditions hold at some real stable λ_1, decided by testing one
+    rational point between each two consecutive real roots of the condition polynomials.
+
+    Returns (verdict, evidence, λ): verdict "impossible", "possible" (λ: a triple, exact)
+    or "undecided"."""
+    coeffs = sp.Poly(g.as_expr(), x).all_coeffs()
+    a, b, c = (sp.expand(e) for e in coeffs)
+    diag = sp.expand(g.as_expr().subs(x, lam))
+    # (what fails, a polynomial that must be > 0 at λ_1)
+    if time == "continuous":  # both partners < 0: a b > 0 and a c > 0
+        stab = [("a b ≤ 0", a * b), ("a c ≤ 0", a * c)]
+    else:  # both in (−1, 1): a (a + b + c) > 0, a (a − b + c) > 0, 4a² − b² > 0
+        stab = [("a (a + b + c) ≤ 0", a * (a + b + c)), ("a (a − b + c) ≤ 0", a * (a - b + c)),
+                ("4a² − b² ≤ 0", 4 * a ** 2 - b ** 2)]
+    checks = [("a = 0", a ** 2), ("b² − 4ac ≤ 0", b ** 2 - 4 * a * c),
+              ("g(λ, λ) = 0", diag ** 2)] + stab
+    h = _triangle_polynomial(g, lam, x, a, b, c)
+    where = f"g(λ, x) = {sp.factor(g.as_expr())}; the partners of λ_1 are the roots of g(λ_1, x)"
+    if h is None:
+        return "undecided", f"{where}: not analysed (not symmetric)", ()
+    if h.is_zero:
+        return _porism_triple(g, lam, x, checks, time, where)
+    roots, fails = 0, []
+    for f, _m in h.factor_list()[1]:
+        if f.degree() < 1:
+            continue
+        for (lo, hi), _ in f.intervals():
+            lo, hi = _stable_interval(f, sp.Rational(lo), sp.Rational(hi), time)
+            if lo is None:
+                continue
+            roots += 1
+            if all(_sign_at(sp.Poly(e, lam), f, lo, hi) == 0 for e in (a, b, c)):
+                return "undecided", (f"{where}; at a root λ ≈ {float((lo + hi) / 2):.4g} of h"
+                                     " every line meets ℓ(λ): not decided"), ()
+            bad = next((name for name, e in checks
+                        if _sign_at(sp.Poly(e, lam), f, lo, hi) <= 0), None)
+            if bad is None:  # pragma: no cover - h ≢ 0 leaves only degenerate roots
+                return "undecided", (f"{where}; at λ ≈ {float((lo + hi) / 2):.4g} (a root of"
+                                     " h) three lines of real stable λ meet pairwise: not"
+                                     " ruled out"), ()
+            fails.append(bad)
+    return "impossible", (f"{where}, and they meet iff h(λ_1) = a² g(λ_2, λ_3) = 0, h of"
+                          f" degree {h.degree()} with {roots} real stable root(s)"
+                          + (f", each failing a condition exactly ({', '.join(fails)})"
+                             if fails else "")), ()
+
+
+def _triangle_polynomial(g, lam, x, a, b, c):
+    """h(λ) = a² g(λ_2, λ_3) for λ_2, λ_3 the roots of g(λ, x) = a x² + b x + c (through
+    λ_2 + λ_3 = −b/a, λ_2 λ_3 = c/a), a polynomial; None when g is not symmetric."""
+    u, v, s1, s2 = sp.symbols("u v s1 s2")
+    sym, rest, defs = symmetrize(sp.expand(g.as_expr().subs({lam: u, x: v}, simultaneous=True)),
+                                 [u, v], formal=True)
+    if rest != 0:  # pragma: no cover - π(λ) ∧ π(x) is symmetric
+        return None
+    sym = sym.subs({d[0]: {u + v: s1, u * v: s2}[d[1]] for d in defs})
+    h = sp.cancel(sp.expand(a ** 2 * sym.subs({s1: -b / a, s2: c / a}, simultaneous=True)))
+    if sp.fraction(h)[1].has(lam):  # pragma: no cover - a quadratic form in (a, b, c)
+        return None
+    return sp.Poly(h, lam)
+
+
+def _porism_triple(g, lam, x, checks, time, where):
+    """h ≡ 0: a real stable λ_1 meeting every condition, or none (one rational point in
+    each open interval between consecutive real roots of the conditions' polynomials and
+    the stability boundary: their signs are constant there, and the set is open)."""
+    polys = [sp.Poly(e, lam) for _, e in checks]
+    P = sp.Poly(lam, lam) if time == "continuous" else sp.Poly((lam - 1) * (lam + 1), lam)
+    for q in polys:
+        if not q.is_zero and q.degree() > 0:
+            P = P * q.sqf_part()
+    P = P.sqf_part()
+    cuts = sorted((sp.Rational(lo), sp.Rational(hi)) for (lo, hi), _ in P.intervals())
+    points = [cuts[0][0] - 1] + [(cuts[i][1] + cuts[i + 1][0]) / 2
+                                 for i in range(len(cuts) - 1)] + [cuts[-1][1] + 1]
+    for t in points:
+        if not (t < 0 if time == "continuous" else -1 < t < 1):
+            continue
+        if all(q(t) > 0 for q in polys):
+            partners = sp.Poly(g.as_expr().subs(lam, t), x).all_roots()
+            lams = (t, *partners)
+            return "possible", (f"{where}; h(λ_1) = a² g(λ_2, λ_3) vanishes identically (every"
+                                " λ_1 starts a triangle of meeting lines), and at λ_1 = "
+                                f"{t} both partners are real, distinct and stable: λ ="
+                                f" ({', '.join(map(str, lams))}) (three lines meeting pairwise:"
+                                " concurrent or coplanar)"), lams
+    return "impossible", (f"{where}; h(λ_1) = a² g(λ_2, λ_3) vanishes identically, but no real"
+                          " stable λ_1 has two distinct real stable partners (one point"
+                          f" tested between each two of the {len(cuts)} real roots of the"
+                          " conditions)"), ()
+
+
+def _stable_interval(f, lo, hi, time):
+    """The isolating interval [lo, hi] of a real root of f refined until it lies inside
+    the open stability region or outside it: (lo, hi), or (None, None) when the root is
+    not stable (the boundary 0 or ±1 itself is not)."""
+    bounds = (0,) if time == "continuous" else (-1, 1)
+    for _ in range(200):
+        if lo == hi:
+            break
+        if not any(lo <= t <= hi for t in bounds):
+            break
+        lo, hi = (sp.Rational(z) for z in f.refine_root(lo, hi, eps=(hi - lo) / 4))
+    mid = (lo + hi) / 2
+    if any(lo <= t <= hi for t in bounds) and lo != hi:  # pragma: no cover - refined away
+        return None, None
+    ok = mid < 0 if time == "continuous" else -1 < mid < 1
+    return (lo, hi) if ok else (None, None)
+
+
+def _sign_at(q, f, lo, hi) -> int:
+    """The sign of q(α), α the root of the irreducible f isolated in [lo, hi]: 0 when f
+    divides q, else by interval evaluation of q over the interval, refined until the sign
+    is certain."""
+    if q.is_zero:
+        return 0
+    if sp.rem(q, f).is_zero:
+        return 0
+    for _ in range(400):
+        qlo, qhi = _interval_value(q, lo, hi)
+        if qlo > 0:
+            return 1
+        if qhi < 0:
+            return -1
+        lo, hi = (sp.Rational(z) for z in f.refine_root(lo, hi, eps=(hi - lo) / 4))
+    raise ArithmeticError("the sign of a polynomial at an algebraic number was not"
+                          " settled")  # pragma: no cover - q(α) ≠ 0 settles it
+
+
+def _interval_value(q, lo, hi) -> tuple:
+    """[min, max] enclosure of q over [lo, hi] by interval Horner (rationals)."""
+    rlo = rhi = sp.Integer(0)
+    for co in q.all_coeffs():
+        prods = (rlo * lo, rlo * hi, rhi * lo, rhi * hi)
+        rlo, rhi = min(prods) + co, max(prods) + co
+    return rlo, rhi
 
 
 def _stable_root_count(R, time) -> int:

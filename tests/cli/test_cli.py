@@ -399,6 +399,20 @@ def test_missing_package_is_named_not_an_internal_error(capsys, monkeypatch):
     assert err.strip() == ("observer-cad: error: the Python package 'matplotlib' is not installed"
                            " (observer-cad needs it here): python3 -m pip install matplotlib")
 
+    def flint_missing(args):  # the import name is not the distribution's name
+        raise ModuleNotFoundError("No module named 'flint'", name="flint")
+
+    monkeypatch.setattr(cli_main, "_cmd_show", flint_missing)
+    rc, _, err = run(capsys, ["show", TANK])
+    assert rc == 2 and err.strip().endswith("python3 -m pip install python-flint")
+
+    def own_module_missing(args):  # a module of observer_cad itself: a packaging bug
+        raise ModuleNotFoundError("No module named 'observer_cad.x'", name="observer_cad.x")
+
+    monkeypatch.setattr(cli_main, "_cmd_show", own_module_missing)
+    rc, _, err = run(capsys, ["show", TANK])
+    assert rc == 1 and "internal error: ModuleNotFoundError" in err
+
     def bug(args):
         raise ZeroDivisionError("division by zero")
 

@@ -70,6 +70,9 @@ def test_long_or_irrational_lambdas_are_also_shown_approximately(models_dir):
     assert got == pytest.approx([float(v) for v in lams], rel=1e-5)
     a = sp.Symbol("a")
     assert "λ ≈" not in format_design(dataclasses.replace(d, lambdas=(-a, HUGE)))
+    # floating-point designs: their λ read as they are
+    assert "λ ≈" not in format_design(dataclasses.replace(d, lambdas=(sp.Float(-1),
+                                                                     sp.Float(-2.5))))
 
 
 @pytest.mark.slow  # ~10 s: the seed-004 design of a 12-state float-based plant
