@@ -550,6 +550,12 @@ def _porism_triple(g, lam, x, checks, time, where):
             P = P * q.sqf_part()
     P = P.sqf_part()
     cuts = sorted((sp.Rational(lo), sp.Rational(hi)) for (lo, hi), _ in P.intervals())
+    for _ in range(200):  # isolating intervals that touch: refine until they are apart
+        i = next((i for i in range(len(cuts) - 1) if cuts[i][1] >= cuts[i + 1][0]), None)
+        if i is None:
+            break
+        cuts[i:i + 2] = [tuple(sp.Rational(z) for z in P.refine_root(lo, hi, eps=(hi - lo) / 4))
+                         if lo != hi else (lo, hi) for lo, hi in cuts[i:i + 2]]
     points = [cuts[0][0] - 1] + [(cuts[i][1] + cuts[i + 1][0]) / 2
                                  for i in range(len(cuts) - 1)] + [cuts[-1][1] + 1]
     for t in points:
