@@ -57,14 +57,16 @@ def _nonzero_conditions(expr) -> frozenset:
         return frozenset()
     num, _ = sp.fraction(sp.cancel(sp.together(expr)))
     _, factors = sp.factor_list(num)
-    out = set()
-    for f, _mult in factors:
-        if not f.free_symbols:
-            continue
-        if f.could_extract_minus_sign():
-            f = -f
-        out.add(sp.Ne(sp.expand(f), 0))
-    return frozenset(out)
+    return frozenset(sp.Ne(g, 0) for g in map(_normalised_factor, (f for f, _m in factors))
+                     if g is not None)
+
+
+def _normalised_factor(f):
+    """A factor as the conditions write it: expanded, its sign normalised (``k4``, never
+    ``-k4``); None for a constant (it gives no condition)."""
+    if not f.free_symbols:
+        return None
+    return sp.expand(-f if f.could_extract_minus_sign() else f)
 
 
 def denominator_conditions(expr) -> frozenset:
@@ -136,12 +138,8 @@ def _factors_in_domain(K, e):
         _, facs = num.factor_list()
     except Exception:  # pragma: no cover - a domain without factorisation
         return None
-    out = set()
-    for f, _m in facs:
-        g = sp.expand(f.as_expr())
-        if not g.free_symbols:
-            continue
-        out.add(-g if g.could_extract_minus_sign() else g)
+    out = {_normalised_factor(f.as_expr()) for f, _m in facs}
+    out.discard(None)
     return out
 
 

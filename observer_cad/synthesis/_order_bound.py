@@ -544,20 +544,8 @@ def _porism_triple(g, lam, x, checks, time, where):
     each open interval between consecutive real roots of the conditions' polynomials and
     the stability boundary: their signs are constant there, and the set is open)."""
     polys = [sp.Poly(e, lam) for _, e in checks]
-    P = sp.Poly(lam, lam) if time == "continuous" else sp.Poly((lam - 1) * (lam + 1), lam)
-    for q in polys:
-        if not q.is_zero and q.degree() > 0:
-            P = P * q.sqf_part()
-    P = P.sqf_part()
-    cuts = sorted((sp.Rational(lo), sp.Rational(hi)) for (lo, hi), _ in P.intervals())
-    for _ in range(200):  # isolating intervals that touch: refine until they are apart
-        i = next((i for i in range(len(cuts) - 1) if cuts[i][1] >= cuts[i + 1][0]), None)
-        if i is None:
-            break
-        cuts[i:i + 2] = [tuple(sp.Rational(z) for z in P.refine_root(lo, hi, eps=(hi - lo) / 4))
-                         if lo != hi else (lo, hi) for lo, hi in cuts[i:i + 2]]
-    points = [cuts[0][0] - 1] + [(cuts[i][1] + cuts[i + 1][0]) / 2
-                                 for i in range(len(cuts) - 1)] + [cuts[-1][1] + 1]
+    boundary = sp.Poly(lam if time == "continuous" else (lam - 1) * (lam + 1), lam)
+    points = _cell_points([boundary] + [q for q in polys if not q.is_zero])
     for t in points:
         if not (t < 0 if time == "continuous" else -1 < t < 1):
             continue
@@ -571,8 +559,8 @@ def _porism_triple(g, lam, x, checks, time, where):
                                 " concurrent or coplanar)"), lams
     return "impossible", (f"{where}; h(λ_1) = a² g(λ_2, λ_3) vanishes identically, but no real"
                           " stable λ_1 has two distinct real stable partners (one point"
-                          f" tested between each two of the {len(cuts)} real roots of the"
-                          " conditions)"), ()
+                          f" tested in each of the {len(points)} intervals cut by the real"
+                          " roots of the conditions)"), ()
 
 
 def _stable_interval(f, lo, hi, time):
