@@ -163,6 +163,19 @@ def _interpreted(cs, t, V, s0):
     return S, Y, O
 
 
+def _rerun_parity(m, o, sc, ref, res) -> str:
+    """Whether the reference and the compiled trajectory reproduce when computed again:
+    evidence for a failure seen once and not reproduced since (delayed unknown-input
+    cases, relative error 1e-10; see the closing notes of issue 14)."""
+    ref2, res2 = simulate(m, o, sc), CompiledSimulator(m, o).simulate(sc)
+
+    def moved(a, b):
+        return max(float(np.nanmax(np.abs(np.asarray(a[c], float) - np.asarray(b[c], float)),
+                                   initial=0.0)) for c in a.columns)
+    return (f"computed again: the reference moved by {moved(ref, ref2):.3g}, the compiled"
+            f" trajectory by {moved(res, res2):.3g} (largest absolute change over the columns)")
+
+
 def test_every_kind_is_covered():
     kinds = set()
     for case, (path, kw, _, _) in CASES.items():
@@ -183,8 +196,11 @@ def test_trajectory_parity_every_kind(case, built):
     # sanity: the scenario is not trivial (some observer output moves)
     assert any(np.nanmax(np.abs(ref[n])) > 0 for n in o.output_names)
     errs = {}
-    for c in ref.columns:
-        errs[c] = _close(ref[c], res[c], what=f"compiled vs reference, column {c}")
+    try:
+        for c in ref.columns:
+            errs[c] = _close(ref[c], res[c], what=f"compiled vs reference, column {c}")
+    except AssertionError as exc:
+        raise AssertionError(f"{exc}\n{_rerun_parity(m, o, sc, ref, res)}") from exc
     # interpreted casadi, the same joint step, whole trajectory
     t, _, N, V, s0 = cs.prepare(sc)
     S, Y, O = _interpreted(cs, t, V[0], s0)

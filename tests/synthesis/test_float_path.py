@@ -10,12 +10,16 @@
 No wall-clock assertions: timings live in benchmarks/bench_synthesis.py.
 """
 import re
+import subprocess
+import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
 import sympy as sp
 
 from observer_cad import InfeasibleDesignError, design_canonical
+from observer_cad.errors import CertificateError
 from observer_cad import numerics as linalg
 from observer_cad.model import generic_k, random_matrices, random_model, random_structure
 from observer_cad.model import Structure, extract_structure
@@ -43,6 +47,28 @@ def _with_matrices(model, mats):
     n, l = mats["F"].rows, mats["H"].rows
     return Structure(model, im(mats["F"]), im(mats["G"]), im(mats["H"]), im(sp.zeros(n, 0)),
                      im(mats["D"]), im(mats["L"]), im(sp.zeros(l, 0)), ())
+
+
+def _rerun_float(case) -> str:
+    """What the same float design gives when computed again, in this process and in a
+    fresh one: evidence for a failure that does not reproduce (this test failed
+    intermittently, only after other tests had run in the same worker; see the
+    closing notes of issue 14)."""
+    n, l, p, seed, dens = case  # noqa: E741
+    model, st = random_structure(n, l, p, seed=seed, density=dens)
+    try:
+        again = repr(_k_and_rows(model, st, method="float"))
+    except Exception as exc:  # noqa: BLE001 - reported, the test fails anyway
+        again = f"{type(exc).__name__}: {exc}"
+    code = ("from observer_cad import design_canonical as d\n"
+            "from observer_cad.model import random_structure as r\n"
+            f"m, st = r({n}, {l}, {p}, seed={seed}, density={dens})\n"
+            "x = d(m, unknown_input='d', symbolic=True, structure=st, method='float')\n"
+            "print(x.k, tuple(i for i in range(x.k) if x.matrices.D_star[i, 0] != 0))")
+    run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         cwd=Path(__file__).resolve().parents[2])
+    fresh = run.stdout.strip() or run.stderr.strip().splitlines()[-1:]
+    return f"the same float design again in this process: {again}; in a fresh process: {fresh}"
 
 
 # ---------------------------------------------------------------- generator
@@ -74,8 +100,11 @@ AGREE += [(8, 4, 1, 2, 0.5),  # H has dependent rows: R* H = 0 members must not 
 def test_float_and_exact_agree_on_k(n, l, p, seed, dens):  # noqa: E741
     model, st = random_structure(n, l, p, seed=seed, density=dens)
     exact = _k_and_rows(model, st, method="exact")
-    flt = _k_and_rows(model, st, method="float")
-    assert flt == exact
+    try:
+        flt = _k_and_rows(model, st, method="float")
+        assert flt == exact
+    except (AssertionError, CertificateError) as exc:
+        raise AssertionError(f"{exc}\n{_rerun_float((n, l, p, seed, dens))}") from exc
     if dens == 1.0 and exact != "infeasible":
         assert exact[0] == generic_k(n, l, p)  # dense random systems are generic
 
