@@ -15,13 +15,14 @@ and z with two components (test_span_rows.py): two rows that need λ = −5/2, t
 rows where two are impossible for every λ (the defaults gave four before), and two plants
 with a decoupled disturbance where one row fewer than a basis modulo the outputs is
 decided exactly and impossible (test_signs_and_boxes.py), a nine-state plant with a
-decoupled disturbance where three rows are impossible (lines of P³), and a nine-state
-plant reaching q + c − f rows (its least order not known).
+decoupled disturbance where three rows are impossible (lines of P³), a nine-state
+plant reaching q + c − f rows (its least order not known), and a ten-state plant whose
+search ranks many matrices of algebraic numbers (its least order not known either).
 For each: ``design_jordan`` with the default λ list requested (what the search did before:
 −1, −2, … / 1/2, 1/4, …) and with the new search (defaults plus the exact special λ). Reported: k (or "none" when the defaults give
 no design), the λ found, median wall and CPU time of ``--runs`` calls. Target: the new
 search reaches the minimal k (known by construction) and proves it — met/MISSED; for a
-plant whose least order is not known (the nine-state row) the target is the k reached,
+plant whose least order is not known (the nine- and ten-state rows) the target is the k reached,
 certified, with the minimality condition reporting the range.
 """
 from __future__ import annotations
@@ -131,6 +132,13 @@ def cases(slow: bool):
     # k = 5 certified, not a proof
     out.append(_z12(9, 0, 0, "continuous", " (6 rows before e = c − f; least order in [4, 5])",
                     5) + (False,))
+    # ten states, three outputs, a decoupled disturbance: the search ranks many matrices
+    # built from algebraic λ (CRootOf of the drops of P(λ)); 42 s (5cc9ed6) before their number
+    # field was built once per set of numbers and products computed in it; least order in
+    # [4, 5], so the target is k = 5 certified, not a proof
+    out.append(("`random_model(10, 3, 1, seed=1)`, z = (x1, x2), disturbance decoupled"
+                " (algebraic λ tried; least order in [4, 5])",
+                random_model(10, 3, 1, seed=1, time="continuous"), sp.eye(10)[:2, :], 5, False))
     if slow:
         out.append(("unmeasured companion block, λ³ + 6λ² + 8λ + 1", PlantModel(
             name="cubic", time="continuous", states=[x1, x2, x3, x4], inputs=[u], outputs=[x4],

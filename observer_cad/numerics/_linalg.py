@@ -31,7 +31,7 @@ from sympy.polys.matrices import DomainMatrix
 
 from ..errors import DimensionError
 
-__all__ = ["default_rtol", "rank_from_sv", "ExactRank", "FloatRank", "exact_rank", "left_null_space", "echelon_rows", "solve_left", "float_rank", "float_left_null_space", "nonzero_conditions", "denominator_conditions", "to_domain_matrix", "rational_rref", "rational_left_null", "GrowingLeftNull", "left_null_echelon", "exact_rank_value", "as_rational", "from_rational", "RATIONAL_BACKEND"]
+__all__ = ["default_rtol", "rank_from_sv", "ExactRank", "FloatRank", "exact_rank", "left_null_space", "echelon_rows", "solve_left", "float_rank", "float_left_null_space", "nonzero_conditions", "denominator_conditions", "to_domain_matrix", "rational_rref", "rational_left_null", "GrowingLeftNull", "left_null_echelon", "exact_rank_value", "as_rational", "from_rational", "RATIONAL_BACKEND", "exact_product"]
 
 #: Which code eliminates rational matrices: "flint" (``fmpq_mat.rref``, when sympy's ground
 #: types are flint: python-flint installed) or "sympy-CD" (``DomainMatrix.rref(method="CD")``).
@@ -84,6 +84,9 @@ def to_domain_matrix(M) -> DomainMatrix:
     M = sp.Matrix(M)
     dm = DomainMatrix.from_Matrix(M)
     if dm.domain.is_EX:  # algebraic numbers (e.g. an irrational λ): an algebraic field
+        fast = _algebraic_domain_matrix(M) if not M.free_symbols else None
+        if fast is not None:
+            return fast
         try:
             dm2 = DomainMatrix.from_Matrix(M, extension=True)
             if not dm2.domain.is_EX:
@@ -91,6 +94,96 @@ def to_domain_matrix(M) -> DomainMatrix:
         except Exception:  # pragma: no cover - sympy could not build the extension
             pass
     return dm.to_field()
+
+
+def _algebraic_domain_matrix(M) -> DomainMatrix | None:
+    """A matrix of algebraic numbers over QQ(θ), θ a primitive element of the numbers it
+    is built from; None when an entry is not such a number.
+
+    What ``DomainMatrix.from_Matrix(M, extension=True)`` does, with two differences that
+    make it cheap when it is asked again and again (the Jordan search ranks many matrices
+    built from the same irrational λ): an integer power ``a**j`` (negative too) is
+    arithmetic on ``a``, not a generator of its own (sympy takes λ, λ², 1/λ, … as
+    separate generators and searches a primitive element of all of them: 0.5–3 s for one
+    matrix), and the field of a set of generators is built once (:func:`_algebraic_field`).
+    """
+    leaves: set = set()
+
+    def tree(a):
+        if a.is_Rational:
+            return ("Q", sp.QQ.from_sympy(a))
+        if a.is_Add or a.is_Mul:
+            return ("+" if a.is_Add else "*", [tree(b) for b in a.args])
+        if a.is_Pow and a.exp.is_Integer and not a.base.is_Rational:
+            return ("^", tree(a.base), int(a.exp))
+        if not a.is_number or a.is_algebraic is not True:
+            raise ValueError(a)
+        leaves.add(a)
+        return ("e", a)
+
+    try:
+        trees = [tree(sp.sympify(e)) for e in M]
+        if not leaves:
+            return None
+        K, emap = _algebraic_field(tuple(sp.ordered(leaves)))
+
+        def value(t):
+            op = t[0]
+            if op == "Q":
+                return K.convert(t[1], sp.QQ)
+            if op == "+":
+                return sum((value(b) for b in t[1]), K.zero)
+            if op == "*":
+                out = K.one
+                for b in t[1]:
+                    out = out * value(b)
+                return out
+            if op == "^":
+                base = value(t[1])
+                return base ** t[2] if t[2] >= 0 else K.one / base ** (-t[2])
+            return emap[t[1]]
+
+        flat = [value(t) for t in trees]
+    except (ValueError, ZeroDivisionError, NotImplementedError, sp.polys.polyerrors.PolificationFailed,
+            sp.polys.polyerrors.CoercionFailed):
+        return None
+    r, c = M.shape
+    return DomainMatrix([flat[i * c:(i + 1) * c] for i in range(r)], (r, c), K)
+
+
+def exact_product(A, B) -> sp.Matrix:
+    """A B with every entry in a canonical exact form: ``(A * B).applyfunc(sp.cancel)``,
+    computed in QQ(θ) when the entries are algebraic numbers (:func:`to_domain_matrix`;
+    sympy's ``cancel`` of sums of products of ``CRootOf`` took seconds a row), and zero
+    exactly when the value is."""
+    A, B = _matrix(A), _matrix(B)
+    if A.cols != B.rows:
+        raise ValueError(f"exact_product: shapes {A.shape} and {B.shape} do not match")
+    if 0 in A.shape or 0 in B.shape or A.free_symbols or B.free_symbols:
+        return (A * B).applyfunc(sp.cancel)
+    ra, rb = as_rational(A), as_rational(B)
+    if ra is not None and rb is not None:
+        return from_rational(ra * rb)
+    dm = _algebraic_domain_matrix(sp.diag(A, B))
+    if dm is None:
+        return (A * B).applyfunc(sp.cancel)
+    a = dm.extract(list(range(A.rows)), list(range(A.cols)))
+    b = dm.extract(list(range(A.rows, A.rows + B.rows)), list(range(A.cols, A.cols + B.cols)))
+    return (a * b).to_Matrix()
+
+
+@functools.lru_cache(maxsize=64)
+def _algebraic_field(exts: tuple):
+    """QQ(θ) for the algebraic numbers ``exts`` (θ a primitive element) and each of them
+    as an element of it — as sympy's ``construct_domain(..., extension=True)`` builds
+    them, kept for the next matrix made of the same numbers."""
+    from sympy.polys.numberfields import primitive_element
+
+    g, span, H = primitive_element(list(exts), ex=True, polys=True)
+    root = sum(s * e for s, e in zip(span, exts))
+    K = sp.QQ.algebraic_field((g, root))
+    gl = g.rep.to_list()
+    return K, {e: K.dtype.from_list(h, gl, sp.QQ) for e, h in zip(exts, H)}
 
 
 def _constant(K, e) -> bool:
@@ -592,8 +685,8 @@ def exact_rank_value(M) -> int:
         if M.rows == 0 or M.cols == 0:
             return 0
         dm = _domain_matrix(M)
-        if not dm.domain.is_QQ:
-            return exact_rank(M).rank
+        if not dm.domain.is_QQ:  # what exact_rank(M).rank is, without converting M again
+            return len(_gauss_jordan(dm, set(), full=True)[2])
     if 0 in dm.shape:
         return 0
     if _full_rank_certified(dm):

@@ -50,7 +50,7 @@ from ._task import task_for, task_parts
 from ._jordan_float import design_jordan_float
 from ._canonical import FLOAT_AUTO_N
 from ..model import Structure, extract_structure
-from ..numerics import denominator_conditions, echelon_rows, exact_rank, exact_rank_value, left_null_echelon, left_null_space, nonzero_conditions, solve_left
+from ..numerics import denominator_conditions, echelon_rows, exact_product, exact_rank, exact_rank_value, left_null_echelon, left_null_space, nonzero_conditions, solve_left
 from ..numerics import float_left_null_space, float_rank, rationalize_floats
 
 __all__ = ["Admissible", "admissible_lambdas", "design_jordan", "design_jordan_unknown_input"]
@@ -580,9 +580,9 @@ def _rows_in_rowspace(family, H):
     if len(vecs) > 1:
         vecs.append(sum(vecs[1:], vecs[0]))
     for c in vecs:
-        Phi_i = (c * PhiB).applyfunc(sp.cancel)
+        Phi_i = exact_product(c, PhiB)
         if Phi_i != sp.zeros(1, PhiB.cols):
-            out.append((Phi_i, (c * JB).applyfunc(sp.cancel)))
+            out.append((Phi_i, exact_product(c, JB)))
     return out
 
 
@@ -607,8 +607,8 @@ def _directed_rows(fam, lam_list, H, M, n, observer, D, st, tried, names=(), set
                 off += PhiB.rows
                 # one row per independent combination: z = M x with several components
                 # may need several rows of the same λ (rows of c N_λ L0 that add rank)
-                block = (c * PhiB).applyfunc(sp.cancel)
-                Jblock = (c * JB).applyfunc(sp.cancel)
+                block = exact_product(c, PhiB)
+                Jblock = exact_product(c, JB)
                 mine = []
                 for i in range(block.rows):
                     if block[i, :] == sp.zeros(1, n):
@@ -645,13 +645,13 @@ def _span_design(fam, lam_list, H, M, observer, D, st, tried, names=(), extra=()
         basis, _ = left_null_space(stacked)
         for v in basis:
             c = v[:, :PhiB.rows]
-            row = (c * PhiB).applyfunc(sp.cancel)
+            row = exact_product(c, PhiB)
             if row == sp.zeros(1, row.cols):
                 continue
             trial = sp.Matrix.vstack(have, row)
             r_trial = _rank(trial)
             if r_trial > r_have:
-                rows.append((lam, row, (c * JB).applyfunc(sp.cancel)))
+                rows.append((lam, row, exact_product(c, JB)))
                 have, r_have = trial, r_trial
         if r_have == target:
             break
@@ -738,7 +738,7 @@ def _tuple_span_design(F, H, L, L0, fam, lam_list, M, observer, D, st, tried, na
             y = _fitted(basis, Ns, phis)
             rows, off = [], 0
             for N in Ns:
-                rows.append((y[:, off:off + N.rows] * N).applyfunc(sp.cancel))
+                rows.append(exact_product(y[:, off:off + N.rows], N))
                 off += N.rows
             if any((r * Q).is_zero_matrix for r in rows):
                 continue  # a row inside rowspace [M; H]: the q-row case, already decided
@@ -1098,10 +1098,10 @@ def _combined_rows(fam, lam_list, H, D, n, observer, M, st, tried, names, size):
             for lam, B in zip(combo, Bs):
                 c = v[:, off:off + B.rows]
                 off += B.rows
-                Phi_i = (c * B).applyfunc(sp.cancel)
+                Phi_i = exact_product(c, B)
                 if Phi_i == sp.zeros(1, n):
                     break
-                rows.append((lam, Phi_i, (c * fam[lam][1]).applyfunc(sp.cancel)))
+                rows.append((lam, Phi_i, exact_product(c, fam[lam][1])))
             if len(rows) == size and _check_rows(rows, size, observer, H, D, M, st, tried,
                                                  names):
                 return rows
