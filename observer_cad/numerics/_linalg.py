@@ -144,8 +144,7 @@ def _algebraic_domain_matrix(M) -> DomainMatrix | None:
             return emap[t[1]]
 
         flat = [value(t) for t in trees]
-    except (ValueError, ZeroDivisionError, NotImplementedError, sp.polys.polyerrors.PolificationFailed,
-            sp.polys.polyerrors.CoercionFailed):
+    except Exception:  # noqa: BLE001 - what this cannot read, sympy's own conversion reads
         return None
     r, c = M.shape
     return DomainMatrix([flat[i * c:(i + 1) * c] for i in range(r)], (r, c), K)
