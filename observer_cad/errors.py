@@ -67,5 +67,4 @@ def describe_failure(exc: BaseException) -> tuple[bool, str]:
 
 
 #: import names whose PyPI distribution is named differently
-_DISTRIBUTIONS = {"flint": "python-flint", "distributed": "dask[distributed]",
-                  "nbclient": "nbclient", "yaml": "pyyaml"}
+_DISTRIBUTIONS = {"flint": "python-flint", "distributed": "dask[distributed]", "yaml": "pyyaml"}

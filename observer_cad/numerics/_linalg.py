@@ -31,7 +31,7 @@ from sympy.polys.matrices import DomainMatrix
 
 from ..errors import DimensionError
 
-__all__ = ["default_rtol", "rank_from_sv", "ExactRank", "FloatRank", "exact_rank", "left_null_space", "echelon_rows", "solve_left", "float_rank", "float_left_null_space", "nonzero_conditions", "denominator_conditions", "to_domain_matrix", "rational_rref", "rational_left_null", "GrowingLeftNull", "left_null_echelon", "exact_rank_value", "as_rational", "from_rational", "RATIONAL_BACKEND", "exact_product"]
+__all__ = ["default_rtol", "rank_from_sv", "ExactRank", "FloatRank", "exact_rank", "left_null_space", "echelon_rows", "solve_left", "float_rank", "float_left_null_space", "nonzero_conditions", "denominator_conditions", "to_domain_matrix", "rational_rref", "rational_left_null", "GrowingLeftNull", "left_null_echelon", "exact_rank_value", "as_rational", "from_rational", "RATIONAL_BACKEND", "exact_product", "number_field"]
 
 #: Which code eliminates rational matrices: "flint" (``fmpq_mat.rref``, when sympy's ground
 #: types are flint: python-flint installed) or "sympy-CD" (``DomainMatrix.rref(method="CD")``).
@@ -169,6 +169,11 @@ def exact_product(A, B) -> sp.Matrix:
     a = dm.extract(list(range(A.rows)), list(range(A.cols)))
     b = dm.extract(list(range(A.rows, A.rows + B.rows)), list(range(A.cols, A.cols + B.cols)))
     return (a * b).to_Matrix()
+
+
+def number_field(gens):
+    """QQ(θ) containing the algebraic numbers ``gens`` (built once per set of numbers)."""
+    return _algebraic_field(tuple(sp.ordered(set(gens))))[0]
 
 
 @functools.lru_cache(maxsize=64)
@@ -684,6 +689,8 @@ def exact_rank_value(M) -> int:
         if M.rows == 0 or M.cols == 0:
             return 0
         dm = _domain_matrix(M)
+        if dm.domain.is_AlgebraicField:  # numbers: the pivot order does not matter
+            return dm.rank()
         if not dm.domain.is_QQ:  # what exact_rank(M).rank is, without converting M again
             return len(_gauss_jordan(dm, set(), full=True)[2])
     if 0 in dm.shape:

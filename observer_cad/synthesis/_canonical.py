@@ -56,7 +56,7 @@ from ._task import task_for
 from ..model import PlantModel, Task
 from ._nonlinear import substitute_arguments
 from ..model import Structure, extract_structure
-from ..numerics import GrowingLeftNull, as_rational, from_rational, exact_rank_value, left_null_echelon, default_rtol, denominator_conditions, echelon_rows, exact_rank, float_left_null_space, float_rank, left_null_space, nonzero_conditions
+from ..numerics import GrowingLeftNull, as_rational, from_rational, exact_product, exact_rank_value, left_null_echelon, default_rtol, denominator_conditions, echelon_rows, exact_rank, float_left_null_space, float_rank, left_null_space, nonzero_conditions
 
 __all__ = ["design_canonical", "krylov_blocks", "krylov_null_spaces", "member_to_phi",
            "FLOAT_AUTO_N"]
@@ -251,14 +251,6 @@ def _fmt_vec(M) -> str:
     return "(" + ", ".join(str(sp.factor(e)) for e in M) + ")"
 
 
-def _mul(A, B):
-    """A B with cancelled entries; in FLINT when both are rational."""
-    Aq, Bq = as_rational(A), as_rational(B)
-    if Aq is not None and Bq is not None:
-        return from_rational(Aq * Bq)
-    return (A * B).applyfunc(sp.cancel)
-
-
 def _pretty(e):
     if e.is_Rational:
         return e
@@ -405,11 +397,11 @@ def _design_exact(model, st, task, target, dec, D, L, *, symbolic, single_row) -
         R, J, Phi = member_to_phi(vec, F, H, k)
         mats = {
             "Phi": Phi, "F_star": shift_matrix(k), "J_star": J, "R_star": R,
-            "H_star": sp.Matrix([[1] + [0] * (k - 1)]), "G_star": _mul(Phi, G),
-            "D_star": _mul(Phi, D), "L_star": _mul(Phi, L) if L.cols else sp.zeros(k, 0),
+            "H_star": sp.Matrix([[1] + [0] * (k - 1)]), "G_star": exact_product(Phi, G),
+            "D_star": exact_product(Phi, D), "L_star": exact_product(Phi, L) if L.cols else sp.zeros(k, 0),
         }
         if C.cols:
-            mats["C_star"] = _mul(Phi, C)
+            mats["C_star"] = exact_product(Phi, C)
         mats = {name: M.applyfunc(_pretty) for name, M in mats.items()}
         return mats
 
@@ -491,7 +483,7 @@ def _choose_member(members, F, H, D, k, single_row, st=None):
     dstar = []
     for v in members:
         _, _, Phi = member_to_phi(v, F, H, k)
-        dstar.append(_mul(Phi, D))
+        dstar.append(exact_product(Phi, D))
     reasons = []
     for r in prefs:
         if single_row and k > 1:
@@ -512,7 +504,7 @@ def _choose_member(members, F, H, D, k, single_row, st=None):
         cands += [(None, a + b) for a, b in itertools.combinations(sub, 2)]
         for idx, v in cands:
             R, J, Phi = member_to_phi(v, F, H, k)
-            ds = _mul(Phi, D)
+            ds = exact_product(Phi, D)
             if (ds[r, 0] == 0) if single_row else (ds == sp.zeros(*ds.shape)):
                 if idx is not None:
                     rejected.append(f"member {idx + 1} is not sensitive (Φ D = 0 in row {r + 1})")

@@ -15,13 +15,12 @@ Identities (METHOD §2)::
 from __future__ import annotations
 
 import dataclasses
-import functools
 
 import numpy as np
 import sympy as sp
 
 from ..errors import CertificateError
-from ..numerics import as_rational, from_rational, readable
+from ..numerics import as_rational, from_rational, number_field, readable
 
 __all__ = ["Identity", "Certificate", "certify_reduced_model", "certify_design"]
 
@@ -100,15 +99,10 @@ def _algebraic_is_zero(e):
     if sp.expand(rem) == 0:
         return True
     try:  # the roots are dependent (e.g. a cyclic cubic): compute in the number field
-        K = _number_field(tuple(subs))
+        K = number_field(tuple(subs))  # the roots (the keys)
         return bool(K.is_zero(K.from_sympy(e)))
     except Exception:  # pragma: no cover - sympy could not build the field
         return None
-
-
-@functools.lru_cache(maxsize=32)
-def _number_field(gens):
-    return sp.QQ.algebraic_field(*gens)
 
 
 def _exact_identity(name: str, residual) -> Identity:

@@ -433,15 +433,13 @@ def _line_rows(G, k, lam, time, no) -> OneMoreRow:
                           " so no two lines meet and no choice of real stable λ gives"
                           f" {k} rows", k)
     if g.degree(x) == 2:  # each line meets at most two others: the partners, exactly
-        partner = _partner_triples(g, lam, x, time)
-        if partner is not None:
-            verdict, text, lams = partner
-            if verdict == "impossible":
-                return OneMoreRow(True, False, (), f"{fam}: {text}, so no choice of real stable"
-                                  f" λ gives {k} rows", k)
-            if verdict == "possible":
-                return OneMoreRow(True, True, lams, f"{fam}: {text}", k)
-            return no(f"{fam}: {text}", k)
+        verdict, text, lams = _partner_triples(g, lam, x, time)
+        if verdict == "impossible":
+            return OneMoreRow(True, False, (), f"{fam}: {text}, so no choice of real stable"
+                              f" λ gives {k} rows", k)
+        if verdict == "possible":
+            return OneMoreRow(True, True, lams, f"{fam}: {text}", k)
+        return no(f"{fam}: {text}", k)
     g_ly = g.as_expr().subs(x, y)
     g_lx, g_yx = g.as_expr(), g.as_expr().subs(lam, y)
     s_ly = sp.Poly(sp.resultant(g_lx, g_yx, x), lam, y)
@@ -455,7 +453,6 @@ def _line_rows(G, k, lam, time, no) -> OneMoreRow:
     R = sp.Poly(sp.resultant(g_ly, s_ly.as_expr(), y), lam)
     if R.is_zero:
         return no(f"{fam}; the elimination of the other two λ leaves 0", k)
-    R = sp.Poly(sp.primitive(R.as_expr())[1], lam) if R.degree() > 0 else R
     stable = _stable_root_count(R, time)
     elim = (f"g(λ, x) = π(λ) ∧ π(x) / (λ − x)² = {sp.factor(g.as_expr())}; eliminating the"
             f" other two λ of a triple (resultants) leaves R(λ) of degree {R.degree()}")
@@ -500,6 +497,8 @@ def _partner_triples(g, lam, x, time):
     if h.is_zero:
         return _porism_triple(g, lam, x, checks, time, where)
     roots, fails = 0, []
+    abc = [sp.Poly(e, lam) for e in (a, b, c)]
+    conds = [(name, sp.Poly(e, lam)) for name, e in checks]
     for f, _m in h.factor_list()[1]:
         if f.degree() < 1:
             continue
@@ -508,11 +507,10 @@ def _partner_triples(g, lam, x, time):
             if lo is None:
                 continue
             roots += 1
-            if all(_sign_at(sp.Poly(e, lam), f, lo, hi) == 0 for e in (a, b, c)):
+            if all(_sign_at(q, f, lo, hi) == 0 for q in abc):
                 return "undecided", (f"{where}; at a root λ ≈ {float((lo + hi) / 2):.4g} of h"
                                      " every line meets ℓ(λ): not decided"), ()
-            bad = next((name for name, e in checks
-                        if _sign_at(sp.Poly(e, lam), f, lo, hi) <= 0), None)
+            bad = next((name for name, q in conds if _sign_at(q, f, lo, hi) <= 0), None)
             if bad is None:  # pragma: no cover - h ≢ 0 leaves only degenerate roots
                 return "undecided", (f"{where}; at λ ≈ {float((lo + hi) / 2):.4g} (a root of"
                                      " h) three lines of real stable λ meet pairwise: not"
@@ -544,10 +542,10 @@ def _porism_triple(g, lam, x, checks, time, where):
     each open interval between consecutive real roots of the conditions' polynomials and
     the stability boundary: their signs are constant there, and the set is open)."""
     polys = [sp.Poly(e, lam) for _, e in checks]
-    boundary = sp.Poly(lam if time == "continuous" else (lam - 1) * (lam + 1), lam)
+    boundary = sp.Poly(sp.Mul(*(lam - e for e in _stability_edges(time))), lam)
     points = _cell_points([boundary] + [q for q in polys if not q.is_zero])
     for t in points:
-        if not (t < 0 if time == "continuous" else -1 < t < 1):
+        if not is_stable(t, time):
             continue
         if all(q(t) > 0 for q in polys):
             partners = sp.Poly(g.as_expr().subs(lam, t), x).all_roots()
@@ -563,11 +561,16 @@ def _porism_triple(g, lam, x, checks, time, where):
                           " roots of the conditions)"), ()
 
 
+def _stability_edges(time: str) -> tuple:
+    """The boundary of the stability region on the real line: 0 (continuous), ±1 (discrete)."""
+    return (0,) if time == "continuous" else (1, -1)
+
+
 def _stable_interval(f, lo, hi, time):
     """The isolating interval [lo, hi] of a real root of f refined until it lies inside
     the open stability region or outside it: (lo, hi), or (None, None) when the root is
     not stable (the boundary 0 or ±1 itself is not)."""
-    bounds = (0,) if time == "continuous" else (-1, 1)
+    bounds = _stability_edges(time)
     for _ in range(200):
         if lo == hi:
             break
@@ -577,8 +580,7 @@ def _stable_interval(f, lo, hi, time):
     mid = (lo + hi) / 2
     if any(lo <= t <= hi for t in bounds) and lo != hi:  # pragma: no cover - refined away
         return None, None
-    ok = mid < 0 if time == "continuous" else -1 < mid < 1
-    return (lo, hi) if ok else (None, None)
+    return (lo, hi) if is_stable(mid, time) else (None, None)
 
 
 def _sign_at(q, f, lo, hi) -> int:
@@ -1201,7 +1203,7 @@ def _pencil_order(m, p0, p1, lam, time, roots_ok) -> ChainOrder:
     if sp.expand(disc) == 0:
         return ChainOrder(m, "line", 1, None, (), f"m = {m}: {fam}; every member has a"
                           " repeated root")
-    edges = [0] if time == "continuous" else [1, -1]
+    edges = _stability_edges(time)
     crit = sp.Mul(disc, *[pt.subs(lam, e) for e in edges])
     pts = _cell_points([sp.Poly(sp.expand(crit), t)])
     for v in pts:
@@ -1238,7 +1240,7 @@ def plane_order(m, p0, dirs, lam, time: str, roots_ok=None) -> ChainOrder:
     if disc == 0:
         return ChainOrder(m, "plane", 2, None, (), f"m = {m}: {fam}; every member has a"
                           " repeated root")
-    edges = [0] if time == "continuous" else [1, -1]
+    edges = _stability_edges(time)
     crit = sp.expand(sp.Mul(disc, *[pt.subs(lam, e) for e in edges]))
     _, facs = sp.factor_list(crit, t1, t2)
     curves = [sp.Poly(f, t2) for f, _ in facs if sp.degree(f, t2) > 0]
