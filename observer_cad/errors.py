@@ -66,5 +66,7 @@ def describe_failure(exc: BaseException) -> tuple[bool, str]:
     return True, f"internal error: {type(exc).__name__}: {first}"
 
 
-#: import names whose PyPI distribution is named differently
-_DISTRIBUTIONS = {"flint": "python-flint", "distributed": "dask[distributed]", "yaml": "pyyaml"}
+#: import names whose PyPI distribution is named differently (Dask through the package's own
+#: extra, the same hint as the ensemble's DASK_MISSING; quoted for shells that expand [])
+_DISTRIBUTIONS = {"flint": "python-flint", "distributed": "'observer_cad[cluster]'",
+                  "dask": "'observer_cad[cluster]'", "yaml": "pyyaml"}

@@ -406,6 +406,16 @@ def test_missing_package_is_named_not_an_internal_error(capsys, monkeypatch):
     rc, _, err = run(capsys, ["show", TANK])
     assert rc == 2 and err.strip().endswith("python3 -m pip install python-flint")
 
+    def dask_missing(args):  # Dask: the package's own extra, as the ensemble says it
+        raise ModuleNotFoundError("No module named 'distributed'", name="distributed")
+
+    from observer_cad.ensemble import DASK_MISSING
+
+    monkeypatch.setattr(cli_main, "_cmd_show", dask_missing)
+    rc, _, err = run(capsys, ["show", TANK])
+    hint = "pip install 'observer_cad[cluster]'"
+    assert rc == 2 and err.strip().endswith(hint) and DASK_MISSING.endswith(hint)
+
     def own_module_missing(args):  # a module of observer_cad itself: a packaging bug
         raise ModuleNotFoundError("No module named 'observer_cad.x'", name="observer_cad.x")
 
