@@ -224,8 +224,12 @@ def _cost(K, e, assumed: set) -> tuple:
 def _factors_in_domain(K, e):
     """The nonconstant irreducible factors of the numerator of e, factored in the domain
     (a polynomial ring or rational function field), each as ``nonzero_conditions`` writes
-    it (expanded, sign normalised); None for other domains."""
+    it (expanded, sign normalised); None for other domains, and for a ground field other
+    than the rationals (over QQ(√2), say, k² − 2 would split into factors that
+    ``nonzero_conditions``, factoring over the rationals, keeps whole)."""
     try:
+        if not (K.domain.is_QQ or K.domain.is_ZZ):
+            return None
         if K.is_FractionField:
             num = e.numer
         elif K.is_PolynomialRing:

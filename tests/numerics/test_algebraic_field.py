@@ -73,3 +73,28 @@ def test_exact_product_matches_cancel_and_is_zero_exactly():
         sp.Matrix([[4]])
     a = sp.Symbol("a")
     assert exact_product(sp.Matrix([[a, 1]]), sp.Matrix([[1 / a], [-1]])) == sp.Matrix([[0]])
+
+
+def test_pivot_cost_factors_are_the_conditions_recorded():
+    """The pivot cost compares an entry's factors, computed in its domain, with the
+    conditions already assumed; they must be the factors ``nonzero_conditions`` records.
+    Over the rationals they are (random products of polynomials in two parameters); over
+    an algebraic ground field, where k² − 2 would split, the cost falls back to
+    ``nonzero_conditions`` itself (None)."""
+    from observer_cad.numerics import nonzero_conditions
+
+    k, m = sp.symbols("k m")
+    rng = random.Random(5)
+    pieces = [k**2 - 2, k + 1, -k + 3 * m, k * m - 1, m**2 + k, 2 * k]
+    for _ in range(12):
+        num = sp.Mul(*rng.sample(pieces, 3)) * rng.choice([1, -3, sp.Rational(2, 5)])
+        den = rng.choice([1, k + 7, m**2 + 1])
+        want = {c.lhs for c in nonzero_conditions(num / den)}
+        ring = sp.QQ[k, m]
+        field = sp.QQ.frac_field(k, m)
+        if den == 1:
+            assert _linalg._factors_in_domain(ring, ring.from_sympy(sp.expand(num))) == want
+        assert _linalg._factors_in_domain(field, field.from_sympy(num / den)) == want
+    K = sp.QQ.algebraic_field(sqrt(2))[k]
+    assert _linalg._factors_in_domain(K, K.from_sympy(k**2 - 2)) is None
+    assert nonzero_conditions(k**2 - 2) == {sp.Ne(k**2 - 2, 0)}
