@@ -11,15 +11,17 @@ from __future__ import annotations
 
 import dataclasses
 import enum
+import math
 from types import MappingProxyType
 from typing import Mapping
 
+import numpy as np
 import sympy as sp
 
 from ..errors import UsageError
 from ..model import ObserverKind, PlantModel, Structure, Task, extract_structure
 from ._assumptions import complete_assumptions
-from ._certificate import Certificate, Identity, certify_design
+from ._certificate import Certificate, certify_design
 from ._conditioning import (CONDITIONING_NAME, CONDITIONING_REFERENCE, conditioning_numbers,
                             conditioning_verdict)
 from ._expr import parse_json_expression
@@ -513,23 +515,27 @@ class Design:
         outputs = data["outputs"]
         if not isinstance(outputs, dict):
             raise UsageError("a design's 'outputs' must be an object")
-        approximate = bool(data.get("approximate", False))
+        approximate = data.get("approximate", False)
+        if not isinstance(approximate, bool):
+            raise UsageError("a design's 'approximate' must be true or false")
         cert_data = data.get("certificate") or {}
-        exact = bool(cert_data.get("exact", True)) and not approximate
-        tol = cert_data.get("tolerance")
-        if not exact and not isinstance(tol, (int, float)):
-            raise UsageError("a float design must record its certificate tolerance")
+        if not isinstance(cert_data, dict):
+            raise UsageError("a design's 'certificate' must be an object")
+        exact = cert_data.get("exact", True)
+        if not isinstance(exact, bool):
+            raise UsageError("a design's certificate 'exact' must be true or false")
+        exact = exact and not approximate
         # re-certify: the loaded matrices against the model's structure
         plant = dict(F=st.F, G=st.G, H=st.H, C=st.C, D=task.D(st), L=task.L(st))
+        M_task = task.M if "Hz" in mats else None
+        tol = None if exact else _float_tolerance(cert_data.get("tolerance"), plant, mats, M_task)
         subs = [(ns.index, sp.Matrix(st.A[ns.index - 1, :]), ns.A1, ns.A2) for ns in nonlinear]
-        if approximate:
-            cert = Certificate(tuple(Identity(i["name"], bool(i["holds"]), str(i["residual"]))
-                                     for i in cert_data.get("identities", [])), False, tol)
-        else:
-            cert = certify_design(plant, mats, M=task.M if "Hz" in mats else None,
-                                  substitutions=subs,
-                                  decoupled=task.observer != ObserverKind.INTERVAL,
-                                  exact=exact, tolerance=float(tol) if tol is not None else 1e-9)
+        # (an approximate design's Φ L is its residual, not an identity: recomputed below)
+        cert = certify_design(plant, mats, M=M_task, substitutions=subs,
+                              decoupled=task.observer != ObserverKind.INTERVAL and not approximate,
+                              exact=exact, tolerance=tol if tol is not None else 1e-9)
+        residual_norm = (_residual_norm(data.get("residual_norm"), mats, plant["L"])
+                         if approximate else None)
         conditions = tuple(Condition.from_json(c) for c in data.get("conditions", []))
         request = None
         if data.get("request") is not None:
@@ -554,7 +560,7 @@ class Design:
             observer_states=tuple(xs),
             outputs=tuple((str(n), expr(e, f"outputs.{n}")) for n, e in outputs.items()),
             approximate=approximate,
-            residual_norm=data.get("residual_norm") if approximate else None,
+            residual_norm=residual_norm,
             parameters=params, request=request)
         # a gain K is re-checked too: det(sI − F* + K H*) = Π(s − μ) for the recorded μ
         m = made.matrices
@@ -570,3 +576,54 @@ class Design:
                                      f"{'sensitive' if val else 'decoupled'}, but its matrices"
                                      f" make the residual {'sensitive' if mine[name] else 'decoupled'}")
         return dataclasses.replace(made, signature=sig)
+
+
+#: The loosest float certificate a design file may ask for, relative to the size of the
+#: identities' terms (the float paths certify at 1e-10 … 1e-8 of it; a file is data, so its
+#: tolerance is bounded, never taken as it is)
+LOADED_TOLERANCE_RTOL = 1e-6
+
+
+def _float_tolerance(tol, plant: dict, mats: dict, M) -> float:
+    """A float design's recorded certificate tolerance, checked: a finite positive number
+    at most :data:`LOADED_TOLERANCE_RTOL` times the largest product of norms the identities
+    subtract (‖Φ‖‖F‖, ‖F*‖‖Φ‖, ‖J*‖‖H‖, …, computed here from the loaded matrices)."""
+    if isinstance(tol, bool) or not isinstance(tol, (int, float)):
+        raise UsageError("a float design must record its certificate tolerance (a number)")
+    if not (math.isfinite(tol) and tol > 0):
+        raise UsageError(f"a design's certificate tolerance must be a finite positive number,"
+                         f" got {tol!r}")
+
+    def nrm(X):
+        X = sp.Matrix(X)
+        if not X.rows * X.cols:
+            return 0.0
+        return float(np.linalg.norm(np.array(X.evalf().tolist(), dtype=float)))
+
+    phi = nrm(mats["Phi"])
+    sizes = [phi * nrm(plant[k]) for k in ("F", "G", "D", "L", "C")]
+    sizes += [nrm(mats["F_star"]) * phi, nrm(mats["J_star"]) * nrm(plant["H"])]
+    for a, b in (("H_star", None), ("R_star", "H"), ("Hz", None), ("Q", "H")):
+        if a in mats:
+            sizes.append(nrm(mats[a]) * (phi if b is None else nrm(plant[b])))
+    if M is not None:
+        sizes.append(nrm(M))
+    cap = LOADED_TOLERANCE_RTOL * max([1.0] + sizes)
+    if tol > cap:
+        raise UsageError(f"a design's certificate tolerance {tol:.3g} exceeds"
+                         f" {LOADED_TOLERANCE_RTOL:g} of the size of its identities' terms"
+                         f" ({cap:.3g}): not a design this tool writes")
+    return float(tol)
+
+
+def _residual_norm(recorded, mats: dict, L) -> float:
+    """An approximate design's ‖Φ L‖_F, recomputed from the loaded Φ and the model's L; a
+    recorded value that differs (beyond rounding) is refused."""
+    Phi = np.array(sp.Matrix(mats["Phi"]).evalf().tolist(), dtype=float)
+    Ln = np.array(sp.Matrix(L).evalf().tolist(), dtype=float).reshape(sp.Matrix(L).shape)
+    value = float(np.linalg.norm(Phi @ Ln)) if Ln.size else 0.0
+    if recorded is not None and (isinstance(recorded, bool) or not isinstance(recorded, (int, float))
+                                 or abs(recorded - value) > 1e-9 * max(1.0, value)):
+        raise UsageError(f"a design's recorded residual_norm {recorded!r} is not ‖Φ L‖_F ="
+                         f" {value:.6e} of its matrices")
+    return value

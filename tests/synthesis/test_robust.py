@@ -341,3 +341,59 @@ def test_synthesis_falls_back_to_robust(nodec):
         design(nodec, observer="unknown-input", faults=["d"])
     d = design(nodec, observer="unknown-input", faults=["d"], robust=True)
     assert d.approximate and d.residual_norm > 0
+
+
+# ------------------------------------------------------------ (e) JSON: read back, not trusted
+def test_approximate_design_is_recertified_on_reading(nodec, nodec_design, nojordan,
+                                                      jordan_design):
+    """An approximate design read back is certified again in floating point (every identity
+    but Φ L, its residual) and its ‖Φ L‖_F recomputed from the matrices; the file's own
+    tolerance is bounded relative to the identities' terms, never taken as it is."""
+    from observer_cad import Design
+    from observer_cad.errors import CertificateError
+
+    for model, d in ((nodec, nodec_design), (nojordan, jordan_design)):
+        js = json.loads(json.dumps(d.to_json()))
+        back = Design.from_json(js, model)
+        assert back.approximate and back.certificate.passed and not back.certificate.exact
+        assert back.residual_norm == pytest.approx(d.residual_norm, rel=1e-12)
+        assert [i.name for i in back.certificate.identities] == \
+            [i.name for i in d.certificate.identities]
+
+        bad = json.loads(json.dumps(js))  # a changed J* fails the float certificate
+        bad["matrices"]["J_star"][0][0] = "100"
+        with pytest.raises(CertificateError):
+            Design.from_json(bad, model)
+        for tol in (1e300, float("inf"), float("nan"), -1.0, 0, "1e-9", True, None):
+            bad = json.loads(json.dumps(js))
+            bad["certificate"]["tolerance"] = tol
+            with pytest.raises(UsageError, match="tolerance"):
+                Design.from_json(bad, model)
+        bad = json.loads(json.dumps(js))
+        bad["residual_norm"] = d.residual_norm / 2
+        with pytest.raises(UsageError, match="residual_norm"):
+            Design.from_json(bad, model)
+        bad = json.loads(json.dumps(js))
+        bad["approximate"] = "yes"
+        with pytest.raises(UsageError, match="approximate"):
+            Design.from_json(bad, model)
+
+
+def test_exact_design_cannot_claim_a_float_certificate(models_dir):
+    """An exact design whose file says "exact": false with a huge tolerance is refused;
+    with a tolerance within the bound it is certified in floating point, which a changed
+    J* still fails."""
+    from observer_cad import Design, design
+    from observer_cad.errors import CertificateError
+
+    model = load_model(models_dir / "three_tank.py")
+    d = design(model, observer="virtual-sensor", estimate="x1")
+    js = json.loads(json.dumps(d.to_json()))
+    js["certificate"] = {"exact": False, "tolerance": 1e300}
+    with pytest.raises(UsageError, match="exceeds"):
+        Design.from_json(js, model)
+    js["certificate"]["tolerance"] = 1e-9
+    assert Design.from_json(js, model).certificate.passed
+    js["matrices"]["J_star"][0][0] = "100"
+    with pytest.raises(CertificateError):
+        Design.from_json(js, model)
