@@ -283,7 +283,16 @@ class _Builder:
                     av = math.inf
                 if av > 0 and bv * abs(math.log10(av)) > _FLOAT_MAX_LOG10:
                     raise _Reject(f"power {a}**{b} outside the floating-point range")
-        return sp.Pow(a, b)
+        return self.real(sp.Pow(a, b), f"({a})**({b})")
+
+    def real(self, value, what):
+        """``value`` when complex values are allowed or it is not a non-real number:
+        sqrt(-1), log(-2), (-8)**(1/3), asin(2) evaluate to complex numbers, which a
+        plant, a scenario or a gain cannot use (I itself is refused by name)."""
+        if not self.allow_complex and value.is_number and (
+                value.has(sp.I) or value.is_extended_real is False):
+            raise _Reject(f"{what} is not a real number (complex values are not allowed here)")
+        return value
 
     def call(self, node):
         f = node.func
@@ -305,7 +314,8 @@ class _Builder:
         if (nargs is None and not node.args) or (nargs is not None and len(node.args) not in nargs):
             want = "one or more" if nargs is None else " or ".join(map(str, nargs))
             raise _Reject(f"{f.id}() takes {want} argument(s), got {len(node.args)}")
-        return fn(*(self.expr(a) for a in node.args))
+        args = [self.expr(a) for a in node.args]
+        return self.real(fn(*args), f"{f.id}({', '.join(map(str, args))})")
 
     def piecewise(self, node):
         if not node.args:

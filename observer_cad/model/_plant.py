@@ -115,6 +115,25 @@ def _symbols(seq: Any, role: str, where: str) -> tuple[sp.Symbol, ...]:
     return items
 
 
+def _not_a_real_finite_expression(e) -> str:
+    """Why a model expression cannot describe a real plant ("" if it can): NaN or an
+    infinity in it (``sp.nan``, ``sp.zoo``, a division by zero), the imaginary unit or a
+    non-real number (``sp.I``, ``sp.sqrt(-2)``, ``(-1)**(1/3)``), or a number beyond the
+    floating-point range (no simulation can use it)."""
+    if e.has(sp.nan, sp.zoo, sp.oo, -sp.oo):
+        return "is not finite (NaN, an infinity or a division by zero)"
+    if e.has(sp.I) or any(p.is_number and p.is_extended_real is False for p in e.atoms(sp.Pow)):
+        return "is not real (the imaginary unit or a non-real power)"
+    for a in e.atoms(sp.Number):
+        try:
+            if math.isfinite(float(a)):
+                continue
+        except OverflowError:
+            pass
+        return f"contains the number {sp.Float(a, 6) if a.is_Rational else a}, beyond the floating-point range"
+    return ""
+
+
 def _exprs(seq: Any, role: str, where: str) -> tuple[sp.Expr, ...]:
     if seq is None:
         return ()
@@ -128,8 +147,11 @@ def _exprs(seq: Any, role: str, where: str) -> tuple[sp.Expr, ...]:
             e = sp.sympify(e, strict=True) if not isinstance(e, sp.Basic) else e
         except sp.SympifyError:
             raise ModelError(f"{where}: {role}[{i + 1}] = {e!r} is not a sympy expression") from None
-        if not isinstance(e, sp.Expr):
+        if not isinstance(e, sp.Expr) or getattr(e, "is_Matrix", False):
             raise ModelError(f"{where}: {role}[{i + 1}] = {e} is not a scalar expression")
+        bad = _not_a_real_finite_expression(e)
+        if bad:
+            raise ModelError(f"{where}: {role}[{i + 1}] = {e} {bad}")
         out.append(e)
     return tuple(out)
 

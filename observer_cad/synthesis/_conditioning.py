@@ -55,7 +55,7 @@ def _values(M, subs):
     rep = getattr(M, "_rep", None)
     dom = getattr(rep, "domain", None)
     if dom is not None and (dom.is_ZZ or dom.is_QQ or dom.is_RR):  # numeric: no sympy per entry
-        return [abs(float(v)) for v in rep.to_list_flat()]
+        return [_abs_float(v) for v in rep.to_list_flat()]
     if M.free_symbols:
         M = M.xreplace(subs)
         if M.free_symbols:
@@ -67,6 +67,15 @@ def _values(M, subs):
         except (TypeError, ValueError):
             return None
     return out
+
+
+def _abs_float(v) -> float:
+    """|v| as a float; ∞ for an exact number beyond the floating-point range (reported as
+    ill-conditioned, not an OverflowError)."""
+    try:
+        return abs(float(v))
+    except OverflowError:
+        return math.inf
 
 
 def _norm1(vals) -> float:

@@ -387,6 +387,18 @@ MODEL_CASES = {
     "unused_disturbance": ("disturbances=[rho, sp.Symbol('r9')]",
                            ("disturbance 'r9'", "appears in no dynamics")),
     "unused_noise": ("noise=[w1, sp.Symbol('w9')]", ("noise 'w9'", "appears in no output")),
+    # (an audit found these reported as "internal error" or a TypeError)
+    "dynamics_imaginary": ("dynamics=[x2 + sp.I * x1, k1 * x3 + rho, u + d]",
+                           ("dynamics[1]", "not real")),
+    "dynamics_nonreal_power": ("dynamics=[x2 + (-1) ** sp.Rational(1, 3) * x1, k1 * x3 + rho,"
+                               " u + d]", ("dynamics[1]", "not real")),
+    "dynamics_nan": ("dynamics=[x2, k1 * x3 + rho + sp.nan, u + d]", ("dynamics[2]", "not finite")),
+    "dynamics_zoo": ("dynamics=[x2, k1 * x3 + rho, u + d + sp.zoo * x1]",
+                     ("dynamics[3]", "not finite")),
+    "output_huge_coefficient": ("outputs=[x1 + w1, 10**400 * x3]",
+                                ("outputs[2]", "beyond the floating-point range")),
+    "dynamics_matrix_entry": ("dynamics=[sp.Matrix([x2]), k1 * x3 + rho, u + d]",
+                              ("dynamics[1]", "not a scalar expression")),
 }
 
 

@@ -98,6 +98,23 @@ def test_complex_only_where_allowed():
         parse_number("-1+2*I", where="--gain")
 
 
+@pytest.mark.parametrize("text", ["sqrt(-1)", "log(-1)", "(-8)**(1/3)", "(-1)**(1/2)",
+                                  "asin(2)", "2*x1 + sqrt(-3)", "acos(0) + log(-2)"])
+def test_complex_values_are_refused_where_i_is(text):
+    """Functions and powers that evaluate to a non-real number (sqrt(-1) is I) are refused
+    where I is: a plant, a scenario or an estimate cannot use them (an audit found
+    sqrt(-1)*x1 certified as an estimate, and a complex scenario signal crashing the
+    simulator). Where complex values are allowed they are read."""
+    x1 = sp.Symbol("x1")
+    with pytest.raises(ExpressionError, match="not a real number"):
+        parse_expression(text, {"x1": x1}, where="--estimate")
+    value = parse_expression(text, {"x1": x1}, where="--eigenvalues", allow_complex=True)
+    assert value.subs(x1, 1).is_extended_real is False
+    # real values of the same functions stay exact
+    assert parse_expression("sqrt(2) + log(2) + (-8)**2 + acos(1/2) + sqrt(x1)", {"x1": x1},
+                            where="w") == sp.sqrt(2) + sp.log(2) + 64 + sp.pi / 3 + sp.sqrt(x1)
+
+
 def test_any_name_reads_every_identifier_as_a_symbol():
     e = parse_expression("gamma*S + k1/k4", where="json", any_name=True)
     assert {s.name for s in e.free_symbols} == {"gamma", "S", "k1", "k4"}
