@@ -14,6 +14,7 @@ from __future__ import annotations
 import dataclasses
 import importlib.util
 import math
+import re
 import sys
 from fractions import Fraction
 from pathlib import Path
@@ -113,6 +114,10 @@ def _symbols(seq: Any, role: str, where: str) -> tuple[sp.Symbol, ...]:
             raise ModelError(f"{where}: symbol '{s}' is listed twice in {role}")
         seen.add(s)
     return items
+
+
+#: names the tool gives its own symbols and columns: the time, the outputs, observer states
+_RESERVED = re.compile(r"t|y[0-9]+|xs[0-9]+")
 
 
 def _not_a_real_finite_expression(e) -> str:
@@ -260,6 +265,12 @@ class PlantModel:
                     raise ModelError(
                         f"{where}: symbol '{s}' is declared in two roles: {roles[s]} and {role}")
                 roles[s] = role
+        for s, role in roles.items():
+            if _RESERVED.fullmatch(s.name):
+                raise ModelError(
+                    f"{where}: the {role[:-1] if role != 'noise' else role} name '{s}' is reserved"
+                    " (t is the time, y1, y2, … the outputs and xs1, xs2, … an observer's"
+                    " states in every equation and output file): rename it")
         # each expression's symbols collected once (one walk over its terms)
         declared = set(roles)
         noise = set(self.noise)

@@ -668,6 +668,11 @@ def finish_result(cols, order, delays, t, model, observer, runs, keep_nonfinite,
     caller has checked that every value is finite; ``units``: the columns' units, when the
     caller has them already."""
     ins = list(model.inputs) + list(model.faults) + list(model.disturbances) + list(model.noise)
+    twice = sorted({c for c in order if order.count(c) > 1})
+    if twice:  # one column would hold the other's values: refuse, never write it
+        raise UsageError(f"{where or 'simulation'}: the column name {twice[0]!r} is both a"
+                         f" symbol of model {model.name!r} and an output of the observer"
+                         " (e.g. an estimate named <symbol>_hat): rename the model's symbol")
     if finite is None:
         finite = _all_finite(cols, delays)
     msg = None if finite else find_nonfinite(

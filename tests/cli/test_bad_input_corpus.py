@@ -397,6 +397,13 @@ MODEL_CASES = {
                      ("dynamics[3]", "not finite")),
     "output_huge_coefficient": ("outputs=[x1 + w1, 10**400 * x3]",
                                 ("outputs[2]", "beyond the floating-point range")),
+    "input_named_t": ("inputs=[sp.Symbol('t')], dynamics=[x2, k1 * x3 + rho, sp.Symbol('t') + d]",
+                      ("input name 't' is reserved",)),
+    "input_named_like_an_output": ("inputs=[sp.Symbol('y1')], dynamics=[x2, k1 * x3 + rho,"
+                                   " sp.Symbol('y1') + d]", ("input name 'y1' is reserved",)),
+    "parameter_named_like_an_observer_state": (
+        "parameters={sp.Symbol('xs2'): 2}, dynamics=[x2, sp.Symbol('xs2') * x3 + rho, u + d]",
+        ("parameter name 'xs2' is reserved",)),
     "dynamics_matrix_entry": ("dynamics=[sp.Matrix([x2]), k1 * x3 + rho, u + d]",
                               ("dynamics[1]", "not a scalar expression")),
 }
@@ -410,6 +417,21 @@ def test_model_file(work, capsys, cid):
     for argv in (["show", path], uio()[:1] + [path] + uio()[2:]):
         rc, out, err = run(capsys, argv)
         check(rc, out, err, 2, str(path), *needles, work=work)
+
+
+def test_symbol_named_like_an_observer_column_is_refused_before_writing(work, capsys):
+    """A state named d_hat would share its CSV column with the estimate of fault d (the
+    audit found the state's column showing the estimate): refused, one line, --out
+    untouched."""
+    path = work / "dhat.py"
+    path.write_text(HEADER.replace('x1, x2, x3 = sp.symbols("x1 x2 x3")',
+                                   'x1, x2, x3 = sp.symbols("x1 x2 d_hat")')
+                    + "model = PlantModel(**BASE)\n")
+    sc = _write_scenario(work, '{"steps": 5}')
+    rc, out, err = run(capsys, ["simulate", path, "--observer", "unknown-input", "--fault", "d",
+                                "--scenario", sc, "--out", work / "out"])
+    check(rc, out, err, 2, "column name 'd_hat'", "rename the model's symbol", work=work)
+    assert snapshot(work / "out") == {"keep.txt": b"user data\n"}
 
 
 def test_base_model_of_the_corpus_is_valid(work, capsys):
