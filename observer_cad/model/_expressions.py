@@ -133,6 +133,61 @@ def _check_separation(poly) -> None:
                               " exactly could take minutes")
 
 
+#: bits of relative width to which a CRootOf's isolating interval is narrowed on reading
+_NARROW_BITS = 320
+
+
+def _narrow_isolating_interval(root) -> None:
+    """Narrow sympy's cached isolating interval of a real ``CRootOf`` to 2⁻³²⁰ of its
+    size by bisection with exact integer signs (milliseconds). sympy refines it by
+    continued fractions, which for a root very close to a simple rational takes
+    exponentially many steps: ``CRootOf(x**14 - 3*x + 1, 0)`` (≈ 1/3 + 3⁻¹⁵) took 5 s to
+    evaluate, degree 16 over a minute, degree 20 never finished. sympy reuses the cached
+    interval for every later evaluation of the root (``evalf``, ``float``) to about 90
+    digits. Best effort: if sympy's internals differ, the interval is left as it was."""
+    try:
+        from sympy.polys.rootisolation import RealInterval
+
+        interval = root._get_interval()
+        poly = root.poly
+        dom = poly.domain
+        if not dom.is_ZZ:
+            return
+        lo, hi = sp.Rational(interval.a), sp.Rational(interval.b)
+        coeffs = [int(c) for c in poly.all_coeffs()]
+        deg = len(coeffs) - 1
+
+        def value_sign(r):  # sign of the polynomial at a rational, in integers
+            num, den = int(r.p), int(r.q)
+            total, npow = 0, 1
+            dpow = [1] * (deg + 1)
+            for k in range(1, deg + 1):
+                dpow[k] = dpow[k - 1] * den
+            for i, c in enumerate(reversed(coeffs)):
+                total += c * npow * dpow[deg - i]
+                npow *= num
+            return (total > 0) - (total < 0)
+
+        s_lo, s_hi = value_sign(lo), value_sign(hi)
+        if lo >= hi or s_lo == 0 or s_hi == 0 or s_lo == s_hi or (lo < 0 < hi):
+            return
+        width = (hi - lo) / 2 ** _NARROW_BITS
+        while hi - lo > width:
+            mid = (lo + hi) / 2
+            s_mid = value_sign(mid)
+            if s_mid == 0:
+                return  # a rational root: sympy would not have made it a CRootOf
+            if s_mid == s_lo:
+                lo = mid
+            else:
+                hi = mid
+        field = dom.get_field()
+        root._set_interval(RealInterval((field(lo.p, lo.q), field(hi.p, hi.q)),
+                                        poly.rep.to_list(), dom))
+    except Exception:  # pragma: no cover - other sympy internals: sympy's own refinement
+        return
+
+
 class _Reject(Exception):
     """Internal: what was rejected (becomes the ExpressionError's reason)."""
 
@@ -357,6 +412,8 @@ class _Builder:
                     else "it has no real root")
             raise _Reject(f"CRootOf index {index} names a complex root of {poly.as_expr()}"
                           f" ({have}); only real roots are read")
+        if isinstance(reals[i], sp.CRootOf):
+            _narrow_isolating_interval(reals[i])
         return reals[i]
 
     def root_index(self, node) -> int:

@@ -71,7 +71,8 @@ class Admissible:
     def contains(self, lam) -> bool:
         if self.generic:
             return True
-        return any(sp.simplify(sp.sympify(lam) - v) == 0 for v in self.values)
+        lam = sp.sympify(lam)
+        return any(_same_number(lam, v) for v in self.values)
 
     def describe(self) -> str:
         if self.generic:

@@ -406,6 +406,31 @@ def test_crootof_well_separated_roots_still_read():
     assert abs(float(r.evalf(30)) ** 12 - 2 * (4 * float(r.evalf(30)) - 1) ** 2) < 1e-9
 
 
+@pytest.mark.parametrize("degree,index", [(20, 0), (32, 0), (20, 1), (9, 1)])
+def test_crootof_near_a_rational_is_narrowed_on_reading(degree, index):
+    """A root very close to a simple rational (x^d − 3x + 1 has one ≈ 1/3 + 3^−(d+1)):
+    sympy's continued-fraction refinement needs exponentially many steps for it (degree
+    20: the design command never finished, an audit found). Reading narrows sympy's cached
+    isolating interval by exact bisection, so evaluating it is immediate. Checked: the
+    interval is narrow, still brackets a sign change, and the value agrees with mpmath's
+    polyroots at 60 digits."""
+    import mpmath
+
+    x = sp.Symbol("x")
+    text = f"CRootOf(x**{degree} - 3*x + 1, {index})"
+    r = parse_expression(text, [], where="--lambda", allow_crootof=True)
+    assert isinstance(r, sp.CRootOf)
+    iv = r._get_interval()  # (sympy's cache, shared by every CRootOf of this polynomial)
+    a, b = sp.Rational(iv.a), sp.Rational(iv.b)
+    f = x**degree - 3 * x + 1
+    assert 0 < b - a < sp.Rational(1, 2**250) and f.subs(x, a) * f.subs(x, b) < 0
+    with mpmath.workdps(60):
+        real = sorted(z.real for z in mpmath.polyroots([1] + [0] * (degree - 2) + [-3, 1],
+                                                       maxsteps=400, extraprec=400)
+                      if abs(z.imag) < mpmath.mpf(10) ** -40)
+        assert abs(mpmath.mpf(str(sp.N(r, 60))) - real[index]) < mpmath.mpf(10) ** -55
+
+
 _T = sp.Symbol("t")
 
 
