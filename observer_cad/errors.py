@@ -6,6 +6,8 @@ prints that line and exits with status 2.
 """
 from __future__ import annotations
 
+import errno
+
 
 class ObserverCadError(Exception):
     """Base class of every error observer_cad raises on purpose."""
@@ -62,8 +64,21 @@ def describe_failure(exc: BaseException) -> tuple[bool, str]:
         dist = _DISTRIBUTIONS.get(top, top)
         return False, (f"the Python package {top!r} is not installed (observer-cad needs it"
                        f" here): python3 -m pip install {dist}")
+    if isinstance(exc, OSError) and exc.errno in _FILE_SYSTEM_ERRNOS:
+        # the machine's (a full disk, a read-only folder, permissions), not a bug
+        where = f"{exc.filename}: " if exc.filename else ""
+        return False, f"{where}cannot write or read a file: {exc.strerror or type(exc).__name__}"
     first = str(exc).splitlines()[0] if str(exc) else ""
     return True, f"internal error: {type(exc).__name__}: {first}"
+
+
+#: OSError numbers that describe the file system, not a bug: full, read-only, no permission,
+#: a file where a folder is expected (or the reverse), a name too long, too many open files
+_FILE_SYSTEM_ERRNOS = frozenset(
+    getattr(errno, name) for name in ("ENOSPC", "EDQUOT", "EROFS", "EACCES", "EPERM", "EEXIST",
+                                      "EISDIR", "ENOTDIR", "ENAMETOOLONG", "EMFILE", "ENFILE",
+                                      "EFBIG", "ENOENT")
+    if hasattr(errno, name))
 
 
 #: import names whose PyPI distribution is named differently (Dask through the package's own

@@ -5,12 +5,13 @@ from __future__ import annotations
 import contextlib
 import json
 import os
+import shutil
 import tempfile
 from pathlib import Path
 
 from .errors import UsageError
 
-__all__ = ["atomic_write_text", "atomic_writer", "read_json_file"]
+__all__ = ["atomic_write_text", "atomic_writer", "read_json_file", "staged_directory"]
 
 
 def atomic_write_text(path: Path, text: str) -> None:
@@ -53,3 +54,32 @@ def read_json_file(path, what: str):
     except (OSError, UnicodeDecodeError) as exc:
         raise UsageError(f"{path}: cannot read the {what}:"
                          f" {getattr(exc, 'strerror', None) or type(exc).__name__}") from None
+
+
+@contextlib.contextmanager
+def staged_directory(out_dir):
+    """A hidden staging folder inside ``out_dir`` to write a command's files into; when
+    the block ends without an exception each file is moved into place (``os.replace``,
+    subfolders kept), otherwise the staging folder is removed — and ``out_dir`` too if
+    this call created it. So an error while writing (a full disk, a plot that fails)
+    leaves ``out_dir`` as it was, never half old and half new."""
+    out = Path(out_dir)
+    created = not out.exists()
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+        stage = Path(tempfile.mkdtemp(prefix=".staging-", dir=out))
+    except OSError as exc:
+        raise UsageError(f"{out_dir}: cannot create the output directory:"
+                         f" {exc.strerror or exc}") from None
+    done = False
+    try:
+        yield stage
+        for src in sorted(p for p in stage.rglob("*") if p.is_file()):
+            dst = out / src.relative_to(stage)
+            dst.parent.mkdir(parents=True, exist_ok=True)
+            os.replace(src, dst)
+        done = True
+    finally:
+        shutil.rmtree(stage, ignore_errors=True)
+        if not done and created:
+            shutil.rmtree(out, ignore_errors=True)

@@ -607,21 +607,26 @@ def _cmd_simulate(args) -> int:
         written = with_decisions(res, decisions)
     elif args.persistence != 1:
         raise UsageError("--persistence applies with --threshold")
-    path = write_signals_csv(res if decisions is None else written, args.out)
-    order = res.order if decisions is None else written.order
-    print(f"wrote {path} ({len(res['t'])} rows, columns: {', '.join(order)}; {engine})")
-    from ..reporting import UNITS_FILE
-    units = ", ".join(f"{c} [{u}]" for c, u in res.units.items() if c in res.order)
-    print(f"wrote {path.with_name(UNITS_FILE)} ({'units: ' + units if units else 'no units: the model declares none'})")
-    from ..reporting import plot_simulation
-    if res.nonfinite is not None:  # plot what is finite; the CSV keeps nan/inf
-        import dataclasses
-        import numpy as np
-        res = dataclasses.replace(res, columns={
-            k: np.where(np.isfinite(v), v, np.nan) for k, v in res.columns.items()})
-    for fig in plot_simulation(res, args.out, time=model.time,
-                               title=f"{model.name}, {observer.kind}", decisions=decisions):
-        print(f"wrote {fig}")
+    from ..files import staged_directory
+    from ..reporting import UNITS_FILE, plot_simulation
+    out, lines = Path(args.out), []
+    with staged_directory(out) as stage:  # an error while writing leaves --out as it was
+        path = write_signals_csv(res if decisions is None else written, stage)
+        order = res.order if decisions is None else written.order
+        lines.append(f"wrote {out / path.name} ({len(res['t'])} rows, columns:"
+                     f" {', '.join(order)}; {engine})")
+        units = ", ".join(f"{c} [{u}]" for c, u in res.units.items() if c in res.order)
+        lines.append(f"wrote {out / UNITS_FILE} ("
+                     f"{'units: ' + units if units else 'no units: the model declares none'})")
+        if res.nonfinite is not None:  # plot what is finite; the CSV keeps nan/inf
+            import dataclasses
+            import numpy as np
+            res = dataclasses.replace(res, columns={
+                k: np.where(np.isfinite(v), v, np.nan) for k, v in res.columns.items()})
+        for fig in plot_simulation(res, stage, time=model.time,
+                                   title=f"{model.name}, {observer.kind}", decisions=decisions):
+            lines.append(f"wrote {out / Path(fig).relative_to(stage)}")
+    print("\n".join(lines))
     if decisions is not None:
         _print_evaluation(model, observer, res, decisions)
     if res.nonfinite is not None:
@@ -705,6 +710,7 @@ def _cmd_ensemble(args) -> int:
     from ..reporting import (plot_ensemble_histograms, plot_simulation, write_signals_csv,
                              write_statistics_json, write_summary_csv)
     out = Path(args.out)
+    _check_writable(out)  # before the runs, not after them
     title = f"{model.name}, {observer.kind}"
     sim = None
     if args.engine == "compiled":
@@ -784,6 +790,21 @@ def _cmd_ensemble(args) -> int:
 #: the seed offset of the fault-free runs a quantile threshold is estimated on in an
 #: ensemble: other random numbers than the ensemble's own (validation is out of sample)
 CALIBRATION_OFFSET = 2 ** 62
+
+
+def _check_writable(out: Path) -> None:
+    """--out can be created and written (a file is made and removed there): a read-only
+    folder or a file in its place is a one-line error before hours of runs, not after."""
+    import os
+    import tempfile
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+        fd, probe = tempfile.mkstemp(prefix=".probe-", dir=out)
+        os.close(fd)
+        os.unlink(probe)
+    except OSError as exc:
+        raise UsageError(f"{out}: cannot write the output directory:"
+                         f" {exc.strerror or type(exc).__name__}") from None
 
 
 def _clear_stale(out: Path) -> None:

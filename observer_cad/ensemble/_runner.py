@@ -28,8 +28,9 @@ import numpy as np
 from ..errors import UsageError
 from ..model import PlantModel
 from ..observers import DecisionRule, Observer, output_symbols
-from ..simulation import (DrawPlan, EnsembleStatistics, Monitors, RunSummaries, Scenario,
-                          check_memory, monitors, signal_program, simulate, summarise)
+from ..simulation import (MEMORY_LIMIT_ENV, DrawPlan, EnsembleStatistics, Monitors, RunSummaries,
+                          Scenario, check_memory, memory_limit, monitors, signal_program,
+                          simulate, summarise)
 from ._backends import Backend, Interrupted, map_chunks
 
 __all__ = ["Chunk", "EnsembleResult", "run_ensemble", "replay", "replay_worst", "ReplayError", "ENGINES",
@@ -269,6 +270,24 @@ def _whole(what, v, low):
     return int(v)
 
 
+
+#: bytes kept per run and summary field (the value, and the run's share of its index)
+_SUMMARY_BYTES = 16
+
+
+def _check_summary_memory(total: int, fields: int, scenario) -> None:
+    """Refuse an ensemble whose per-run summaries (kept for summary.csv and the
+    statistics: runs × fields values) would exceed :func:`memory_limit` — before any run,
+    not after the machine runs out of memory (``--runs 999999999999`` grew to 3 GB in
+    30 s, found by an audit)."""
+    need = int(total) * (int(fields) + 2) * _SUMMARY_BYTES
+    limit = memory_limit()
+    if need > limit:
+        raise UsageError(f"{scenario.source or 'ensemble'}: {total:,} runs × {fields} summary"
+                         f" fields would keep about {need / 2**30:,.1f} GiB, above the limit of"
+                         f" {limit / 2**30:,.1f} GiB; use fewer runs, or raise the limit with"
+                         f" {MEMORY_LIMIT_ENV}")
+
 def run_ensemble(model: PlantModel, observer: Observer, scenario: Scenario, *, runs: int,
                  engine: str = "compiled", backend: Backend | None = None,
                  chunk: int | None = None, settle: float = 0.0,
@@ -307,6 +326,7 @@ def run_ensemble(model: PlantModel, observer: Observer, scenario: Scenario, *, r
     mon = monitors(model, observer, settle=float(settle), rule=rule)
     field = worst_by or default_worst_field(mon)
     mon.field(field)  # an unknown field is refused before anything runs
+    _check_summary_memory(runs * len(cases), len(mon.fields), scenario)
     # the trajectory buffers every worker holds (one chunk each), like a simulation's
     ncols = _columns_per_run(model, observer)
     check_memory(scenario, model.time, runs=chunk * (1 if backend.kind == "serial" else

@@ -434,6 +434,26 @@ def test_symbol_named_like_an_observer_column_is_refused_before_writing(work, ca
     assert snapshot(work / "out") == {"keep.txt": b"user data\n"}
 
 
+def test_write_failure_leaves_out_as_it_was(work, capsys, monkeypatch):
+    """A full disk while the figures are written (after the CSV): one line naming the file
+    system's complaint, exit 2 — not "internal error" — and the existing --out exactly as
+    it was (the CSV went to a staging folder that is removed); a new --out is removed."""
+    import errno
+    import observer_cad.reporting as reporting
+
+    def full(*args, **kwargs):
+        raise OSError(errno.ENOSPC, "No space left on device", "figure.png")
+
+    monkeypatch.setattr(reporting, "plot_simulation", full)
+    sc = _write_scenario(work, '{"steps": 5}')
+    for out in (work / "out", work / "new"):
+        rc, stdout, err = run(capsys, ["simulate", DRIVE, "--observer", "unknown-input",
+                                       "--fault", "d", "--scenario", sc, "--out", out])
+        check(rc, stdout, err, 2, "figure.png", "No space left on device", work=work)
+    assert snapshot(work / "out") == {"keep.txt": b"user data\n"}
+    assert not (work / "new").exists()
+
+
 def test_base_model_of_the_corpus_is_valid(work, capsys):
     path = work / "base.py"
     path.write_text(HEADER + "model = PlantModel(**BASE)\n")

@@ -232,6 +232,8 @@ def test_ensemble_command_writes_summary_statistics_figures_and_worst_runs(tmp_p
     (["--runs", "5", "--worst-by", "nope"], "no summary field 'nope'"),
     (["--runs", "5", "--engine", "reference", "--backend", "processes"],
      "the reference engine runs in this process only"),
+    # (an audit: --runs 999999999999 grew to 3 GB before anything said no)
+    (["--runs", "999999999999"], "summary fields would keep about"),
 ])
 def test_ensemble_command_errors_are_one_line(tmp_path, scen_file, capsys, argv, message):
     from observer_cad.cli import main
@@ -239,6 +241,26 @@ def test_ensemble_command_errors_are_one_line(tmp_path, scen_file, capsys, argv,
                "x1", "--scenario", str(scen_file), "--out", str(tmp_path)] + argv)
     err = capsys.readouterr().err
     assert rc == 2 and message in err and len(err.strip().splitlines()) == 1, err
+
+
+def test_ensemble_out_that_cannot_be_written_is_refused_before_the_runs(tmp_path, scen_file,
+                                                                         capsys, monkeypatch):
+    """A file where --out should be (or a read-only folder) is one line, exit 2, before any
+    run — not an internal error after all of them."""
+    import observer_cad.ensemble as ensemble
+    from observer_cad.cli import main
+
+    def never(*args, **kwargs):  # pragma: no cover - the point: not reached
+        raise AssertionError("the runs started")
+
+    monkeypatch.setattr(ensemble, "run_ensemble", never)
+    (tmp_path / "afile").write_text("x")
+    rc = main(["ensemble", str(MODELS / "three_tank.py"), "--observer", "interval", "--estimate",
+               "x1", "--scenario", str(scen_file), "--runs", "5", "--out",
+               str(tmp_path / "afile")])
+    err = capsys.readouterr().err
+    assert rc == 2 and "cannot write the output directory" in err, err
+    assert len(err.strip().splitlines()) == 1 and (tmp_path / "afile").read_text() == "x"
 
 
 @pytest.mark.slow  # a subprocess and a pool of processes: ~4 s
