@@ -53,7 +53,8 @@ from ..numerics import algebraic_to_float
 from ..observers import Observer
 from ..observers import DecisionRule
 from ._decide_c import decision_sources
-from ._translate import DISCRETISATIONS, describe, observer_step, split_signals, zoh_matrices
+from ._translate import (DISCRETISATIONS, c_name, describe, observer_step, split_signals,
+                         zoh_matrices)
 
 __all__ = ["export_observer", "export_sources", "ExportedSources", "EXAMPLE_FLAGS",
            "silence_unused_parameters"]
@@ -62,6 +63,12 @@ __all__ = ["export_observer", "export_sources", "ExportedSources", "EXAMPLE_FLAG
 EXAMPLE_FLAGS = ("-std=c99", "-Wall", "-Wextra", "-Werror")
 
 _IDENT = re.compile(r"[A-Za-z_][A-Za-z0-9_]*\Z")
+#: C's reserved words (C11) and the names the generated files use for their types
+_C_KEYWORDS = frozenset("""auto break case char const continue default do double else enum
+extern float for goto if inline int long register restrict return short signed sizeof static
+struct switch typedef union unsigned void volatile while _Alignas _Alignof _Atomic _Bool
+_Complex _Generic _Imaginary _Noreturn _Static_assert _Thread_local casadi_real casadi_int
+main""".split())
 _ASCII = str.maketrans({"−": "-", "…": "...", "·": "*", "ξ": "xi", "≤": "<=", "≥": ">=",
                         "—": "-", "–": "-", "⁺": "+", "⁻": "-", "§": "S"})
 
@@ -197,12 +204,12 @@ def export_sources(observer: Observer, *, name: str | None = None, dt: float | N
     if not isinstance(observer, Observer):
         raise UsageError("export_observer needs an Observer (observer_cad.observers.build_observer)")
     if name is None:
-        name = re.sub(r"[^0-9A-Za-z_]", "_", observer.name) or "observer"
-        if name[0].isdigit():
-            name = "obs_" + name
-    if not _IDENT.match(name) or name.startswith("casadi_"):
-        raise UsageError(f"export: name {name!r} is not a C identifier (letters, digits, _; not"
-                         " starting with a digit or 'casadi_')")
+        name = c_name(observer.name)
+    if (not _IDENT.match(name) or name.startswith(("casadi_", "_")) or "__" in name
+            or name in _C_KEYWORDS):
+        raise UsageError(f"export: name {name!r} is not a name casadi and C accept (letters,"
+                         " digits and single underscores, starting with a letter; not starting"
+                         " with 'casadi_'; not a C keyword)")
     if observer.time == "discrete":
         if dt is not None:
             raise UsageError(f"export: dt applies to continuous-time observers; {observer.name}"

@@ -48,7 +48,7 @@ from ..simulation import parameter_layout
 __all__ = ["to_casadi", "Translator", "observer_step", "plant_step", "joint_step",
            "describe", "split_signals", "rk4", "zoh_matrices", "DISCRETISATIONS",
            "observer_step_name", "plant_step_name", "joint_step_name", "observer_identity",
-           "plant_identity", "joint_identity"]
+           "plant_identity", "joint_identity", "c_name", "MAX_C_NAME"]
 
 #: continuous-time discretisations of :func:`observer_step`
 DISCRETISATIONS = ("rk4", "zoh")
@@ -285,9 +285,22 @@ def _scalars(v, n):
     return [v[i] for i in range(n)]
 
 
-def _cname(name: str) -> str:
-    c = re.sub(r"[^0-9A-Za-z_]", "_", name)
-    return c if c and not c[0].isdigit() else "f_" + c
+#: longest C name made from a model's or observer's name (longer ones are cut and given a
+#: hash of the whole name: file names in the compile cache stay below the file system's limit)
+MAX_C_NAME = 64
+
+
+def c_name(name: str) -> str:
+    """A name casadi and C accept, made from any text: ASCII letters, digits and single
+    underscores, starting with a letter (casadi refuses ``d__x``, ``_d`` and non-ASCII
+    letters, which a model's names may hold), at most :data:`MAX_C_NAME` characters."""
+    c = re.sub(r"_+", "_", re.sub(r"[^0-9A-Za-z_]", "_", name)).strip("_")
+    if not c or not c[0].isalpha():
+        c = "f_" + c if c else "f"
+    if len(c) > MAX_C_NAME:
+        import hashlib
+        c = c[:MAX_C_NAME - 9].rstrip("_") + "_" + hashlib.sha256(name.encode()).hexdigest()[:8]
+    return c
 
 
 def split_signals(observer: Observer):
@@ -315,7 +328,7 @@ def _fmt(names):
 
 def observer_step_name(observer: Observer, name: str | None = None) -> str:
     """The C name :func:`observer_step` gives its Function."""
-    return _cname(name or f"{observer.name}_step")
+    return c_name(name or f"{observer.name}_step")
 
 
 def _check_discretisation(observer: Observer, h, discretisation: str) -> str:
@@ -514,7 +527,7 @@ def _plant_parts(model: PlantModel, substitute: bool):
 
 
 def plant_step_name(model: PlantModel, name: str | None = None) -> str:
-    return _cname(name or f"{model.name}_plant_step")
+    return c_name(name or f"{model.name}_plant_step")
 
 
 def plant_identity(model: PlantModel, *, h=None, name=None,
@@ -565,7 +578,7 @@ def plant_step(model: PlantModel, *, h: float | None = None, name: str | None = 
 
 def joint_step_name(model: PlantModel, observer: Observer | None,
                     name: str | None = None) -> str:
-    return _cname(name or f"{(observer.name if observer else model.name)}_sim_step")
+    return c_name(name or f"{(observer.name if observer else model.name)}_sim_step")
 
 
 def joint_identity(model: PlantModel, observer: Observer | None, *, name=None,

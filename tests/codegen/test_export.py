@@ -368,10 +368,10 @@ def test_export_arguments_are_checked(built, tmp_path):
     m, o, *_ = built["diagnostic"]
     with pytest.raises(UsageError, match="dt applies to continuous-time"):
         export_observer(o, tmp_path, dt=0.1)
-    with pytest.raises(UsageError, match="not a C identifier"):
-        export_observer(o, tmp_path, name="2bad-name")
-    with pytest.raises(UsageError, match="not a C identifier"):
-        export_observer(o, tmp_path, name="casadi_f0")
+    # (int, a__b and _a compiled to a C error or a casadi assertion: an audit)
+    for bad in ("2bad-name", "casadi_f0", "int", "double", "a__b", "_a"):
+        with pytest.raises(UsageError, match="not a name casadi and C accept"):
+            export_observer(o, tmp_path, name=bad)
     with pytest.raises(UsageError, match="needs an Observer"):
         export_observer(m, tmp_path)
     m2, o2, *_ = built["virtual-sensor"]
@@ -431,3 +431,23 @@ def test_zoh_export_documents_the_matrices_and_checks_arguments(built, tmp_path)
     with pytest.raises(UsageError, match="continuous-time"):
         export_observer(o3, tmp_path, discretisation="zoh")
     assert not list(tmp_path.iterdir())
+
+
+def test_c_names_from_any_model_name_are_accepted_by_casadi():
+    """Model, fault and observer names become C and casadi names; casadi refuses double
+    underscores, a leading underscore and non-ASCII letters (an audit found fault d_,
+    models drive__2, привод and ../x ending as internal errors), and very long names made
+    file names the file system refused. c_name keeps letters, digits and single
+    underscores, starts with a letter, stays short, and keeps long names apart."""
+    import casadi as ca
+
+    from observer_cad.codegen._translate import MAX_C_NAME, c_name
+
+    x = ca.SX.sym("x")
+    names = ["d__step", "drive__2_sim_step", "привод_step", "../x_step", "_a", "2x", "", "___",
+             "a" * 5000, "a" * 4999 + "b", "ok_name"]
+    made = [c_name(n) for n in names]
+    for n, c in zip(names, made):
+        ca.Function(c, [x], [x])  # raises if casadi refuses the name
+        assert len(c) <= MAX_C_NAME and c[0].isalpha() and "__" not in c, (n, c)
+    assert made[-1] == "ok_name" and made[8] != made[9]
