@@ -258,8 +258,14 @@ def _simulate_with_engine(args, model, observer, scenario):
     return simulate(model, observer, scenario, **kw), "reference simulator (numpy)"
 
 
+#: the largest whole number an option takes: a C int (counts, sample indices and the
+#: persistence of the generated C; 2⁶⁴ − 1 was an OverflowError, a persistence of 10²⁰ C
+#: that does not compile)
+MAX_WHOLE = 2**31 - 1
+
+
 def _whole(option, low: int):
-    """argparse type: a whole number ≥ ``low``."""
+    """argparse type: a whole number in [``low``, :data:`MAX_WHOLE`]."""
     def convert(text):
         try:
             v = int(text)
@@ -268,6 +274,8 @@ def _whole(option, low: int):
         if v < low:
             raise argparse.ArgumentTypeError(f"{option} {text}: must be "
                                              + ("at least 1" if low == 1 else f"≥ {low}"))
+        if v > MAX_WHOLE:
+            raise argparse.ArgumentTypeError(f"{option} {text}: must be at most {MAX_WHOLE}")
         return v
     return convert
 

@@ -68,7 +68,7 @@ import sympy as sp
 from ..errors import ObserverCadError
 
 __all__ = ["CACHE_LOCK", "CodegenError", "cache_dir", "usable_cache_dir", "verify_library",
-           "compiler", "generate_c", "compile_source",
+           "compiler", "generate_c", "compile_source", "source_key",
            "compile_function", "compile_or_interpret", "CompiledFunction", "STATS", "FLAGS",
            "LARGE_SOURCE", "LARGE_LEVEL", "size_aware_flags",
            "structure", "fingerprint", "lookup_fingerprint", "record_fingerprint",
@@ -482,8 +482,7 @@ def compile_source(source: str, name: str, *, cache=None, cc=None, flags=None,
     t0 = time.perf_counter()
     ccpath = compiler(cc)
     flags = size_aware_flags(source) if flags is None else tuple(flags)
-    key = hashlib.sha256("\0".join([source, _compiler_id(ccpath), " ".join(flags)])
-                         .encode()).hexdigest()
+    key = source_key(source, ccpath, flags)
     d = usable_cache_dir(cache)
     try:
         return _compile_into(d, source, name, key, ccpath, flags, check, t0)
@@ -493,6 +492,13 @@ def compile_source(source: str, name: str, *, cache=None, cc=None, flags=None,
             raise CodegenError(f"compile cache {d}: cannot write {exc}") from None
         _warn(f"compile cache {d}: cannot write {exc}; using the private cache {p} instead")
         return _compile_into(p, source, name, key, ccpath, flags, check, t0)
+
+
+def source_key(source: str, ccpath, flags) -> str:
+    """The artefact key of C ``source`` built by the compiler ``ccpath`` (a resolved path,
+    :func:`compiler`) with ``flags``: what names ``CACHE/NAME-KEY.so``."""
+    return hashlib.sha256("\0".join([source, _compiler_id(ccpath), " ".join(flags)])
+                          .encode()).hexdigest()
 
 
 class _CacheWriteError(Exception):

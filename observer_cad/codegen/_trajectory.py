@@ -62,7 +62,9 @@ from ..observers import Observer, output_symbols
 from ..simulation import (RANDOM_C, Scenario, SimulationResult, check_memory, column_units,
                           draw_plan, finish_result, memory_limit, parameter_layout, signal_program)
 from ._library import LibrarySpec, load_library
-from ._compile import CACHE_LOCK, FLAGS, STATS, CodegenError, compile_source, fingerprint, forget_fingerprint, generate_c, lookup_fingerprint, record_fingerprint, size_aware_flags
+from ._compile import (CACHE_LOCK, FLAGS, STATS, CodegenError, compile_source, compiler,
+                       fingerprint, forget_fingerprint, generate_c, lookup_fingerprint,
+                       record_fingerprint, size_aware_flags, source_key)
 from ._translate import describe, joint_identity, joint_step, joint_step_name
 
 __all__ = ["CompiledSimulator", "simulate_compiled", "loop_source", "TRAJ_FLAGS"]
@@ -706,10 +708,15 @@ class CompiledSimulator:
     def source(self) -> str:
         """The C source of the library (the casadi step and the trajectory loops)."""
         if self._source is None:
-            try:
-                self._source = Path(self.path).with_suffix(".c").read_text(encoding="utf-8")
-            except (OSError, UnicodeDecodeError):
-                self._source = generate_c(self.step) + loop_source(self.step, self.nv)
+            try:  # the cached copy, if it is the library's source (its key says so)
+                text = Path(self.path).with_suffix(".c").read_text(encoding="utf-8")
+                if self.key is None or source_key(text, compiler(self._cc),
+                                                  tuple(self.flags)) != self.key:
+                    text = None
+            except (OSError, UnicodeDecodeError, CodegenError):
+                text = None
+            self._source = (text if text is not None else
+                            generate_c(self.step) + loop_source(self.step, self.nv))
         return self._source
 
     # ------------------------------------------------------------------ raw arrays

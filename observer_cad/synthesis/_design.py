@@ -27,6 +27,8 @@ from ._conditioning import (CONDITIONING_NAME, CONDITIONING_REFERENCE, condition
 from ._expr import parse_json_expression
 from ..numerics import with_full_int_text
 from ._poles import certify_poles
+from ._reduced import (INJECTIONS, estimate_outputs, output_symbols, reduced_equations,
+                       residual_outputs, sliding_equations)
 from ._signature import fault_signature
 
 __all__ = ["Condition", "Design", "DesignMatrices", "DesignRequest", "Form", "Method",
@@ -443,9 +445,10 @@ class Design:
         Every expression is read by a whitelist parser (numbers, the model's and the
         design's own names, arithmetic and a fixed list of functions); the task is
         re-resolved against the model; the matrices are re-certified against the model's
-        structure (exactly, or within the recorded tolerance for float designs). A design
-        that does not fit the model or fails its certificate raises; nothing is trusted
-        because it was on disk.
+        structure (exactly, or in floating point within the recorded tolerance, itself
+        bounded, for float and approximate designs); the equations and outputs must be the
+        ones the matrices give. A design that does not fit the model or fails its
+        certificate raises; nothing is trusted because it was on disk.
         """
         if not isinstance(data, dict) or not isinstance(data.get("matrices"), dict):
             raise UsageError("not a design: a JSON object with 'matrices' is expected")
@@ -575,6 +578,7 @@ class Design:
                     raise UsageError(f"the design's recorded signature says {name} is "
                                      f"{'sensitive' if val else 'decoupled'}, but its matrices"
                                      f" make the residual {'sensitive' if mine[name] else 'decoupled'}")
+        _check_equations(made, work)  # (after the matrices' own certificates)
         return dataclasses.replace(made, signature=sig)
 
 
@@ -627,3 +631,51 @@ def _residual_norm(recorded, mats: dict, L) -> float:
         raise UsageError(f"a design's recorded residual_norm {recorded!r} is not ‖Φ L‖_F ="
                          f" {value:.6e} of its matrices")
     return value
+
+
+def _same_expression(a, b) -> bool:
+    d = sp.expand(a - b)
+    return d == 0 or sp.simplify(d) == 0
+
+
+def _check_equations(d: "Design", work) -> None:
+    """The equations and outputs a design file carries are what its (certified) matrices
+    give — the observer is built from them, so they are checked, not trusted: the
+    reduced model F* x* + J* y + G* u + C* Ψ* (+ K r when K is there; METHOD §2), its
+    estimates z = H_z x* + Q y and residuals r = R* y − H* x*, or the sliding-mode
+    injection (seed 002 §5). A design without states, equations and outputs (the robust
+    canonical designs: matrices only) has none to check."""
+    if not (d.observer_states or d.equations or d.outputs):
+        return
+    m = d.matrices.as_dict()
+    xs = tuple(d.observer_states)
+    ys = output_symbols(len(work.outputs))
+    if d.observer == ObserverKind.SLIDING_MODE:
+        fault = d.task.targets[0] if d.task.targets else ""
+        options = [sliding_equations(m, work.inputs, xs[:1], ys, str(fault), inj,
+                                     nonlinear=d.nonlinear)
+                   for inj in INJECTIONS]
+        candidates = [(u, dict(o)) for states, u, o in options
+                      if [str(s) for s in states] == [str(s) for s in xs]]
+    else:
+        outs = {}
+        if "Hz" in m:
+            z = list(estimate_outputs(m, xs, ys))
+            outs.update({("z" if len(z) == 1 else f"z{i + 1}"): e for i, e in enumerate(z)})
+        if "R_star" in m and "H_star" in m:
+            r = list(residual_outputs(m, xs, ys))
+            outs.update({("r" if len(r) == 1 else f"r{i + 1}"): e for i, e in enumerate(r)})
+        candidates = [(reduced_equations(m, work.inputs, xs, ys, nonlinear=d.nonlinear,
+                                         feedback=fb), outs)
+                      for fb in ((True, False) if "K" in m else (True,))]
+    for update, outs in candidates:
+        if len(update) == len(d.equations) and all(
+                _same_expression(a, b) for a, b in zip(d.equations, update)):
+            break
+    else:
+        raise UsageError("the design's equations are not the ones its matrices give (the"
+                         " observer is built from them): not a design this tool writes")
+    for name, e in d.outputs:
+        if name not in outs or not _same_expression(e, outs[name]):
+            raise UsageError(f"the design's output {name} is not the one its matrices give:"
+                             " not a design this tool writes")

@@ -9,7 +9,15 @@ import sympy as sp
 
 
 __all__ = ["observer_symbols", "output_symbols", "is_stable", "jordan_equations",
-           "reduced_equations", "residual_outputs", "estimate_outputs", "named_outputs"]
+           "reduced_equations", "residual_outputs", "estimate_outputs", "named_outputs",
+           "sliding_equations", "K1", "EPS", "TAU", "INJECTIONS"]
+
+#: the sliding-mode observer's gain, boundary-layer width and filter time constant (their
+#: values are the observer's parameters)
+K1, EPS, TAU = sp.symbols("k_sm eps_sm tau_sm")
+#: how a sliding-mode observer injects sign(e): "regularised" e/(|e| + ε), or "sign"
+#: (sign(e), its estimate through a first-order filter with the state vf)
+INJECTIONS = ("regularised", "sign")
 
 
 def observer_symbols(k: int):
@@ -90,3 +98,25 @@ def jordan_equations(mats, inputs, xs, ys, observer, M, nonlinear=(), q=0):
     if observer == "diagnostic":
         outputs = named_outputs("r", residual_outputs(mats, xs, ys))
     return equations, outputs
+
+
+def sliding_equations(mats, inputs, xs, ys, fault_name: str, injection: str, *,
+                      nonlinear=(), q: int | None = None) -> tuple:
+    """(states, update, outputs) of a one-row sliding-mode observer (seed 002 §5): the
+    reduced model's right-hand side minus K1·v, v the injection of e = x*_1 − R* y —
+    e/(|e| + ε) ("regularised") or sign(e), filtered by the state vf ("sign") —
+    with the estimate ``<fault>_hat`` = −K1 v / D* and the residual r = R* y − x*_1."""
+    x = xs[0]
+    ystar = (sp.Matrix(_get(mats, "R_star")) * sp.Matrix(ys))[0, 0]
+    e = x - ystar
+    model_rhs = reduced_equations(mats, inputs, xs, ys, nonlinear=nonlinear, q=q, deep=True)[0]
+    Dst = sp.Matrix(_get(mats, "D_star"))[0, 0]
+    if injection == "regularised":
+        veq = e / (sp.Abs(e) + EPS)
+        states, update, dhat = tuple(xs), (model_rhs - K1 * veq,), -K1 / Dst * veq
+    else:
+        vf = sp.Symbol("vf")
+        states = (x, vf)
+        update = (model_rhs - K1 * sp.sign(e), (sp.sign(e) - vf) / TAU)
+        dhat = -K1 / Dst * vf
+    return states, update, ((f"{fault_name}_hat", dhat), ("r", sp.expand(ystar - x)))

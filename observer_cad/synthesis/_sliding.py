@@ -100,7 +100,8 @@ from ._certificate import certify_design
 from ._design import Condition, Design
 from ..errors import InfeasibleDesignError, ModelError, UsageError
 from ._jordan import Admissible
-from ._reduced import is_stable, observer_symbols, output_symbols, reduced_equations
+from ._reduced import (EPS, INJECTIONS, K1, TAU, is_stable, observer_symbols, output_symbols,
+                       sliding_equations)
 from ._task import task_for
 from ..model import PlantModel, Task
 from ._nonlinear import substitute_arguments
@@ -114,7 +115,6 @@ __all__ = ["K1", "EPS", "TAU", "design_sliding", "sliding_pencil", "admissible_s
 LAMBDA = sp.Symbol("lambda")
 #: the observer's parameters: the paper's k1, ε, and the filter constant τ (sign injection);
 #: named apart from plant parameters (a model may call one of its own k1)
-K1, EPS, TAU = sp.symbols("k_sm eps_sm tau_sm")
 #: |h μ| below which classical RK4 is stable for a real negative eigenvalue μ.
 RK4_STABILITY = 2.785
 
@@ -340,7 +340,7 @@ def design_sliding(model: PlantModel, *, fault: str | None = None, lam=None, k1=
     ``tau_sm`` (τ). Initial state 0; δ must bound |x̂*(0) − x*(0)| = |R* y(0)| then
     (a scenario's ``observer_initial`` overrides it; x̂*(0) = R* y(0) gives e(0) = 0).
     """
-    if injection not in ("regularised", "sign"):
+    if injection not in INJECTIONS:
         raise UsageError(f"injection must be 'regularised' or 'sign', not {injection!r}")
     work = model.substitute_parameters() if model.parameters else model
     where = model.where
@@ -442,23 +442,8 @@ def design_sliding(model: PlantModel, *, fault: str | None = None, lam=None, k1=
     conds.append(Condition("certificate", cert.passed, cert.summary(), "METHOD §2"))
 
     # equations
-    x = xs[0]
-    ystar = (Rs * sp.Matrix(ys))[0, 0]
-    e = x - ystar
-    veq = e / (sp.Abs(e) + EPS)
-    model_rhs = reduced_equations(mats, work.inputs, xs, ys, nonlinear=nonlinear, q=C.cols,
-                                  deep=True)[0]
-    Dst = mats["D_star"][0, 0]
-    if injection == "regularised":
-        states = tuple(xs)
-        update = (model_rhs - K1 * veq,)
-        dhat = -K1 / Dst * veq
-    else:
-        vf = sp.Symbol("vf")
-        states = (x, vf)
-        update = (model_rhs - K1 * sp.sign(e), (sp.sign(e) - vf) / TAU)
-        dhat = -K1 / Dst * vf
-    outputs = ((f"{fsym.name}_hat", dhat), ("r", sp.expand(ystar - x)))
+    states, update, outputs = sliding_equations(mats, work.inputs, xs, ys, fsym.name, injection,
+                                                nonlinear=nonlinear, q=C.cols)
 
     design0 = Design(
         model_name=work.name, form="jordan", k=1, matrices=mats, conditions=tuple(conds),

@@ -335,6 +335,19 @@ def test_cli_value_in_simulate_leaves_out_alone(work, capsys, cid):
     check(rc, out, err, 2, *needles, work=work)
 
 
+@pytest.mark.parametrize("option", ["--run", "--persistence"])
+def test_whole_numbers_beyond_a_c_int_are_refused(work, capsys, option):
+    """--run 2⁶⁴ − 1 was an OverflowError (internal error) and --persistence 10²⁰ exported
+    C that does not compile: whole-number options stop at a C int."""
+    sc = _write_scenario(work, '{"steps": 5}')
+    extra = ["--threshold", "guaranteed"] if option == "--persistence" else []
+    rc, out, err = run(capsys, ["simulate", DRIVE, "--observer", "diagnostic", *extra,
+                                "--scenario", sc, "--out", work / "out",
+                                option, "18446744073709551615"])
+    check(rc, out, err, 2, f"{option} 18446744073709551615: must be at most 2147483647",
+          work=work)
+
+
 def test_out_is_a_file(work, capsys):
     sc = _write_scenario(work, '{"steps": 5}')
     (work / "afile").write_text("x")

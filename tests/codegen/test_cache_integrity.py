@@ -223,3 +223,25 @@ def test_demo_module_with_an_unusable_cache_still_compiles(tmp_path):
     assert r.stdout.split() == ["ok", "True"]
     lines = r.stderr.splitlines()
     assert len(lines) == 1 and "private cache" in lines[0], r.stderr
+
+
+def test_a_changed_source_copy_is_not_what_the_workers_build(tmp_path):
+    """The library's C is kept next to it and is what process workers rebuild from; a copy
+    that is not the library's source (its key differs) is regenerated from the equations
+    instead (an audit appended a comment to it: every process-backend ensemble then
+    refused to run, and the entry never recovered)."""
+    from observer_cad import build_observer, design, load_model
+    from observer_cad.codegen import CompiledSimulator
+    from observer_cad.codegen._compile import compiler, source_key
+
+    m = load_model(ROOT / "models" / "electric_drive.py")
+    o = build_observer(m, design(m, observer="unknown-input", faults=["d"]))
+    first = CompiledSimulator(m, o, cache=tmp_path)
+    good = first.source
+    copy = first.path.with_suffix(".c")
+    assert copy.read_text() == good
+    copy.write_text(good + "\n/* changed */\n")
+    again = CompiledSimulator(m, o, cache=tmp_path)
+    assert again.cached and again.key == first.key
+    assert again.source == good
+    assert source_key(again.engine().spec.source, compiler(None), tuple(again.flags)) == again.key

@@ -180,3 +180,28 @@ def test_measured_estimate_names_z(capsys, models_dir):
     assert main(["design", str(models_dir / "electric_drive.py"), "--observer", "interval",
                  "--estimate", "x1"]) == 2
     assert "z = x1 is measured directly: z = y1" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("key", ["diagnostic-canonical", "diagnostic-jordan",
+                                 "virtual-sensor-004", "interval-jordan-nonlinear",
+                                 "sliding-mode", "unknown-input-canonical"])
+def test_equations_and_outputs_follow_from_the_matrices(designed, key):
+    """The observer is built from the file's equations and outputs, so they are checked
+    against the certified matrices (an audit loaded "u/5 + y1 + 100*y2" and
+    r = 1000*xs1 + y1 into a diagnostic observer): one changed term is refused."""
+    model, d = designed[key]
+    data = json.loads(json.dumps(d.to_json()))
+    bad = json.loads(json.dumps(data))
+    bad["equations"][0] = f"{bad['equations'][0]} + 100*y1"
+    with pytest.raises(UsageError, match="equations are not the ones its matrices give"):
+        Design.from_json(bad, model)
+    if data["outputs"]:
+        name = next(iter(data["outputs"]))
+        bad = json.loads(json.dumps(data))
+        bad["outputs"][name] = f"1000*({bad['outputs'][name]}) + y1"
+        with pytest.raises(UsageError, match=f"output {name} is not the one"):
+            Design.from_json(bad, model)
+    bad = json.loads(json.dumps(data))
+    bad["equations"] = bad["equations"][:-1]
+    with pytest.raises(UsageError, match="equations are not"):
+        Design.from_json(bad, model)
