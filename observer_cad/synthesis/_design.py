@@ -17,8 +17,9 @@ from typing import Mapping
 
 import numpy as np
 import sympy as sp
+from sympy.polys.matrices.exceptions import DMError
 
-from ..errors import UsageError
+from ..errors import ObserverCadError, UsageError
 from ..model import ObserverKind, PlantModel, Structure, Task, extract_structure
 from ._assumptions import complete_assumptions
 from ._certificate import Certificate, certify_design
@@ -448,8 +449,21 @@ class Design:
         structure (exactly, or in floating point within the recorded tolerance, itself
         bounded, for float and approximate designs); the equations and outputs must be the
         ones the matrices give. A design that does not fit the model or fails its
-        certificate raises; nothing is trusted because it was on disk.
+        certificate raises; nothing is trusted because it was on disk. A value of the wrong
+        type or shape anywhere is one UsageError naming what Python or sympy refused.
         """
+        try:
+            return cls._from_json(data, model)
+        except (TypeError, AttributeError, ValueError, KeyError, IndexError, sp.ShapeError,
+                DMError) as exc:
+            if isinstance(exc, ObserverCadError):  # (a UsageError is a ValueError too)
+                raise
+            first = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+            raise UsageError(f"a design's JSON is malformed (a value of the wrong type or"
+                             f" shape: {type(exc).__name__}: {first[:160]})") from None
+
+    @classmethod
+    def _from_json(cls, data, model: PlantModel) -> "Design":
         if not isinstance(data, dict) or not isinstance(data.get("matrices"), dict):
             raise UsageError("not a design: a JSON object with 'matrices' is expected")
         if not isinstance(model, PlantModel):

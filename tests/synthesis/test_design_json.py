@@ -205,3 +205,25 @@ def test_equations_and_outputs_follow_from_the_matrices(designed, key):
     bad["equations"] = bad["equations"][:-1]
     with pytest.raises(UsageError, match="equations are not"):
         Design.from_json(bad, model)
+
+
+@pytest.mark.parametrize("change", [
+    lambda d: d.__setitem__("equations", 5),
+    lambda d: d.__setitem__("certificate", "x"),
+    lambda d: d["matrices"].__setitem__("Phi", [["1"]]),
+    lambda d: d["matrices"].__setitem__("J_star", [["1", "2", "3", "4", "5"]]),
+    lambda d: d.__setitem__("outputs", {"z": 5}),
+    lambda d: d.__setitem__("lambdas", 7),
+    lambda d: d.__setitem__("conditions", [5]),
+    lambda d: d.__setitem__("states", ["xs1", 5]),
+    lambda d: d.__setitem__("nonlinear", [{"index": "a"}]),
+])
+def test_wrong_types_and_shapes_are_one_line_errors(designed, change):
+    """Values of the wrong type or shape anywhere in a design's JSON are a UsageError (an
+    audit found raw TypeError, AttributeError and DMShapeError)."""
+    model, d = designed["virtual-sensor-jordan"]
+    data = json.loads(json.dumps(d.to_json()))
+    change(data)
+    with pytest.raises((UsageError, CertificateError)) as exc:
+        Design.from_json(data, model)
+    assert len(str(exc.value).splitlines()) == 1
