@@ -11,7 +11,17 @@ from pathlib import Path
 
 from .errors import UsageError
 
-__all__ = ["atomic_write_text", "atomic_writer", "read_json_file", "staged_directory"]
+__all__ = ["atomic_write_text", "atomic_writer", "read_json_file", "staged_directory",
+           "new_file_mode"]
+
+
+def new_file_mode() -> int:
+    """The mode a new file gets from ``open`` here: 0o666 without the process umask.
+    (``mkstemp`` makes its files 0o600; an output file should be as readable as any
+    other the user writes.)"""
+    mask = os.umask(0)
+    os.umask(mask)
+    return 0o666 & ~mask
 
 
 def atomic_write_text(path: Path, text: str) -> None:
@@ -28,6 +38,7 @@ def atomic_writer(path: Path, *, encoding: str | None = None):
     path = Path(path)
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
     try:
+        os.chmod(tmp, new_file_mode())
         with os.fdopen(fd, "w", newline="", encoding=encoding) as fh:
             yield fh
         os.replace(tmp, path)

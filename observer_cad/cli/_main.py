@@ -244,6 +244,10 @@ def _simulate_with_engine(args, model, observer, scenario):
     if args.samples is not None and args.run is not None and args.run >= args.samples:
         raise UsageError(f"--run {args.run} is not a sample of an ensemble of --samples"
                          f" {args.samples}")
+    import numpy as np
+    from ..simulation import signal_program
+    for c in scenario.case_names:  # every case read now, as the ensemble does (not only --case)
+        signal_program(model, scenario, np.zeros(1), case=c)  # (t = 0 only: no grid built)
     kw = dict(keep_nonfinite=args.keep_nonfinite, first_run=args.run or 0, case=case,
               samples=args.samples)
     if args.engine == "compiled":

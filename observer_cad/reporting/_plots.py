@@ -12,6 +12,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import UsageError
+from ..files import new_file_mode
 
 __all__ = ["plot_simulation", "save_figure", "plot_residuals", "plot_confusion",
            "residual_names"]
@@ -33,6 +34,7 @@ def save_figure(fig, path) -> Path:
     fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}.", suffix=".png", dir=path.parent)
     os.close(fd)
     try:
+        os.chmod(tmp, new_file_mode())  # (mkstemp's 0o600 otherwise)
         fig.savefig(tmp, dpi=110, bbox_inches="tight")
         os.replace(tmp, path)
     finally:

@@ -209,8 +209,8 @@ class Scenario:
         if self.t_end is not None and self.dt is not None and self.dt > self.t_end:
             raise UsageError(f"{where}: 'dt' = {self.dt} is larger than 't_end' = {self.t_end}")
         seed = _whole(where, "'seed'", self.seed)
-        if seed < 0:
-            raise UsageError(f"{where}: 'seed' must be a non-negative whole number, got {seed}")
+        if not 0 <= seed < 2**64:  # (the random streams take it modulo 2⁶⁴: refused, not wrapped)
+            raise UsageError(f"{where}: 'seed' must be a whole number in [0, 2^64), got {seed}")
         object.__setattr__(self, "seed", seed)
 
     @property

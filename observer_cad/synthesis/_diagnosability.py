@@ -888,6 +888,8 @@ def analyze(model: PlantModel, *, faults: Sequence[str] | None = None,
     work = model if symbolic else model.substitute_parameters()
     st = structure if (structure is not None and symbolic) else extract_structure(work)
     fs, dist = _resolve(work, faults, disturbances)
+    for c in candidates or ():  # read (and refused) now, whether or not they are needed
+        parse_estimate(work, c, what="--candidate")
     if method == "auto":
         method = "float" if (not work.parameters and st.n > FLOAT_AUTO_N) else "exact"
     if method == "float" and work.parameters:

@@ -63,6 +63,11 @@ def test_candidate_errors_name_the_option_and_a_state_candidate_is_listed_once(c
     path = str(models_dir / "three_tank_faults.py")
     assert main(["analyze", path, "--candidate", "x1*x2"]) == 2
     assert "--candidate x1*x2 is not linear" in capsys.readouterr().err
+    # read even where no fault needs a candidate (the electric drive's are all detectable:
+    # an audit found a payload accepted there, unread)
+    drive = str(models_dir / "electric_drive.py")
+    assert main(["analyze", drive, "--candidate", "__import__('os')"]) == 2
+    assert "--candidate" in capsys.readouterr().err
     assert main(["analyze", path, "--candidate", "x1"]) == 0
     out = capsys.readouterr().out
     assert out.count("isolate f1 from f2: measure x1") == 1

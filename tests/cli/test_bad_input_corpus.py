@@ -87,7 +87,8 @@ SCENARIOS = {
     "t_end_nan": ('{"steps": 5, "t_end": NaN, "dt": 0.1}', ("'t_end'", "finite")),
     "t_end_string": ('{"steps": 5, "t_end": "ten", "dt": 0.1}', ("'t_end'", "number")),
     "dt_above_t_end": ('{"steps": 5, "t_end": 1, "dt": 2}', ("'dt'", "larger than 't_end'")),
-    "seed_negative": ('{"steps": 5, "seed": -1}', ("'seed'", "non-negative")),
+    "seed_negative": ('{"steps": 5, "seed": -1}', ("'seed'", "in [0, 2^64)")),
+    "seed_beyond_64_bits": ('{"steps": 5, "seed": 18446744073709551616}', ("'seed'", "in [0, 2^64)")),
     "seed_string": ('{"steps": 5, "seed": "one"}', ("'seed'",)),
     "seed_fraction": ('{"steps": 5, "seed": 1.5}', ("'seed'",)),
     "seed_bool": ('{"steps": 5, "seed": false}', ("'seed'",)),
@@ -346,6 +347,15 @@ def test_whole_numbers_beyond_a_c_int_are_refused(work, capsys, option):
                                 option, "18446744073709551615"])
     check(rc, out, err, 2, f"{option} 18446744073709551615: must be at most 2147483647",
           work=work)
+
+
+def test_simulate_reads_every_case_not_only_the_one_it_runs(work, capsys):
+    """A case simulate does not run is still read: an unknown signal in it is one line
+    (the ensemble already refused it; simulate ran the first case and exited 0)."""
+    sc = _write_scenario(work, json.dumps({"steps": 5, "cases": {"ok": {}, "bad": {"nope": 1}}}))
+    rc, out, err = run(capsys, ["simulate", DRIVE, "--observer", "unknown-input", "--fault", "d",
+                                "--scenario", sc, "--case", "ok", "--out", work / "out"])
+    check(rc, out, err, 2, "signal 'nope'", work=work)
 
 
 def test_out_is_a_file(work, capsys):
