@@ -592,7 +592,14 @@ class Design:
                     raise UsageError(f"the design's recorded signature says {name} is "
                                      f"{'sensitive' if val else 'decoupled'}, but its matrices"
                                      f" make the residual {'sensitive' if mine[name] else 'decoupled'}")
-        _check_equations(made, work)  # (after the matrices' own certificates)
+        _check_substitutions(made, st)  # (after the matrices' own certificates)
+        if made.lambdas:  # a Jordan design's λ are F*'s diagonal (reports show them)
+            F = sp.Matrix(made.matrices.F_star)
+            if not (F.is_diagonal() and len(made.lambdas) == F.rows and all(
+                    _same_expression(v, F[i, i]) for i, v in enumerate(made.lambdas))):
+                raise UsageError("the design's lambdas are not the diagonal of its F*: not a"
+                                 " design this tool writes")
+        _check_equations(made, work)
         return dataclasses.replace(made, signature=sig)
 
 
@@ -645,6 +652,36 @@ def _residual_norm(recorded, mats: dict, L) -> float:
         raise UsageError(f"a design's recorded residual_norm {recorded!r} is not ‖Φ L‖_F ="
                          f" {value:.6e} of its matrices")
     return value
+
+
+def _check_substitutions(d: "Design", st) -> None:
+    """Each argument substitution of a design file is the model's term φ_j with its
+    argument A_j x written as A*_1j x* + A*_2j y (A*_1j, A*_2j certified above), and there
+    is one for every nonzero column of C* — a changed function, or one left out, would
+    change the observer while the matrices still pass (METHOD §2c)."""
+    xs = sp.Matrix(list(d.observer_states))
+    ys = sp.Matrix(list(output_symbols(sp.Matrix(st.H).rows)))
+    m = d.matrices.as_dict()
+    Cs = sp.Matrix(m["C_star"]) if "C_star" in m else None
+    need = ({j + 1 for j in range(Cs.cols) if any(e != 0 for e in Cs[:, j])}
+            if Cs is not None else set())
+    have = [ns.index for ns in d.nonlinear]
+    if sorted(have) != sorted(need):
+        raise UsageError(f"the design's argument substitutions are for the terms"
+                         f" {sorted(have) or 'none'}, but C* has nonzero columns"
+                         f" {sorted(need) or 'none'}: not a design this tool writes")
+    for ns in d.nonlinear:
+        if not 1 <= ns.index <= len(st.terms) or ns.A1.shape != (1, len(xs)) \
+                or ns.A2.shape != (1, len(ys)):
+            raise UsageError(f"the design's argument substitution {ns.index} does not fit the"
+                             " model's terms")
+        t = st.terms[ns.index - 1]
+        arg = sp.expand((ns.A1 * xs)[0, 0] + (ns.A2 * ys)[0, 0])
+        if not (_same_expression(ns.argument, arg)
+                and _same_expression(ns.function, t.function.xreplace({t.argument: arg}))):
+            raise UsageError(f"the design's argument substitution {ns.index} is not the model's"
+                             f" term {t.function} with A*_1 x* + A*_2 y as its argument: not a"
+                             " design this tool writes")
 
 
 def _same_expression(a, b) -> bool:

@@ -227,3 +227,32 @@ def test_wrong_types_and_shapes_are_one_line_errors(designed, change):
     with pytest.raises((UsageError, CertificateError)) as exc:
         Design.from_json(data, model)
     assert len(str(exc.value).splitlines()) == 1
+
+
+@pytest.mark.parametrize("key", ["interval-jordan-nonlinear", "virtual-sensor-jordan"])
+def test_argument_substitutions_are_the_models_terms(designed, key):
+    """A nonlinear design's Ψ*_j come from the file: each must be the model's term with
+    A*_1 x* + A*_2 y as its argument, one for every nonzero column of C*. A changed
+    function (in the substitution and the equations alike) or one left out is refused."""
+    model, d = designed[key]
+    data = json.loads(json.dumps(d.to_json()))
+    assert data["nonlinear"], "the case must have argument substitutions"
+    Design.from_json(json.loads(json.dumps(data)), model)  # as written: read back
+    bad = json.loads(json.dumps(data))
+    f = bad["nonlinear"][0]["function"]
+    bad["nonlinear"][0]["function"] = f"100*({f})"
+    bad["equations"] = [e.replace(f, f"100*({f})") for e in bad["equations"]]
+    with pytest.raises(UsageError, match="argument substitution"):
+        Design.from_json(bad, model)
+    bad = json.loads(json.dumps(data))
+    bad["nonlinear"] = bad["nonlinear"][1:]
+    with pytest.raises(UsageError, match="argument substitutions are for the terms"):
+        Design.from_json(bad, model)
+
+
+def test_lambdas_are_the_diagonal_of_f_star(designed):
+    model, d = designed["virtual-sensor-jordan"]
+    data = json.loads(json.dumps(d.to_json()))
+    data["lambdas"][0] = "-7"
+    with pytest.raises(UsageError, match="lambdas are not the diagonal"):
+        Design.from_json(data, model)
