@@ -5,7 +5,9 @@ import sympy as sp
 
 from ..errors import UsageError
 from ..model import PlantModel
-from ..synthesis import K1, Design
+import math
+
+from ..synthesis import EPS, K1, TAU, Condition, Design, gain_bound
 from ._observer import Observer
 
 __all__ = ["sliding_observer"]
@@ -20,8 +22,26 @@ def sliding_observer(model: PlantModel, design: Design) -> Observer:
     l = len(model.outputs)
     ys = sp.symbols(f"y1:{l + 1}")
     params = dict(design.parameters)
-    k1v = float(params[K1])
     sign = len(states) == 2  # sign injection: x̂* and the filter state v_f
+    # the gains are the design's data (its JSON, for one): present, finite and positive,
+    # and k1 above d*|D*| — necessary for a sliding mode whatever δ — recomputed here
+    for sym in (K1, TAU if sign else EPS):
+        v = params.get(sym)
+        try:
+            ok = v is not None and math.isfinite(float(v)) and float(v) > 0
+        except (TypeError, ValueError):
+            ok = False
+        if not ok:
+            raise UsageError(f"the sliding-mode design's parameter {sym} must be a finite"
+                             f" positive number, got {v}")
+    k1v = float(params[K1])
+    gb = gain_bound(model, design)
+    need = gb.d_star * abs(gb.D_star)
+    conditions = tuple(design.conditions) + (Condition(
+        "k1 > d*|D*| (recomputed from the model on building)", k1v > need,
+        f"k1 = {k1v:.6g}, d*|D*| = {need:.6g}" + ("" if k1v > need else
+                                                   " — no sliding mode: d̂ saturates"),
+        "seed 002 eq. (5.5) corrected"),)
     vtext = "sign(e)" if sign else "e/(|e| + ε)"
     est = "v_f, v_f' = (sign(e) − v_f)/τ" if sign else "e/(|e| + ε)"
     fault = design.unknown_input
@@ -29,7 +49,7 @@ def sliding_observer(model: PlantModel, design: Design) -> Observer:
     return Observer(
         name=f"{model.name}_sliding", kind="sliding-mode", time="continuous", states=states,
         signals=tuple(ys) + tuple(model.inputs), parameters=params, update=design.equations,
-        outputs=design.outputs, initial={s_: 0 for s_ in states}, conditions=design.conditions,
+        outputs=design.outputs, initial={s_: 0 for s_ in states}, conditions=conditions,
         assumptions=(), design=design,
         description=(f"sliding-mode estimator of {fault} (k_sm = k1 = {k1v:.6g}):"
                      f" x̂*' = F* x̂* + J* y + G* u + C* Ψ* − k1 v, v = {vtext},"

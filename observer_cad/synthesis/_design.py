@@ -581,8 +581,16 @@ class Design:
             parameters=params, request=request)
         # a gain K is re-checked too: det(sI − F* + K H*) = Π(s − μ) for the recorded μ
         m = made.matrices
-        if exact and m.K is not None and made.closed_loop_eigenvalues:
-            certify_poles(m.F_star, m.H_star, m.K, made.closed_loop_eigenvalues)
+        if m.K is not None:  # (a file that drops the eigenvalues does not skip the check)
+            mu = made.closed_loop_eigenvalues
+            if len(mu) != sp.Matrix(m.F_star).rows:
+                raise UsageError(f"the design has a gain K but records {len(mu)} closed-loop"
+                                 f" eigenvalues for {sp.Matrix(m.F_star).rows} states: not a"
+                                 " design this tool writes")
+            if exact:
+                certify_poles(m.F_star, m.H_star, m.K, mu)
+            else:
+                _float_poles(m.F_star, m.H_star, m.K, mu)
         # the signature is recomputed from the matrices, never read: a recorded one must agree
         sig = fault_signature(made.matrices, st, task)
         if recorded:
@@ -592,6 +600,8 @@ class Design:
                     raise UsageError(f"the design's recorded signature says {name} is "
                                      f"{'sensitive' if val else 'decoupled'}, but its matrices"
                                      f" make the residual {'sensitive' if mine[name] else 'decoupled'}")
+        if "T" in mats:  # the seed-001 diagonal form: what T makes of the certified design
+            _check_diagonal_form(made.matrices, plant, task.M)
         _check_substitutions(made, st)  # (after the matrices' own certificates)
         if made.lambdas:  # a Jordan design's λ are F*'s diagonal (reports show them)
             F = sp.Matrix(made.matrices.F_star)
@@ -684,6 +694,44 @@ def _check_substitutions(d: "Design", st) -> None:
                              " design this tool writes")
 
 
+def _check_diagonal_form(mats, plant: dict, M) -> None:
+    """The diagonal form of seed 001 (method 1) that interval observers are built from:
+    with T from the file, F_diag = T⁻¹ (F* − K H*) T diagonal, J_diag = T⁻¹ (J* + K R*),
+    Φ_diag = T⁻¹ Φ, G_diag = T⁻¹ G*, H_z,diag = H_z T, recomputed exactly and compared,
+    then certified as a design of its own (its identities against the plant)."""
+    m = {k: sp.Matrix(v) for k, v in mats.as_dict().items()}
+    T = m["T"]
+    if T.rows != T.cols or T.rows != m["F_star"].rows or T.det() == 0:
+        raise UsageError("the design's T is not an invertible k × k matrix: not a design this"
+                         " tool writes")
+    Ti = T.inv()
+    K = m.get("K", sp.zeros(m["F_star"].rows, m["J_star"].cols))
+    want = {"F_diag": Ti * (m["F_star"] - K * m["H_star"]) * T,
+            "J_diag": Ti * (m["J_star"] + K * m["R_star"]), "Phi_diag": Ti * m["Phi"],
+            "G_diag": Ti * m["G_star"], "Hz_diag": m["Hz"] * T}
+    for name, W in want.items():
+        got = m.get(name)
+        if got is None or got.shape != W.shape or not all(
+                _same_expression(a, b) for a, b in zip(got, W)):
+            raise UsageError(f"the design's {name} is not what its T makes of the certified"
+                             " matrices: not a design this tool writes")
+    if not m["F_diag"].is_diagonal():
+        raise UsageError("the design's F_diag is not diagonal: not a design this tool writes")
+    certify_design(plant, {"Phi": m["Phi_diag"], "F_star": m["F_diag"], "J_star": m["J_diag"],
+                           "G_star": m["G_diag"], "Hz": m["Hz_diag"], "Q": m["Q"]}, M=M)
+
+
+def _float_poles(F, H, K, mu) -> None:
+    """A float design's gain: the eigenvalues of F* − K H* are the recorded ones (each
+    within 1e-6 relative of its nearest, in floating point)."""
+    A = np.array(sp.Matrix(F - sp.Matrix(K) * sp.Matrix(H)).evalf().tolist(), dtype=complex)
+    got = np.sort_complex(np.linalg.eigvals(A))
+    want = np.sort_complex(np.array([complex(sp.N(v)) for v in mu]))
+    if not np.allclose(got, want, rtol=1e-6, atol=1e-9):
+        raise UsageError("the design's closed-loop eigenvalues are not those of F* − K H*:"
+                         " not a design this tool writes")
+
+
 def _same_expression(a, b) -> bool:
     d = sp.expand(a - b)
     return d == 0 or sp.simplify(d) == 0
@@ -692,7 +740,7 @@ def _same_expression(a, b) -> bool:
 def _check_equations(d: "Design", work) -> None:
     """The equations and outputs a design file carries are what its (certified) matrices
     give — the observer is built from them, so they are checked, not trusted: the
-    reduced model F* x* + J* y + G* u + C* Ψ* (+ K r when K is there; METHOD §2), its
+    reduced model F* x* + J* y + G* u + C* Ψ* + K r (when K is there; METHOD §2), its
     estimates z = H_z x* + Q y and residuals r = R* y − H* x*, or the sliding-mode
     injection (seed 002 §5). A design without states, equations and outputs (the robust
     canonical designs: matrices only) has none to check."""
@@ -716,9 +764,7 @@ def _check_equations(d: "Design", work) -> None:
         if "R_star" in m and "H_star" in m:
             r = list(residual_outputs(m, xs, ys))
             outs.update({("r" if len(r) == 1 else f"r{i + 1}"): e for i, e in enumerate(r)})
-        candidates = [(reduced_equations(m, work.inputs, xs, ys, nonlinear=d.nonlinear,
-                                         feedback=fb), outs)
-                      for fb in ((True, False) if "K" in m else (True,))]
+        candidates = [(reduced_equations(m, work.inputs, xs, ys, nonlinear=d.nonlinear), outs)]
     for update, outs in candidates:
         if len(update) == len(d.equations) and all(
                 _same_expression(a, b) for a, b in zip(d.equations, update)):

@@ -256,3 +256,44 @@ def test_lambdas_are_the_diagonal_of_f_star(designed):
     data["lambdas"][0] = "-7"
     with pytest.raises(UsageError, match="lambdas are not the diagonal"):
         Design.from_json(data, model)
+
+
+@pytest.mark.parametrize("value, problem", [("0.001", "failed"), ("-5", "positive"),
+                                            ("0", "positive"), (None, "positive")])
+def test_sliding_gains_from_a_file_are_checked_on_building(designed, value, problem):
+    """A sliding-mode design's gains are parameters of its JSON: building the observer
+    recomputes k1 > d*|D*| from the model (a failed condition when not), and a gain that
+    is not a finite positive number is refused (an audit's k_sm = 0.001 and −5 built
+    estimators off by 0.9 and 5.9 that reported the recorded gain bound as met)."""
+    from observer_cad import build_observer
+
+    model, d = designed["sliding-mode"]
+    data = json.loads(json.dumps(d.to_json()))
+    if value is None:
+        del data["parameters"]["k_sm"]
+    else:
+        data["parameters"]["k_sm"] = value
+    back = Design.from_json(data, model)
+    if problem == "failed":
+        obs = build_observer(model, back)
+        failed = [c.name for c in obs.failed_conditions]
+        assert any("d*|D*|" in n for n in failed), failed
+        assert not build_observer(model, Design.from_json(
+            json.loads(json.dumps(d.to_json())), model)).failed_conditions
+    else:
+        with pytest.raises(UsageError, match="must be a finite positive number"):
+            build_observer(model, back)
+
+
+@pytest.mark.parametrize("name", ["J_diag", "F_diag", "T", "Phi_diag"])
+def test_diagonal_form_follows_from_t_and_the_certified_matrices(designed, name):
+    """Interval observers of a canonical design are built from its seed-001 diagonal form:
+    T, F_diag, J_diag, … are recomputed from T and the certified matrices on reading (an
+    audit changed J_diag and the true x1 left its interval in 1882 of 2001 samples)."""
+    model, d = designed["interval-canonical"]
+    data = json.loads(json.dumps(d.to_json()))
+    assert "T" in data["matrices"]
+    Design.from_json(json.loads(json.dumps(data)), model)
+    data["matrices"][name][0][0] = f"({data['matrices'][name][0][0]}) + 1"
+    with pytest.raises(UsageError, match="not what its T makes|F_diag is not diagonal"):
+        Design.from_json(data, model)
