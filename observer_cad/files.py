@@ -85,7 +85,17 @@ def staged_directory(out_dir):
     done = False
     try:
         yield stage
-        for src in sorted(p for p in stage.rglob("*") if p.is_file()):
+        files = sorted(p for p in stage.rglob("*") if p.is_file())
+        for src in files:  # every target checked before the first is replaced
+            dst = out / src.relative_to(stage)
+            blocked = next((q for q in [dst, *dst.parents] if q != out and q.is_relative_to(out)
+                            and (q.is_dir() if q == dst else (q.exists() and not q.is_dir()))),
+                           None)
+            if blocked is not None:
+                raise UsageError(f"{blocked}: cannot write {dst.name} there ("
+                                 f"{'a directory' if blocked == dst else 'a file'} is in the"
+                                 f" way); {out} is left as it was")
+        for src in files:
             dst = out / src.relative_to(stage)
             dst.parent.mkdir(parents=True, exist_ok=True)
             os.replace(src, dst)
@@ -93,4 +103,7 @@ def staged_directory(out_dir):
     finally:
         shutil.rmtree(stage, ignore_errors=True)
         if not done and created:
-            shutil.rmtree(out, ignore_errors=True)
+            try:  # only if still empty: another process may have written there meanwhile
+                out.rmdir()
+            except OSError:
+                pass

@@ -806,14 +806,18 @@ CALIBRATION_OFFSET = 2 ** 62
 
 def _check_writable(out: Path) -> None:
     """--out can be created and written (a file is made and removed there): a read-only
-    folder or a file in its place is a one-line error before hours of runs, not after."""
+    folder or a file in its place is a one-line error before hours of runs, not after.
+    A folder made for the probe is removed again (an error before the runs leaves none)."""
     import os
     import tempfile
     try:
+        created = not out.exists()
         out.mkdir(parents=True, exist_ok=True)
         fd, probe = tempfile.mkstemp(prefix=".probe-", dir=out)
         os.close(fd)
         os.unlink(probe)
+        if created:
+            out.rmdir()
     except OSError as exc:
         raise UsageError(f"{out}: cannot write the output directory:"
                          f" {exc.strerror or type(exc).__name__}") from None
@@ -854,9 +858,12 @@ def _cmd_codegen(args) -> int:
         rule = decision_rule(model, result, persistence=args.persistence)
     elif args.persistence != 1:
         raise UsageError("--persistence applies with --threshold")
-    paths = export_observer(observer, args.out, name=args.name, dt=dt, rule=rule)
+    from ..files import staged_directory
+    out = Path(args.out)
+    with staged_directory(out) as stage:  # the three files together, or none changed
+        paths = export_observer(observer, stage, name=args.name, dt=dt, rule=rule)
     for p in paths:
-        print(f"wrote {p}")
+        print(f"wrote {out / Path(p).relative_to(stage)}")
     return 0
 
 
@@ -879,7 +886,26 @@ def _cmd_demo(args) -> int:
     return run_demo(EXAMPLES_DIR, Path(args.out), compile=not args.no_compile)
 
 
+def _terminate(signum, frame):  # pragma: no cover - exercised by a subprocess test
+    """SIGTERM as an exception (exit 143): clean-up code runs (staging folders, temporary
+    files), as for Ctrl-C; Python's default would end the process on the spot."""
+    raise SystemExit(128 + signum)
+
+
 def main(argv=None) -> int:
+    """The ``observer-cad`` command (SIGTERM handled as an exit while it runs)."""
+    import signal
+    import threading
+    if threading.current_thread() is not threading.main_thread():
+        return _main(argv)
+    old = signal.signal(signal.SIGTERM, _terminate)
+    try:
+        return _main(argv)
+    finally:
+        signal.signal(signal.SIGTERM, old)
+
+
+def _main(argv=None) -> int:
     parser = build_parser()
     try:
         args = parser.parse_args(argv)

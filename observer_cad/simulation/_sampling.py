@@ -493,6 +493,9 @@ def check_distribution(where: str, what: str, spec, *, declared: bool = False) -
                                  f" (a double), got {_short(v)}")
         if kind == "uniform" and a > b:
             raise UsageError(f"{where}: {what}: uniform low {a} > high {b}")
+        if kind == "uniform" and not math.isfinite(float(b) - float(a)):
+            raise UsageError(f"{where}: {what}: uniform range [{a}, {b}] is wider than a"
+                             " double can hold (high − low overflows)")
         if kind == "normal" and b < 0:
             raise UsageError(f"{where}: {what}: normal std {b} < 0")
         return

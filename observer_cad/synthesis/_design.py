@@ -596,7 +596,11 @@ class Design:
         if recorded:
             mine = {s.name: bool(s.sensitive) for s in sig}
             for name, val in recorded.items():
-                if name in mine and mine[name] != val:
+                if name not in mine:
+                    raise UsageError(f"the design's recorded signature names {name!r}, which is"
+                                     f" not a fault of the model (its faults:"
+                                     f" {', '.join(mine) or 'none'})")
+                if mine[name] != val:
                     raise UsageError(f"the design's recorded signature says {name} is "
                                      f"{'sensitive' if val else 'decoupled'}, but its matrices"
                                      f" make the residual {'sensitive' if mine[name] else 'decoupled'}")

@@ -102,6 +102,8 @@ SCENARIOS = {
     "initial_unknown_state": ('{"steps": 5, "initial": {"x9": 1}}', ("x9",)),
     "observer_initial_list": ('{"steps": 5, "observer_initial": [1]}', ("'observer_initial'",)),
     "observer_initial_nan": ('{"steps": 5, "observer_initial": {"xl1": NaN}}', ("'xl1'",)),
+    "uniform_range_overflows": ('{"steps": 5, "signals": {"u": {"uniform": [-1e308, 1e308]}}}',
+                                ("signal 'u'", "wider than a double can hold")),
     "uniform_reversed": ('{"steps": 5, "signals": {"u": {"uniform": [1, 0]}}}',
                          ("signal 'u'", "low 1 > high 0")),
     "uniform_nan": ('{"steps": 5, "signals": {"u": {"uniform": [NaN, 1]}}}', ("signal 'u'",)),
@@ -477,6 +479,47 @@ def test_write_failure_leaves_out_as_it_was(work, capsys, monkeypatch):
     assert not (work / "new").exists()
 
 
+def test_a_directory_in_the_way_changes_nothing(work, capsys):
+    """A directory where simulate's CSV (or codegen's header) goes: one line naming it,
+    and nothing in --out replaced (the audit saw the figures replaced before the CSV
+    failed, and a hidden staging path in the message)."""
+    out = work / "sim"
+    (out / "signals.csv").mkdir(parents=True)
+    (out / "d_error.png").write_bytes(b"old figure")
+    before = snapshot(out)
+    sc = _write_scenario(work, '{"steps": 5}')
+    rc, stdout, err = run(capsys, ["simulate", DRIVE, "--observer", "unknown-input", "--fault",
+                                   "d", "--scenario", sc, "--out", out])
+    check(rc, stdout, err, 2, str(out / "signals.csv"), "a directory is in the way", work=work)
+    assert ".staging" not in err and snapshot(out) == before
+    cg = work / "cg"
+    (cg / "obs.h").mkdir(parents=True)
+    (cg / "obs.c").write_text("old\n")
+    before = snapshot(cg)
+    rc, stdout, err = run(capsys, ["codegen", DRIVE, "--observer", "unknown-input", "--fault",
+                                   "d", "--name", "obs", "--out", cg])
+    check(rc, stdout, err, 2, str(cg / "obs.h"), work=work)
+    assert snapshot(cg) == before
+
+
+def test_a_failing_simulate_keeps_what_another_wrote_into_its_new_out(work, capsys, monkeypatch):
+    """A new --out that a failing run created is removed only if still empty: another
+    process's results written there meanwhile stay (the audit lost them)."""
+    import errno
+    import observer_cad.reporting as reporting
+
+    def other_process_then_full(res, stage, **kwargs):
+        (work / "new" / "theirs.csv").write_text("their results\n")
+        raise OSError(errno.ENOSPC, "No space left on device", "figure.png")
+
+    monkeypatch.setattr(reporting, "plot_simulation", other_process_then_full)
+    sc = _write_scenario(work, '{"steps": 5}')
+    rc, stdout, err = run(capsys, ["simulate", DRIVE, "--observer", "unknown-input", "--fault",
+                                   "d", "--scenario", sc, "--out", work / "new"])
+    check(rc, stdout, err, 2, "No space left on device", work=work)
+    assert snapshot(work / "new") == {"theirs.csv": b"their results\n"}
+
+
 def test_base_model_of_the_corpus_is_valid(work, capsys):
     path = work / "base.py"
     path.write_text(HEADER + "model = PlantModel(**BASE)\n")
@@ -635,3 +678,31 @@ def test_compiled_simulator_reports_the_same_first_nonfinite_value(tmp_path, mon
     assert str(ref.value).startswith("sc.json: x1 became nan at t = 0.01")
     kept = CompiledSimulator(m, ob).simulate(sc, keep_nonfinite=True)
     assert kept.nonfinite == str(ref.value)
+
+
+@pytest.mark.slow  # a subprocess simulating 400,000 steps until it is stopped: ~5 s
+@pytest.mark.skipif(sys.platform == "win32", reason="SIGTERM")
+def test_sigterm_while_writing_leaves_out_as_it_was(work):
+    """SIGTERM (a scheduler stopping a job) while simulate writes: exit 143, the staging
+    folder removed, --out as it was (Python's default would end the process on the spot
+    and leave the hidden staging folder behind; an audit found it)."""
+    import signal
+    import time
+
+    sc = _write_scenario(work, '{"steps": 400000}')
+    out = work / "out"
+    before = snapshot(out)
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    p = subprocess.Popen([sys.executable, "-m", "observer_cad.cli", "simulate", str(DRIVE),
+                          "--observer", "unknown-input", "--fault", "d", "--engine", "reference",
+                          "--scenario", str(sc), "--out", str(out)],
+                         stdout=subprocess.PIPE, stderr=subprocess.PIPE, env=env, cwd=work)
+    for _ in range(1200):  # until the staging folder exists (the results are being written)
+        if any(q.name.startswith(".staging-") for q in out.iterdir()) or p.poll() is not None:
+            break
+        time.sleep(0.05)
+    assert p.poll() is None, p.communicate()
+    p.send_signal(signal.SIGTERM)
+    p.communicate(timeout=120)
+    assert p.returncode == 143
+    assert snapshot(out) == before

@@ -297,3 +297,11 @@ def test_diagonal_form_follows_from_t_and_the_certified_matrices(designed, name)
     data["matrices"][name][0][0] = f"({data['matrices'][name][0][0]}) + 1"
     with pytest.raises(UsageError, match="not what its T makes|F_diag is not diagonal"):
         Design.from_json(data, model)
+
+
+def test_signature_naming_an_unknown_fault_is_refused(designed):
+    model, d = designed["diagnostic-jordan"]
+    data = json.loads(json.dumps(d.to_json()))
+    data["signature"] = {**(data.get("signature") or {}), "nosuchfault": True}
+    with pytest.raises(UsageError, match="not a fault of the model"):
+        Design.from_json(data, model)
