@@ -881,9 +881,27 @@ def _cmd_analyze(args) -> int:
     return 0
 
 
+class _ShownAs:
+    """A text stream that prints ``final`` where the text says ``staging`` (the demo logs
+    the paths it writes; they are moved from the staging folder into place at the end)."""
+
+    def __init__(self, stream, staging: Path, final: Path):
+        self.stream, self.staging, self.final = stream, str(staging), str(final)
+
+    def write(self, text: str) -> int:
+        return self.stream.write(text.replace(self.staging, self.final))
+
+    def flush(self) -> None:
+        self.stream.flush()
+
+
 def _cmd_demo(args) -> int:
+    from ..files import staged_directory
     from ._demo import EXAMPLES_DIR, run_demo
-    return run_demo(EXAMPLES_DIR, Path(args.out), compile=not args.no_compile)
+    out = Path(args.out)
+    with staged_directory(out) as stage:  # an error leaves an existing --out as it was
+        return run_demo(EXAMPLES_DIR, stage, compile=not args.no_compile,
+                        stream=_ShownAs(sys.stdout, stage, out))
 
 
 def _terminate(signum, frame):  # pragma: no cover - exercised by a subprocess test

@@ -604,6 +604,14 @@ class Design:
                     raise UsageError(f"the design's recorded signature says {name} is "
                                      f"{'sensitive' if val else 'decoupled'}, but its matrices"
                                      f" make the residual {'sensitive' if mine[name] else 'decoupled'}")
+        if sp.Matrix(mats["Phi"]).rows != k or sp.Matrix(mats["F_star"]).shape != (k, k):
+            raise UsageError(f"the design says k = {k}, but Φ has {sp.Matrix(mats['Phi']).rows}"
+                             " rows: not a design this tool writes")
+        if "L_star" in mats and task.observer != ObserverKind.INTERVAL and not approximate:
+            # decoupled: L* = Φ L, which the certificate proved 0 (observers read L*)
+            if not all(_same_expression(e, 0) for e in sp.Matrix(mats["L_star"])):
+                raise UsageError("the design decouples its disturbances (Φ L = 0) but records"
+                                 " L* ≠ 0: not a design this tool writes")
         if "T" in mats:  # the seed-001 diagonal form: what T makes of the certified design
             _check_diagonal_form(made.matrices, plant, task.M)
         _check_substitutions(made, st)  # (after the matrices' own certificates)
@@ -780,3 +788,13 @@ def _check_equations(d: "Design", work) -> None:
         if name not in outs or not _same_expression(e, outs[name]):
             raise UsageError(f"the design's output {name} is not the one its matrices give:"
                              " not a design this tool writes")
+    # and none is missing: the observers read them by name
+    kind = d.observer
+    need = (set(outs) if kind == ObserverKind.SLIDING_MODE else
+            {n for n in outs if n[0] == "z"} if kind in (ObserverKind.VIRTUAL_SENSOR,
+                                                          ObserverKind.INTERVAL) else
+            {n for n in outs if n[0] == "r"} if kind == ObserverKind.DIAGNOSTIC else set())
+    missing = sorted(need - {n for n, _ in d.outputs})
+    if missing:
+        raise UsageError(f"the design's outputs lack {', '.join(missing)}: not a design this"
+                         " tool writes")

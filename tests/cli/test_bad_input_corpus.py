@@ -706,3 +706,18 @@ def test_sigterm_while_writing_leaves_out_as_it_was(work):
     p.communicate(timeout=120)
     assert p.returncode == 143
     assert snapshot(out) == before
+
+
+@pytest.mark.slow  # the whole demo runs before the obstacle is met: ~15 s
+def test_demo_with_an_obstacle_in_out_changes_nothing(work, capsys):
+    """demo writes into a staging folder and moves its files into --out at the end: a
+    directory where report.md goes is one line, exit 2, and --out exactly as it was (a
+    third audit found 51 files written before the error, and a figure's obstacle gave
+    exit 1 with the report replaced)."""
+    out = work / "out"
+    (out / "report.md").mkdir()
+    before = snapshot(out)
+    rc, stdout, err = run(capsys, ["demo", "--no-compile", "--out", out])
+    assert rc == 2 and len(err.splitlines()) == 1, err
+    assert str(out / "report.md") in err and "a directory is in the way" in err
+    assert snapshot(out) == before and ".staging" not in stdout

@@ -305,3 +305,29 @@ def test_signature_naming_an_unknown_fault_is_refused(designed):
     data["signature"] = {**(data.get("signature") or {}), "nosuchfault": True}
     with pytest.raises(UsageError, match="not a fault of the model"):
         Design.from_json(data, model)
+
+
+def test_third_audit_round_tampers_are_refused(designed):
+    """A third audit's tampers that were accepted: L* ≠ 0 in a decoupled design (the
+    unknown-input estimator reads L* and gained disturbance-bound terms), a k that is not
+    Φ's number of rows (interval observers then failed with an IndexError), and an output
+    left out (the virtual sensor failed with a KeyError; a sliding-mode observer lost d_hat)."""
+    model, d = designed["unknown-input-canonical"]
+    data = json.loads(json.dumps(d.to_json()))
+    assert "L_star" in data["matrices"]
+    data["matrices"]["L_star"] = [["1"] * len(r) for r in data["matrices"]["L_star"]]
+    with pytest.raises(UsageError, match="records L\\* ≠ 0"):
+        Design.from_json(data, model)
+    for key in ("interval-canonical", "virtual-sensor-jordan", "sliding-mode"):
+        model, d = designed[key]
+        data = json.loads(json.dumps(d.to_json()))
+        data["k"] = d.k + 1
+        with pytest.raises(UsageError, match="but Φ has"):
+            Design.from_json(data, model)
+    for key, name in (("virtual-sensor-jordan", "z"), ("sliding-mode", "r"),
+                      ("sliding-mode", "d_hat"), ("diagnostic-jordan", "r")):
+        model, d = designed[key]
+        data = json.loads(json.dumps(d.to_json()))
+        del data["outputs"][name]
+        with pytest.raises(UsageError, match=f"outputs lack {name}"):
+            Design.from_json(data, model)
