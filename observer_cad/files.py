@@ -71,9 +71,11 @@ def read_json_file(path, what: str):
 def staged_directory(out_dir):
     """A hidden staging folder inside ``out_dir`` to write a command's files into; when
     the block ends without an exception each file is moved into place (``os.replace``,
-    subfolders kept), otherwise the staging folder is removed — and ``out_dir`` too if
-    this call created it. So an error while writing (a full disk, a plot that fails)
-    leaves ``out_dir`` as it was, never half old and half new."""
+    subfolders kept) once every target has been checked (no directory where a file goes,
+    no file where a folder goes); otherwise the staging folder is removed — and
+    ``out_dir`` too if this call created it and it is still empty. So an error while
+    writing (a full disk, a plot that fails, an obstacle) leaves ``out_dir`` as it was,
+    never half old and half new."""
     out = Path(out_dir)
     created = not out.exists()
     try:

@@ -1,12 +1,12 @@
 """The sliding-mode fault estimator (seed 002 §5) built from its certified design."""
 from __future__ import annotations
 
+import math
+
 import sympy as sp
 
 from ..errors import UsageError
 from ..model import PlantModel
-import math
-
 from ..synthesis import EPS, K1, TAU, Condition, Design, gain_bound
 from ._observer import Observer
 
