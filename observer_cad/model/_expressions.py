@@ -138,13 +138,16 @@ _NARROW_BITS = 320
 
 
 def _narrow_isolating_interval(root) -> None:
-    """Narrow sympy's cached isolating interval of a real ``CRootOf`` to 2⁻³²⁰ of its
-    size by bisection with exact integer signs (milliseconds). sympy refines it by
+    """Narrow sympy's cached isolating interval of a real ``CRootOf`` to 2⁻³²⁰ of the
+    root's size by bisection with exact integer signs (milliseconds; once per root: the
+    cache is sympy's, shared by every CRootOf of the polynomial). sympy refines it by
     continued fractions, which for a root very close to a simple rational takes
     exponentially many steps: ``CRootOf(x**14 - 3*x + 1, 0)`` (≈ 1/3 + 3⁻¹⁵) took 5 s to
     evaluate, degree 16 over a minute, degree 20 never finished. sympy reuses the cached
     interval for every later evaluation of the root (``evalf``, ``float``) to about 90
     digits. Best effort: if sympy's internals differ, the interval is left as it was."""
+    from fractions import Fraction
+
     try:
         from sympy.polys.rootisolation import RealInterval
 
@@ -153,26 +156,26 @@ def _narrow_isolating_interval(root) -> None:
         dom = poly.domain
         if not dom.is_ZZ:
             return
-        lo, hi = sp.Rational(interval.a), sp.Rational(interval.b)
-        coeffs = [int(c) for c in poly.all_coeffs()]
-        deg = len(coeffs) - 1
+        a, b = sp.Rational(interval.a), sp.Rational(interval.b)
+        lo, hi = Fraction(int(a.p), int(a.q)), Fraction(int(b.p), int(b.q))
+        coeffs = [int(c) for c in poly.all_coeffs()]  # highest power first
 
-        def value_sign(r):  # sign of the polynomial at a rational, in integers
-            num, den = int(r.p), int(r.q)
-            total, npow = 0, 1
-            dpow = [1] * (deg + 1)
-            for k in range(1, deg + 1):
-                dpow[k] = dpow[k - 1] * den
-            for i, c in enumerate(reversed(coeffs)):
-                total += c * npow * dpow[deg - i]
-                npow *= num
-            return (total > 0) - (total < 0)
+        def value_sign(r):  # sign of the polynomial at a rational: Horner in integers
+            num, den = r.numerator, r.denominator
+            v, dpow = 0, 1
+            for c in coeffs:
+                v = v * num + c * dpow
+                dpow *= den
+            return (v > 0) - (v < 0)  # v = den^deg · p(num/den), den > 0
+
+        def narrow_enough():
+            return hi - lo <= max(abs(lo), abs(hi)) / 2 ** _NARROW_BITS
 
         s_lo, s_hi = value_sign(lo), value_sign(hi)
-        if lo >= hi or s_lo == 0 or s_hi == 0 or s_lo == s_hi or (lo < 0 < hi):
+        if lo >= hi or s_lo == 0 or s_hi == 0 or s_lo == s_hi or (lo < 0 < hi) \
+                or narrow_enough():
             return
-        width = (hi - lo) / 2 ** _NARROW_BITS
-        while hi - lo > width:
+        while not narrow_enough():
             mid = (lo + hi) / 2
             s_mid = value_sign(mid)
             if s_mid == 0:
@@ -182,7 +185,8 @@ def _narrow_isolating_interval(root) -> None:
             else:
                 hi = mid
         field = dom.get_field()
-        root._set_interval(RealInterval((field(lo.p, lo.q), field(hi.p, hi.q)),
+        root._set_interval(RealInterval((field(lo.numerator, lo.denominator),
+                                         field(hi.numerator, hi.denominator)),
                                         poly.rep.to_list(), dom))
     except Exception:  # pragma: no cover - other sympy internals: sympy's own refinement
         return

@@ -17,7 +17,9 @@ from typing import Mapping
 
 import numpy as np
 import sympy as sp
+from sympy.polys.matrices import DomainMatrix
 from sympy.polys.matrices.exceptions import DMError
+from sympy.polys.polyerrors import CoercionFailed
 
 from ..errors import ObserverCadError, UsageError
 from ..model import ObserverKind, PlantModel, Structure, Task, extract_structure
@@ -26,7 +28,7 @@ from ._certificate import Certificate, certify_design
 from ._conditioning import (CONDITIONING_NAME, CONDITIONING_REFERENCE, conditioning_numbers,
                             conditioning_verdict)
 from ._expr import parse_json_expression
-from ..numerics import with_full_int_text
+from ..numerics import exact_rank_value, with_full_int_text
 from ._poles import certify_poles
 from ._reduced import (INJECTIONS, estimate_outputs, output_symbols, reduced_equations,
                        residual_outputs, sliding_equations)
@@ -713,18 +715,42 @@ def _check_diagonal_form(mats, plant: dict, M) -> None:
     then certified as a design of its own (its identities against the plant)."""
     m = {k: sp.Matrix(v) for k, v in mats.as_dict().items()}
     T = m["T"]
-    if T.rows != T.cols or T.rows != m["F_star"].rows or T.det() == 0:
-        raise UsageError("the design's T is not an invertible k × k matrix: not a design this"
-                         " tool writes")
-    Ti = T.inv()
+    bad_t = UsageError("the design's T is not an invertible k × k matrix: not a design this"
+                       " tool writes")
+    if T.rows != T.cols or T.rows != m["F_star"].rows:
+        raise bad_t
     K = m.get("K", sp.zeros(m["F_star"].rows, m["J_star"].cols))
-    want = {"F_diag": Ti * (m["F_star"] - K * m["H_star"]) * T,
-            "J_diag": Ti * (m["J_star"] + K * m["R_star"]), "Phi_diag": Ti * m["Phi"],
-            "G_diag": Ti * m["G_star"], "Hz_diag": m["Hz"] * T}
-    for name, W in want.items():
-        got = m.get(name)
-        if got is None or got.shape != W.shape or not all(
-                _same_expression(a, b) for a, b in zip(got, W)):
+    try:  # rational matrices (the usual case): exact arithmetic over QQ, fast for long numbers
+        Q = {k: DomainMatrix.from_Matrix(v).convert_to(sp.QQ) for k, v in
+             dict(m, K=K).items() if k in ("T", "F_star", "H_star", "J_star", "R_star", "Phi",
+                                            "G_star", "Hz", "K", "F_diag", "J_diag",
+                                            "Phi_diag", "G_diag", "Hz_diag")}
+        if exact_rank_value(T) < T.rows:
+            raise bad_t
+        # T X = Y instead of X = T⁻¹ Y: products only (inverting a matrix of long rationals
+        # cost seconds)
+        Tq = Q["T"]
+
+        def left(name):  # T · X_diag, or None when the file lacks it or its shape is wrong
+            X = Q.get(name)
+            return Tq * X if X is not None and X.shape[0] == Tq.shape[1] else None
+
+        pairs = {"F_diag": (left("F_diag"), (Q["F_star"] - Q["K"] * Q["H_star"]) * Tq),
+                 "J_diag": (left("J_diag"), Q["J_star"] + Q["K"] * Q["R_star"]),
+                 "Phi_diag": (left("Phi_diag"), Q["Phi"]), "G_diag": (left("G_diag"), Q["G_star"]),
+                 "Hz_diag": (Q.get("Hz_diag"), Q["Hz"] * Tq)}
+        same = {k: a is not None and a.shape == b.shape and a == b for k, (a, b) in pairs.items()}
+    except (CoercionFailed, KeyError):  # parameters or algebraic numbers: sympy, cancelled
+        if T.det() == 0:
+            raise bad_t from None
+        Ti = T.inv()
+        want = {"F_diag": Ti * (m["F_star"] - K * m["H_star"]) * T,
+                "J_diag": Ti * (m["J_star"] + K * m["R_star"]), "Phi_diag": Ti * m["Phi"],
+                "G_diag": Ti * m["G_star"], "Hz_diag": m["Hz"] * T}
+        same = {k: k in m and m[k].shape == W.shape and all(
+            _same_expression(a, b) for a, b in zip(m[k], W)) for k, W in want.items()}
+    for name, ok in same.items():
+        if not ok:
             raise UsageError(f"the design's {name} is not what its T makes of the certified"
                              " matrices: not a design this tool writes")
     if not m["F_diag"].is_diagonal():
