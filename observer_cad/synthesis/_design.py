@@ -28,7 +28,7 @@ from ._certificate import Certificate, certify_design
 from ._conditioning import (CONDITIONING_NAME, CONDITIONING_REFERENCE, conditioning_numbers,
                             conditioning_verdict)
 from ._expr import parse_json_expression
-from ..numerics import exact_rank_value, with_full_int_text
+from ..numerics import exact_rank_value, np_exact, with_full_int_text
 from ._poles import certify_poles
 from ._reduced import (INJECTIONS, estimate_outputs, output_symbols, reduced_equations,
                        residual_outputs, sliding_equations)
@@ -645,9 +645,7 @@ def _float_tolerance(tol, plant: dict, mats: dict, M) -> float:
 
     def nrm(X):
         X = sp.Matrix(X)
-        if not X.rows * X.cols:
-            return 0.0
-        return float(np.linalg.norm(np.array(X.evalf().tolist(), dtype=float)))
+        return float(np.linalg.norm(np_exact(X))) if X.rows * X.cols else 0.0
 
     phi = nrm(mats["Phi"])
     sizes = [phi * nrm(plant[k]) for k in ("F", "G", "D", "L", "C")]
@@ -668,9 +666,8 @@ def _float_tolerance(tol, plant: dict, mats: dict, M) -> float:
 def _residual_norm(recorded, mats: dict, L) -> float:
     """An approximate design's ‖Φ L‖_F, recomputed from the loaded Φ and the model's L; a
     recorded value that differs (beyond rounding) is refused."""
-    Phi = np.array(sp.Matrix(mats["Phi"]).evalf().tolist(), dtype=float)
-    Ln = np.array(sp.Matrix(L).evalf().tolist(), dtype=float).reshape(sp.Matrix(L).shape)
-    value = float(np.linalg.norm(Phi @ Ln)) if Ln.size else 0.0
+    Ln = np_exact(sp.Matrix(L))
+    value = float(np.linalg.norm(np_exact(sp.Matrix(mats["Phi"])) @ Ln)) if Ln.size else 0.0
     if recorded is not None and (isinstance(recorded, bool) or not isinstance(recorded, (int, float))
                                  or abs(recorded - value) > 1e-9 * max(1.0, value)):
         raise UsageError(f"a design's recorded residual_norm {recorded!r} is not ‖Φ L‖_F ="
@@ -762,7 +759,7 @@ def _check_diagonal_form(mats, plant: dict, M) -> None:
 def _float_poles(F, H, K, mu) -> None:
     """A float design's gain: the eigenvalues of F* − K H* are the recorded ones (each
     within 1e-6 relative of its nearest, in floating point)."""
-    A = np.array(sp.Matrix(F - sp.Matrix(K) * sp.Matrix(H)).evalf().tolist(), dtype=complex)
+    A = np_exact(sp.Matrix(F) - sp.Matrix(K) * sp.Matrix(H))
     got = np.sort_complex(np.linalg.eigvals(A))
     want = np.sort_complex(np.array([complex(sp.N(v)) for v in mu]))
     if not np.allclose(got, want, rtol=1e-6, atol=1e-9):
