@@ -404,6 +404,11 @@ def design_jordan(model: PlantModel, *, observer: str, estimate=None,
             and span.analysed and not span.possible and len(chosen) == span.q + 3
             and not lambdas):
         plane = two_more_rows(F, H, L if decoupled else sp.zeros(n, 0), M, LAMBDA, work.time)
+        if plane.possible and plane.rows:  # the rows of a (q + 2)-row model, exactly
+            alt = _given_rows(F, H, plane.lambdas, plane.rows, observer, D, M, st, tried,
+                              names)
+            if alt is not None:
+                chosen = alt
     for size in range(1, n) if chosen is None else ():  # fewest rows first, every strategy
         chosen = _combination_rows(pool, n, observer, H, D, M, st, tried, names, (size,))
         if chosen is None and sums:  # the basis rows alone do not do it: generic members too
@@ -568,6 +573,18 @@ def _rows_at(F, H, L0, lams, observer, D, M, st, tried, names=()):
         if len(rows_phi) != 1:
             return None
         rows.append((lam, rows_phi[0], rows_j[0]))
+    return rows if _check_rows(rows, len(rows), observer, H, D, M, st, tried, names) else None
+
+
+def _given_rows(F, H, lams, phis, observer, D, M, st, tried, names=()):
+    """Rows Φ_i of λ_i given exactly (:func:`two_more_rows`), with J*_i from
+    Φ_i (F − λ_i I) = J*_i H, when they satisfy the task, else None."""
+    rows = []
+    for lam, phi in zip(lams, phis):
+        J = solve_left(H, exact_product(phi, F - lam * sp.eye(F.rows)))
+        if J is None:  # pragma: no cover - the rows of λ satisfy it by construction
+            return None
+        rows.append((lam, phi, J))
     return rows if _check_rows(rows, len(rows), observer, H, D, M, st, tried, names) else None
 
 
