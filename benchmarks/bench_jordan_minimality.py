@@ -16,14 +16,15 @@ rows where two are impossible for every λ (the defaults gave four before), and 
 with a decoupled disturbance where one row fewer than a basis modulo the outputs is
 decided exactly and impossible (test_signs_and_boxes.py), a nine-state plant with a
 decoupled disturbance where three rows are impossible (lines of P³), a nine-state
-plant reaching q + c − f rows (its least order not known), and a ten-state plant whose
-search ranks many matrices of algebraic numbers (its least order not known either).
+plant reaching q + c − f rows where four are impossible (planes of R⁵), and a ten-state
+plant whose search ranks many matrices of algebraic numbers and whose four rows come from
+the 3-space decision (two quadratic-surd λ).
 For each: ``design_jordan`` with the default λ list requested (what the search did before:
 −1, −2, … / 1/2, 1/4, …) and with the new search (defaults plus the exact special λ). Reported: k (or "none" when the defaults give
 no design), the λ found, median wall and CPU time of ``--runs`` calls. Target: the new
-search reaches the minimal k (known by construction) and proves it — met/MISSED; for a
-plant whose least order is not known (the nine- and ten-state rows) the target is the k reached,
-certified, with the minimality condition reporting the range.
+search reaches the minimal k (known by construction or proven) and proves it — met/MISSED;
+a plant whose least order were not known would have the k reached, certified, as its target
+(marked ≤ k), with the minimality condition reporting the range.
 """
 from __future__ import annotations
 
@@ -127,18 +128,19 @@ def cases(slow: bool):
     out.append(("`random_model(9, 3, 1, seed=0)`, z = (x1, x2), disturbance decoupled"
                 " (3 rows impossible)", random_model(9, 3, 1, seed=0, time="continuous"),
                 sp.eye(9)[:2, :], 4))
-    # nine states: c − f = 3 more rows than q through four λ (before: six rows); the least
-    # order lies in [4, 5] (q + 2 rows with e + f < c are not analysed), so the target is
-    # k = 5 certified, not a proof
-    out.append(_z12(9, 0, 0, "continuous", " (6 rows before e = c − f; least order in [4, 5])",
-                    5) + (False,))
+    # nine states: c − f = 3 more rows than q through four λ (before: six rows); four rows
+    # are impossible (planes of R⁵: the 3-spaces meeting every W(λ)), so five are minimal
+    # (before d50ec10: least order in [4, 5])
+    out.append(_z12(9, 0, 0, "continuous", " (6 rows before e = c − f; 4 rows impossible)",
+                    5))
     # ten states, three outputs, a decoupled disturbance: the search ranks many matrices
     # built from algebraic λ (CRootOf of the drops of P(λ)); 42 s (5cc9ed6) before their number
-    # field was built once per set of numbers and products computed in it; least order in
-    # [4, 5], so the target is k = 5 certified, not a proof
+    # field was built once per set of numbers and products computed in it. The 3-space
+    # decision (planes of R⁵) finds four rows, two λ quadratic surds: the subspace bound
+    # (before d50ec10: five rows, least order in [4, 5])
     out.append(("`random_model(10, 3, 1, seed=1)`, z = (x1, x2), disturbance decoupled"
-                " (algebraic λ tried; least order in [4, 5])",
-                random_model(10, 3, 1, seed=1, time="continuous"), sp.eye(10)[:2, :], 5, False))
+                " (5 rows before the 3-space decision)",
+                random_model(10, 3, 1, seed=1, time="continuous"), sp.eye(10)[:2, :], 4))
     if slow:
         out.append(("unmeasured companion block, λ³ + 6λ² + 8λ + 1", PlantModel(
             name="cubic", time="continuous", states=[x1, x2, x3, x4], inputs=[u], outputs=[x4],
@@ -181,11 +183,13 @@ def _k(d):
 
 
 def _lam(v):
-    """A λ as printed; a long rational (over 24 characters) by its value and length."""
+    """A λ as printed; a long rational or quadratic surd (over 24 characters) by its value
+    and length."""
     txt = str(v)
-    if len(txt) <= 24 or not v.is_Rational:
+    if len(txt) <= 24 or not (v.is_Rational or v.is_algebraic and not v.has(sp.CRootOf)):
         return txt
-    return f"≈ {float(v):.6g} (exact rational, {len(txt)} characters)"
+    kind = "rational" if v.is_Rational else "algebraic"
+    return f"≈ {float(v):.6g} (exact {kind}, {len(txt)} characters)"
 
 
 def _lams(d):

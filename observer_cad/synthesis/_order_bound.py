@@ -240,7 +240,9 @@ def one_row_short(F, H, L, M, lam, time: str) -> OneMoreRow:
 def two_more_rows(F, H, L, M, lam, time: str) -> OneMoreRow:
     """Decide exactly whether a Jordan model of z = M x with q + 2 rows can exist when the
     rows of each λ have a 2-dimensional image W(λ) modulo rowspace [M; H] in c = 4
-    dimensions — 2-planes of R⁴, lines of P³ (METHOD §2b, "two more rows").
+    dimensions — 2-planes of R⁴, lines of P³ (METHOD §2b, "two more rows") — or in c = 5
+    dimensions (:func:`_space_rows`: the plane U then lies in one of finitely many
+    3-spaces meeting every W(λ)).
 
     Same preconditions as :func:`one_more_row` (M reduced to q rows; no row of a real
     stable λ inside rowspace [M; H] outside rowspace H; no family jump), and fewer rows
@@ -263,7 +265,7 @@ def two_more_rows(F, H, L, M, lam, time: str) -> OneMoreRow:
       (:func:`quadric_cover`, exact).
 
     Anything else is not analysed; a root set where the condition holds is reported (the
-    design search then has to find the rows)."""
+    design search then has to find the rows; for c = 5 the rows are returned too)."""
     return _hyperplane_rows(F, H, L, M, lam, time, "plane")
 
 
