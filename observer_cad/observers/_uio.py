@@ -785,7 +785,7 @@ def vector_unknown_input_observer(model: PlantModel, names: Sequence[str] | None
     default 1/2); ``designs`` may supply them instead. ``g`` maps a component to its gains.
     Outputs ``<name>_hat`` for every component, each with its own delay.
     """
-    from ..synthesis import design_canonical
+    from ..synthesis import design_canonical, design_jordan_unknown_input
     names = list(names) if names else [f.name for f in model.faults]
     if not names:
         raise ModelError(f"{model.where}: no unknown inputs to estimate")

@@ -18,7 +18,7 @@ import pytest
 import sympy as sp
 
 from observer_cad import PlantModel, design_canonical, load_model
-from observer_cad.errors import ObserverCadError, UsageError
+from observer_cad.errors import InfeasibleDesignError, ObserverCadError, UsageError
 from observer_cad.simulation import load_scenario, scenario_from_dict, simulate
 from observer_cad.observers import ALPHA, ALPHA_PREV, combine_observers, default_gains, derive_estimate, unknown_input_observer, vector_unknown_input_observer
 from observer_cad.synthesis import design_jordan_unknown_input
@@ -340,6 +340,24 @@ def test_vector_unknown_input():
     res = simulate(m, obs, sc)
     assert np.max(np.abs(_valid(res["d1_hat"], 1) - res["d1"][:-1])) < TOL
     assert np.max(np.abs(_valid(res["d2_hat"], 2) - res["d2"][:-2])) < TOL
+
+
+def test_vector_unknown_input_jordan_form():
+    """form="jordan" (the one-row λ-model per component) was a NameError; d1 has a
+    one-row estimator, which tracks d1 exactly after its delay; d2 (mismatched) has none
+    with one row, and the refusal names it."""
+    m = _vector_model()
+    obs = vector_unknown_input_observer(m, ["d1"], form="jordan", lambdas={"d1": R(1, 4)})
+    assert [n for n, _ in obs.outputs] == ["d1_hat"] and obs.delays == {"d1_hat": 1}
+    sc = scenario_from_dict({"steps": 60, "seed": 7, "initial": {"x1": 0.5, "x2": -1, "x3": 2},
+                             "signals": {"u": "sin(t/3)", "d1": "0.5*sin(t/2)",
+                                         "d2": {"uniform": [-1, 1]}}})
+    res = simulate(m, obs, sc)
+    assert np.max(np.abs(_valid(res["d1_hat"], 1) - res["d1"][:-1])) < TOL
+    with pytest.raises(InfeasibleDesignError, match="d2"):
+        vector_unknown_input_observer(m, form="jordan")
+    with pytest.raises(UsageError, match="form must be"):
+        vector_unknown_input_observer(m, form="diagonal")
 
 
 def test_combine_observers_matches_separate_ones(drive, d_designs, rho_design, scen):
