@@ -120,8 +120,8 @@ def cases(slow: bool):
     out.append(_z12(8, 0, 8, "discrete", " (4 rows impossible)", 5))
     # a basis modulo the outputs (six rows), each λ with one row: one row fewer decided
     # exactly (one_row_short) and impossible, so six rows are minimal (before: [5, 6])
-    for time in ("continuous", "discrete"):
-        out.append(_z12(8, 1, 0, time, ", disturbance decoupled (5 rows impossible)", 6))
+    for time_ in ("continuous", "discrete"):
+        out.append(_z12(8, 1, 0, time_, ", disturbance decoupled (5 rows impossible)", 6))
     # nine states, three outputs, a decoupled disturbance: three rows impossible (three
     # lines of P³ through one point: a resultant without real stable roots), so four rows
     # are minimal (before: [3, 4])

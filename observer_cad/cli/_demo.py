@@ -489,7 +489,7 @@ def fig_bank_residuals(diag: DiagOutcome, path):
     a.legend(loc="upper left", ncols=2, fontsize=8)
     lo, hi = float(np.min(res[fault])), float(np.max(res[fault]))
     a.set_ylim(min(lo, -0.25) - 0.05, hi + 0.35)
-    before_mask, after_mask = t < t_f, t >= t_f + 2.0
+    before_mask = t < t_f
     moved, stats = [], []
     scale = max(float(np.max(np.abs(res[f"r{i}"]))) for i in range(1, m + 1))
     for i, ax in enumerate(axes[1:], 1):

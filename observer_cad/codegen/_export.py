@@ -45,7 +45,6 @@ from pathlib import Path
 from typing import Mapping
 
 import casadi as ca
-import sympy as sp
 
 from ..files import atomic_write_text
 from ..errors import UsageError

@@ -54,7 +54,6 @@ from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import numpy as np
-import sympy as sp
 
 from ..errors import UsageError
 from ..model import PlantModel

@@ -59,7 +59,7 @@ import math
 import tokenize
 import re
 from decimal import Decimal, InvalidOperation
-from typing import Iterable, Mapping
+from typing import Mapping
 
 import sympy as sp
 

@@ -198,7 +198,6 @@ def resolve_task(model: PlantModel, *, observer, faults: Sequence[str] | str | N
     kind = ObserverKind.parse(observer)
     where = model.where
     fault_names, extra = _names(faults), _names(disturbances)
-    declared = ", ".join(s.name for s in model.faults + model.disturbances) or "none"
 
     def lookup(name, role, allowed):
         sym = model.symbol(name)

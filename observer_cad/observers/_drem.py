@@ -122,7 +122,6 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from pathlib import Path
 from typing import Mapping, Sequence
 
 import numpy as np

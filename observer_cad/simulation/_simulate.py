@@ -32,7 +32,6 @@ import json
 import math
 import numbers
 import os
-from pathlib import Path
 from typing import Mapping
 
 import numpy as np
@@ -611,7 +610,6 @@ def simulate(model: PlantModel, observer: Observer | None, scenario: Scenario, *
     X[:len(xs), :, 0] = draws.x0.T
     X[len(xs):, :, 0] = draws.xi0.T
     U = np.ascontiguousarray(np.moveaxis(Vall, 2, 0)) if ins else np.zeros((0, R, N))
-    nx = X.shape[0]
     with np.errstate(all="ignore"):  # non-finite values are reported below, not warned
         if R == 1:
             _integrate(f_joint.raw, X[:, 0, :], U[:, 0, :], [v[0] for v in pvals], t,

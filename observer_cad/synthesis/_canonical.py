@@ -50,7 +50,7 @@ from ..progress import report
 from ..numerics import SingleThreadBLAS, np_exact, to_sympy_float
 from ._certificate import certify_design, certify_reduced_model
 from ._design import Condition, Design
-from ..errors import InfeasibleDesignError, ModelError, UsageError
+from ..errors import InfeasibleDesignError, UsageError
 from ._reduced import observer_symbols, output_symbols, reduced_equations, residual_outputs
 from ._task import task_for
 from ..model import PlantModel, Task

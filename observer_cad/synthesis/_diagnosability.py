@@ -80,7 +80,7 @@ from sympy.polys.matrices import DomainMatrix
 
 from ..errors import ModelError, UsageError
 from ..model import PlantModel, Structure, extract_structure, parse_estimate
-from ..numerics import (SingleThreadBLAS, echelon_rows, exact_rank, exact_rank_value,
+from ..numerics import (SingleThreadBLAS, exact_rank, exact_rank_value,
                         left_null_echelon, left_null_space, np_exact, nonzero_conditions,
                         rational_left_null, rational_rref)
 from ._canonical import FLOAT_AUTO_N, krylov_blocks, member_to_phi

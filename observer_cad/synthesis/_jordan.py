@@ -36,7 +36,7 @@ import sympy as sp
 from ..progress import report
 from ._certificate import certify_design
 from ._design import Condition, Design
-from ..errors import ExpressionError, InfeasibleDesignError, ModelError, UsageError
+from ..errors import ExpressionError, InfeasibleDesignError, UsageError
 from ..model import ObserverKind, PlantModel, Task, parse_expression
 from ._nonlinear import substitute_arguments
 from ._poles import default_eigenvalues
@@ -50,7 +50,8 @@ from ._task import task_for, task_parts
 from ._jordan_float import design_jordan_float
 from ._canonical import FLOAT_AUTO_N
 from ..model import Structure, extract_structure
-from ..numerics import denominator_conditions, echelon_rows, exact_product, exact_rank, exact_rank_value, left_null_echelon, left_null_space, nonzero_conditions, solve_left
+from ..numerics import (denominator_conditions, exact_product, exact_rank, exact_rank_value,
+                        left_null_echelon, left_null_space, nonzero_conditions, solve_left)
 from ..numerics import float_left_null_space, float_rank, rationalize_floats
 
 __all__ = ["Admissible", "admissible_lambdas", "design_jordan", "design_jordan_unknown_input"]

@@ -81,7 +81,7 @@ from ._canonical import krylov_blocks
 from ._task import task_parts
 from ._certificate import certify_design
 from ._design import Condition, Design
-from ..errors import InfeasibleDesignError, ModelError, ObserverCadError, UsageError
+from ..errors import InfeasibleDesignError, ObserverCadError, UsageError
 from ._poles import default_eigenvalues
 from ._reduced import (estimate_outputs, is_stable, named_outputs, observer_symbols,
                        output_symbols, reduced_equations)

@@ -29,7 +29,7 @@ from ._poles import (closed_loop_eigenvalues, default_eigenvalues, parse_eigenva
                      require_stable)
 from ._certificate import certify_design
 from ._design import Condition, Design
-from ..errors import InfeasibleDesignError, ModelError, UsageError
+from ..errors import InfeasibleDesignError, UsageError
 from ._reduced import estimate_outputs, observer_symbols, output_symbols, reduced_equations
 from ._task import task_for
 from ..model import PlantModel, Task
