@@ -610,6 +610,10 @@ class DremDesign:
         filters = data.get("filters")
         if not isinstance(filters, list) or not filters:
             raise UsageError("a DREM design's 'filters' must be a non-empty list")
+        for i, f in enumerate(filters, 1):
+            if not isinstance(f, dict) or not isinstance(f.get("poles"), list) or not f["poles"]:
+                raise UsageError(f"a DREM design's filter {i} needs 'poles' as a non-empty list"
+                                 " of numbers (e.g. [\"-1\", \"-2\"])")
         try:
             poles = [[float(parse_json_expression(v, {}, "filters.poles")) for v in f["poles"]]
                      for f in filters]

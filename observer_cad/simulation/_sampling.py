@@ -168,6 +168,10 @@ def _coefficients(spec, t, where, name, bounds=None):
             use = c & ~taken
             base[use], su[use], sn[use] = b[use], u[use], n[use]
             taken |= c
+        if not taken.all():  # (it was 0 there, silently)
+            raise UsageError(f"{where}: signal '{name}': no piecewise condition holds at"
+                             f" t = {float(t[~taken][0]):g}; add a last segment [value, true]"
+                             " for the times the others leave out")
         return base, su, sn
     if isinstance(spec, str):
         e = parse_expression(spec, {"t": _T}, where=f"{where}: signal '{name}'")

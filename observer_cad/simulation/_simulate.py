@@ -235,7 +235,12 @@ class Scenario:
         ratio = self.t_end / self.dt
         if not math.isfinite(ratio) or ratio > 2 ** 62:
             raise UsageError(f"{where}: t_end / dt = {self.t_end} / {self.dt} is too many steps")
-        return int(round(ratio)) + 1
+        steps = int(round(ratio))
+        if abs(ratio - steps) > 1e-9 * max(1.0, ratio):  # the grid would not end at t_end
+            raise UsageError(f"{where}: 't_end' = {self.t_end} is not a whole number of steps"
+                             f" 'dt' = {self.dt} (t_end / dt = {ratio:.6g}: the time grid would"
+                             f" end at {steps * self.dt:.6g}); choose dt = t_end / N")
+        return steps + 1
 
     def grid(self, time: str) -> np.ndarray:
         n = self.size(time)

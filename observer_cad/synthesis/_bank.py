@@ -49,16 +49,16 @@ REQUESTED = "requested structure"
 BEST = "best achievable"
 
 
-def parse_structure(text, faults: Sequence[str]) -> tuple:
+def parse_structure(text, faults: Sequence[str], what: str = "--structure") -> tuple:
     """Rows like ``"110,101,011"`` (or a list of such strings / of 0-1 sequences) →
-    a tuple of 0/1 tuples, one entry per fault."""
+    a tuple of 0/1 tuples, one entry per fault. ``what`` names the source in messages."""
     m = len(faults)
     if isinstance(text, str):
         items = [t.strip() for t in text.replace(";", ",").split(",") if t.strip()]
     else:
         items = list(text)
     if not items:
-        raise UsageError("--structure needs at least one row, e.g. 110,101,011")
+        raise UsageError(f"{what} needs at least one row, e.g. 110,101,011")
     rows = []
     for i, item in enumerate(items, 1):
         cells = list(item) if isinstance(item, str) else list(item)
@@ -67,13 +67,13 @@ def parse_structure(text, faults: Sequence[str]) -> tuple:
         except (TypeError, ValueError):
             row = ()
         if len(row) != m or any(c not in (0, 1) for c in row):
-            raise UsageError(f"--structure row {i} {item!r}: give {m} digits 0/1, one per fault"
+            raise UsageError(f"{what} row {i} {item!r}: give {m} digits 0/1, one per fault"
                              f" ({', '.join(faults)})")
         if not any(row):
-            raise UsageError(f"--structure row {i} {item!r} is all zeros: a residual that sees"
+            raise UsageError(f"{what} row {i} {item!r} is all zeros: a residual that sees"
                              " no fault detects nothing")
         if row in rows:
-            raise UsageError(f"--structure row {i} {item!r} repeats row {rows.index(row) + 1}:"
+            raise UsageError(f"{what} row {i} {item!r} repeats row {rows.index(row) + 1}:"
                              " a second residual with the same signature adds nothing")
         rows.append(row)
     return tuple(rows)
@@ -198,7 +198,8 @@ class ResidualBank:
                 raise ModelError(f"{model.where}: the bank's column '{f}' is not a fault or"
                                  " disturbance of the model")
         rows = parse_structure([[c for c in r] if isinstance(r, list) else r
-                                for r in data["structure_matrix"]], faults)
+                                for r in data["structure_matrix"]], faults,
+                               "the bank's 'structure_matrix'")
         if len(rows) != len(data["designs"]):
             raise UsageError("a residual bank needs one design per structure row")
         designs = tuple(Design.from_json(dj, model) for dj in data["designs"])

@@ -125,6 +125,9 @@ SCENARIOS = {
     "signal_import_only": (json.dumps({"steps": 5, "signals": {"u": PAYLOAD}}), ("signal 'u'",)),
     "signal_builtins": (json.dumps({"steps": 5, "signals": {
         "u": "t.__class__.__base__.__subclasses__()"}}), ("attribute access",)),
+    "piecewise_without_default": ('{"steps": 5, "signals": {"u": {"piecewise": [["1", "t < 3"]]}}}',
+                                  ("signal 'u'", "no piecewise condition holds at t = 3",
+                                   "[value, true]")),
     "signal_lambda": ('{"steps": 5, "signals": {"u": "(lambda: 1)()"}}', ("signal 'u'",)),
     "signal_subscript": ('{"steps": 5, "signals": {"u": "t[0]"}}', ("subscript",)),
     "signal_string": ('{"steps": 5, "signals": {"u": "\'abc\'"}}', ("a string",)),

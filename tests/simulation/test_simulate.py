@@ -40,6 +40,25 @@ def test_continuous_rk4_converges_to_exact_solution():
     assert errs[0] < 1e-6 and errs[1] < errs[0] / 10  # fourth order
 
 
+@pytest.mark.parametrize("t_end, dt, ok", [(1, 0.3, False), (1, 0.35, False), (1, 0.4, False),
+                                         (20, 0.01, True), (1, 0.1, True), (3, 1 / 3, True)])
+def test_t_end_must_be_a_whole_number_of_steps(t_end, dt, ok):
+    """t_end = 1, dt = 0.3 stopped at t = 0.9 (and dt = 0.35 ran to 1.05) without a word:
+    the grid must end at t_end, so a t_end that is not a whole number of steps is one
+    line naming both (rounding of t_end / dt, as 20 / 0.01, is allowed)."""
+    x = sp.Symbol("x")
+    m = PlantModel(name="decay", time="continuous", states=[x], outputs=[x], dynamics=[-x])
+    sc = scenario_from_dict({"t_end": t_end, "dt": dt, "initial": {"x": 1}}, source="s.json")
+    if ok:
+        r = simulate(m, None, sc)
+        assert abs(r["t"][-1] - t_end) < 1e-9 * t_end
+        return
+    with pytest.raises(UsageError) as info:
+        simulate(m, None, sc)
+    msg = str(info.value)
+    assert "s.json" in msg and "whole number of steps" in msg and "\n" not in msg
+
+
 def test_seeded_runs_are_reproducible_and_vectorised(models_dir):
     m = load_model(models_dir / "three_tank_linear.py")
     sc = scenario_from_dict({"t_end": 1, "dt": 0.1, "seed": 9,

@@ -165,6 +165,16 @@ def test_drem_design_rebuilds_from_its_json(models_dir):
         DremDesign.from_json(data, model, spec)
 
 
+@pytest.mark.parametrize("filters", [[{"poles": "-1"}], [{"poles": []}], [{"K": ["1"]}], ["-1"]])
+def test_drem_json_with_malformed_poles_is_one_line(models_dir, filters):
+    """'poles' given as text was read character by character ("cannot read '-'")."""
+    from observer_cad.observers import DremDesign, load_drem
+    model, spec = load_drem(models_dir / "drem_example.py")
+    with pytest.raises(UsageError, match="filter 1 needs 'poles' as a non-empty list"):
+        DremDesign.from_json({"observer": "drem", "filters": filters, "gamma": "1"}, model,
+                             spec)
+
+
 def test_read_design_json_with_the_model_gives_a_buildable_design(designed, tmp_path):
     from observer_cad.reporting import read_design_json, write_design_json
     model, d = designed["unknown-input-canonical"]

@@ -118,6 +118,11 @@ def test_bank_json_round_trip_rechecks_rows(tanks):
     data["structure_matrix"][0] = [1, 1, 1]  # tampered: residual 1 does not see f1
     with pytest.raises(UsageError, match="r1"):
         ResidualBank.from_json(data, m)
+    # a bank file's own rows are named as such (the messages spoke of --structure)
+    for rows, needle in (([], "the bank's 'structure_matrix' needs at least one row"),
+                         ([[0, 0, 0]], "the bank's 'structure_matrix' row 1 .* all zeros")):
+        with pytest.raises(UsageError, match=needle):
+            ResidualBank.from_json({**data, "structure_matrix": rows}, m)
 
 
 def test_simulated_step_in_f2_moves_its_column_only(tanks):
