@@ -1518,14 +1518,25 @@ def _cell_points(polys) -> list:
     polys = [q for q in polys if q.degree() > 0]
     if not polys:
         return [sp.Integer(0)]
-    prod = polys[0]
-    for q in polys[1:]:
-        prod = prod * q
-    ends = _separated_roots(prod.sqf_part())
+    # disjoint isolating intervals of the roots of all of them (sympy isolates each and
+    # separates the overlaps: far cheaper than isolating the product, whose roots crowd)
+    ends = sorted((sp.Rational(a), sp.Rational(b)) for (a, b), _ in sp.intervals(polys))
     if not ends:
         return [sp.Integer(0)]
-    return ([ends[0][0] - 1] + [(ends[i][1] + ends[i + 1][0]) / 2 for i in range(len(ends) - 1)]
-            + [ends[-1][1] + 1])
+    points = [ends[0][0] - 1]
+    for (_, hi), (lo, _) in zip(ends, ends[1:]):
+        if hi < lo:
+            points.append((hi + lo) / 2)
+        elif hi == lo and all(q(hi) != 0 for q in polys):  # touching at a non-root
+            points.append(hi)
+        else:  # pragma: no cover - (not expected) the product's roots, isolated apart
+            prod = polys[0]
+            for q in polys[1:]:
+                prod = prod * q
+            ends = _separated_roots(prod.sqf_part())
+            return ([ends[0][0] - 1] + [(ends[i][1] + ends[i + 1][0]) / 2
+                                        for i in range(len(ends) - 1)] + [ends[-1][1] + 1])
+    return points + [ends[-1][1] + 1]
 
 
 def _separated_roots(poly) -> list:

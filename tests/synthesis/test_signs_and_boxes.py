@@ -15,13 +15,41 @@ from observer_cad.numerics import gordan_alternative, left_null_space
 from observer_cad.synthesis import design_jordan
 from observer_cad.synthesis._box_cover import box_cover, quadric_cover
 from observer_cad.synthesis._jordan import _rows_at
-from observer_cad.synthesis._order_bound import chain_order, family_order, one_row_short
+from observer_cad.synthesis._order_bound import (_cell_points, chain_order, family_order,
+                                                 one_row_short)
 
 LAM = sp.Symbol("lambda")
 
 
 def _minimal(d):
     return next(c for c in d.conditions if c.name == "k is minimal over λ")
+
+
+# --- cell points of the line decisions -------------------------------------------------
+
+@settings(max_examples=25, deadline=None)
+@given(roots=st.lists(st.integers(-40, 40), min_size=1, max_size=6),
+       shift=st.integers(1, 10 ** 6), data=st.data())
+def test_cell_points_separate_every_real_root(roots, shift, data):
+    """One point in each open interval cut by the real roots of all the polynomials
+    (shared roots, rational roots, roots 10⁻⁶ apart, factors without real roots): sorted,
+    and exactly i roots below the i-th point — counted by sympy's real_roots of each
+    polynomial, independently of the isolation the points come from."""
+    x = sp.Symbol("x")
+    polys = []
+    for _ in range(data.draw(st.integers(1, 3))):
+        picked = data.draw(st.lists(st.sampled_from(roots), min_size=1, max_size=3))
+        f = sp.Mul(*[(x - sp.Rational(r, 7)) for r in picked])
+        if data.draw(st.booleans()):
+            f *= (x - sp.Rational(roots[0], 7) - sp.Rational(1, shift))  # a crowded root
+        if data.draw(st.booleans()):
+            f *= x ** 2 + 1
+        polys.append(sp.Poly(sp.expand(f), x))
+    pts = _cell_points(polys)
+    distinct = sorted(set().union(*[set(p.real_roots()) for p in polys]))
+    assert len(pts) == len(distinct) + 1 and pts == sorted(pts)
+    for i, v in enumerate(pts):
+        assert sum(1 for r in distinct if r < v) == i and v not in distinct
 
 
 # --- Gordan's alternative -------------------------------------------------------------
