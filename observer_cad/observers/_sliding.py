@@ -1,6 +1,7 @@
 """The sliding-mode fault estimator (seed 002 §5) built from its certified design."""
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import sympy as sp
@@ -35,13 +36,25 @@ def sliding_observer(model: PlantModel, design: Design) -> Observer:
             raise UsageError(f"the sliding-mode design's parameter {sym} must be a finite"
                              f" positive number, got {v}")
     k1v = float(params[K1])
-    gb = gain_bound(model, design, lipschitz=0.0)  # (only d* and D* are used here)
-    need = gb.d_star * abs(gb.D_star)
-    conditions = tuple(design.conditions) + (Condition(
-        "k1 > d*|D*| (recomputed from the model on building)", k1v > need,
-        f"k1 = {k1v:.6g}, d*|D*| = {need:.6g}" + ("" if k1v > need else
-                                                   " — no sliding mode: d̂ saturates"),
-        "seed 002 eq. (5.5) corrected"),)
+    inputs = design.sliding_inputs
+    if inputs is not None:
+        # the whole bound, for these gains: the recorded gain conditions were computed
+        # for the gains of the design run, which a design file may have changed
+        gb = gain_bound(model, design, delta=inputs.delta, lipschitz=inputs.lipschitz)
+        eps = None if sign else float(params[EPS])
+        fresh = gb.conditions(k1v, eps)
+        names = {c.name for c in fresh}
+        conditions = tuple(c for c in design.conditions if c.name not in names) + tuple(
+            dataclasses.replace(c, name=c.name + " (recomputed on building)")
+            if c.name.startswith("sliding gain bound") else c for c in fresh)
+    else:  # (a design file written before δ and N* were recorded)
+        gb = gain_bound(model, design, lipschitz=0.0)  # (only d* and D* are used here)
+        need = gb.d_star * abs(gb.D_star)
+        conditions = tuple(design.conditions) + (Condition(
+            "k1 > d*|D*| (recomputed from the model on building)", k1v > need,
+            f"k1 = {k1v:.6g}, d*|D*| = {need:.6g}" + ("" if k1v > need else
+                                                       " — no sliding mode: d̂ saturates"),
+            "seed 002 eq. (5.5) corrected"),)
     vtext = "sign(e)" if sign else "e/(|e| + ε)"
     est = "v_f, v_f' = (sign(e) − v_f)/τ" if sign else "e/(|e| + ε)"
     fault = design.unknown_input

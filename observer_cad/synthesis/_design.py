@@ -35,7 +35,7 @@ from ._reduced import (INJECTIONS, estimate_outputs, output_symbols, reduced_equ
 from ._signature import fault_signature
 
 __all__ = ["Condition", "Design", "DesignMatrices", "DesignRequest", "Form", "Method",
-           "NonlinearSubstitution", "MATRIX_ORDER"]
+           "NonlinearSubstitution", "SlidingGainInputs", "MATRIX_ORDER"]
 
 #: Order in which a design's matrices are printed and serialised.
 MATRIX_ORDER = ("Phi", "F_star", "J_star", "R_star", "H_star", "G_star", "D_star", "L_star",
@@ -162,6 +162,39 @@ class DesignMatrices:
 
 
 @dataclasses.dataclass(frozen=True)
+class SlidingGainInputs:
+    """What a sliding-mode design's gain bound rests on besides the model (seed 002 §5,
+    :func:`observer_cad.synthesis.gain_bound`): ``delta`` bounds |x̂*(0) − x*(0)|,
+    ``lipschitz`` is the Lipschitz constant N* of C*Ψ* in x* (None when C* = 0). Recorded
+    so that building the observer recomputes the bound for the gains it is given."""
+
+    delta: float
+    lipschitz: float | None = None
+
+    def __post_init__(self):
+        for name in ("delta", "lipschitz"):
+            v = getattr(self, name)
+            if v is None and name == "lipschitz":
+                continue
+            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) \
+                    or v < 0 or (name == "delta" and v == 0):
+                raise UsageError(f"a sliding-mode design's {name} must be a finite"
+                                 f" {'positive' if name == 'delta' else 'non-negative'} number,"
+                                 f" got {v!r}")
+            object.__setattr__(self, name, float(v))
+
+    def to_json(self) -> dict:
+        return {"delta": self.delta, "lipschitz": self.lipschitz}
+
+    @classmethod
+    def from_json(cls, data) -> "SlidingGainInputs":
+        if not isinstance(data, dict) or set(data) - {"delta", "lipschitz"} or "delta" not in data:
+            raise UsageError("a design's 'sliding_inputs' must be an object with 'delta' (and"
+                             " 'lipschitz')")
+        return cls(data["delta"], data.get("lipschitz"))
+
+
+@dataclasses.dataclass(frozen=True)
 class DesignRequest:
     """The options of :func:`observer_cad.synthesis` that reproduce a design, with every
     choice the synthesis made filled in (the λ and closed-loop eigenvalues it used, the
@@ -275,6 +308,7 @@ class Design:
     parameters: Mapping = dataclasses.field(default_factory=dict)  # observer gains: symbol → value
     request: DesignRequest | None = None
     signature: tuple = ()  # of FaultSensitivity: every declared fault vs the residual
+    sliding_inputs: SlidingGainInputs | None = None  # sliding-mode designs: δ, N*
 
     def __post_init__(self):
         if isinstance(self.matrices, Mapping):
@@ -438,6 +472,8 @@ class Design:
             "request": self.request.to_json() if self.request is not None else None,
             "signature": self.signature_map,
             "signature_detail": [s.to_json() for s in self.signature],
+            **({"sliding_inputs": self.sliding_inputs.to_json()}
+               if self.sliding_inputs is not None else {}),
         }
 
     @classmethod
@@ -559,6 +595,8 @@ class Design:
         request = None
         if data.get("request") is not None:
             request = DesignRequest.from_json(data["request"], names)
+        sliding_inputs = (SlidingGainInputs.from_json(data["sliding_inputs"])
+                          if data.get("sliding_inputs") is not None else None)
         recorded = data.get("signature")
         if recorded is not None and (not isinstance(recorded, dict) or not all(
                 isinstance(k, str) and isinstance(v, bool) for k, v in recorded.items())):
@@ -580,7 +618,9 @@ class Design:
             outputs=tuple((str(n), expr(e, f"outputs.{n}")) for n, e in outputs.items()),
             approximate=approximate,
             residual_norm=residual_norm,
-            parameters=params, request=request)
+            parameters=params, request=request, sliding_inputs=sliding_inputs)
+        if sliding_inputs is not None and made.observer != ObserverKind.SLIDING_MODE:
+            raise UsageError("'sliding_inputs' belong to a sliding-mode design only")
         # a gain K is re-checked too: det(sI − F* + K H*) = Π(s − μ) for the recorded μ
         m = made.matrices
         if m.K is not None:  # (a file that drops the eigenvalues does not skip the check)

@@ -97,7 +97,7 @@ import numpy as np
 import sympy as sp
 
 from ._certificate import certify_design
-from ._design import Condition, Design
+from ._design import Condition, Design, SlidingGainInputs
 from ..errors import InfeasibleDesignError, ModelError, UsageError
 from ._jordan import Admissible
 from ._reduced import (EPS, INJECTIONS, K1, TAU, is_stable, observer_symbols, output_symbols,
@@ -473,7 +473,9 @@ def design_sliding(model: PlantModel, *, fault: str | None = None, lam=None, k1=
     if injection == "sign":
         params = {K1: sp.Float(k1v), TAU: sp.Float(tau)}
     return dataclasses.replace(design0, conditions=tuple(conds) + tuple(gconds), choice=choice,
-                               parameters=params)
+                               parameters=params,
+                               sliding_inputs=SlidingGainInputs(
+                                   float(delta), None if lipschitz is None else float(lipschitz)))
 
 
 def reaching_time(t, r, threshold: float):

@@ -295,6 +295,39 @@ def test_sliding_gains_from_a_file_are_checked_on_building(designed, value, prob
             build_observer(model, back)
 
 
+def test_sliding_gain_bound_recomputed_for_the_gains_of_the_file(designed):
+    """The design records δ and N* (what the bound rests on besides the model), so building
+    recomputes the whole bound k1 > d*|D*| + w*|J* + λR*| + δN* for the gains it is given:
+    k_sm = 1.05 against a bound of 1.07 built before with the recorded condition
+    "2.14 > 1.07" still met. A file without them (written before) falls back to the
+    necessary k1 > d*|D*|; malformed values, or on another kind of design, are refused."""
+    from observer_cad import build_observer
+
+    model, d = designed["sliding-mode"]
+    assert d.sliding_inputs is not None and d.sliding_inputs.delta == 1.0
+    genuine = json.loads(json.dumps(d.to_json()))
+    assert genuine["sliding_inputs"] == {"delta": 1.0, "lipschitz": None}
+    assert not build_observer(model, Design.from_json(genuine, model)).failed_conditions
+    data = json.loads(json.dumps(genuine))
+    data["parameters"]["k_sm"] = "1.05"
+    obs = build_observer(model, Design.from_json(data, model))
+    failed = [c for c in obs.failed_conditions]
+    assert [c.name for c in failed] == [
+        "sliding gain bound k1 > d*|D*| + w*|J* + λR*| + δN* (recomputed on building)"]
+    assert "k1 = 1.05, bound = 1.07" in failed[0].detail
+    old = {k: v for k, v in data.items() if k != "sliding_inputs"}
+    obs = build_observer(model, Design.from_json(old, model))
+    assert not obs.failed_conditions  # (only d*|D*| = 1 is checked without δ and N*)
+    assert any("d*|D*|" in c.name and c.holds for c in obs.conditions)
+    for bad in ({"delta": -1}, {"delta": "1"}, {"delta": 1, "gain": 2}, [1], {"lipschitz": 1}):
+        with pytest.raises(UsageError, match="sliding"):
+            Design.from_json({**genuine, "sliding_inputs": bad}, model)
+    m2, d2 = designed["unknown-input-canonical"]
+    with pytest.raises(UsageError, match="sliding-mode design only"):
+        Design.from_json({**json.loads(json.dumps(d2.to_json())),
+                          "sliding_inputs": {"delta": 1}}, m2)
+
+
 @pytest.mark.parametrize("name", ["J_diag", "F_diag", "T", "Phi_diag"])
 def test_diagonal_form_follows_from_t_and_the_certified_matrices(designed, name):
     """Interval observers of a canonical design are built from its seed-001 diagonal form:
