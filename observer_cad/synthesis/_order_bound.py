@@ -369,13 +369,7 @@ def _hyperplane_rows(F, H, L, M, lam, time: str, kind: str) -> OneMoreRow:
         return no(f"{fam}: {name}(λ)·w has degree {D} > {k} (at least {k} of its roots"
                   " stable: not decided)", k)
     m = D
-    j0 = next(j for j, p in enumerate(polys) if p.degree() == m)
-    lc0 = polys[j0].LC()
-    p0 = sp.Poly(sp.expand(nu[j0] / lc0), lam)
-    a0 = [-p0.coeff_monomial(lam ** i) for i in range(m)]
-    dirs = [[-sp.Poly(sp.expand(nu[j] - polys[j].coeff_monomial(lam ** m) / lc0 * nu[j0]),
-                      lam).coeff_monomial(lam ** i) for i in range(m)]
-            for j in range(c) if j != j0]
+    a0, dirs = _monic_family(polys, m, lam)
     order = family_order(m, a0, dirs, lam, time)
     if order.lambdas:
         return OneMoreRow(True, True, tuple(order.lambdas), f"{fam}: {order.evidence}", k)
@@ -724,6 +718,7 @@ def _space_rows(G, k, lam, time, no, basis_rows) -> OneMoreRow:
     fam = ("modulo rowspace [M; H] the rows of λ span planes W(λ) of 5 dimensions (lines of"
            f" P⁴), Plücker vector π(λ) of degree {D}; {k} rows need a plane U with"
            f" p_U ∧ π(λ) = 0 at {k} real stable λ (counted with multiplicity)")
+    coeffs = [list(reversed(sp.Poly(e, lam).all_coeffs())) for e in pi]  # λ⁰, λ¹, …
     # T: p ↦ p ∧ π(λ), coefficient by coefficient (Λ⁴ components × powers of λ)
     T = sp.zeros(len(quads) * (D + 1), len(pairs))
     for i, S in enumerate(pairs):
@@ -731,7 +726,7 @@ def _space_rows(G, k, lam, time, no, basis_rows) -> OneMoreRow:
             if set(S) & set(S2):
                 continue
             row = quads.index(tuple(sorted(S + S2)))
-            for e, cf in enumerate(reversed(sp.Poly(pi[j], lam).all_coeffs())):
+            for e, cf in enumerate(coeffs[j]):
                 T[row * (D + 1) + e, i] += _perm_sign(S + S2) * cf
     if exact_rank(T).rank < len(pairs):
         return no(f"{fam}, but some p ≠ 0 has p ∧ π(λ) ≡ 0 (a plane may meet every W(λ))", k)
@@ -749,7 +744,7 @@ def _space_rows(G, k, lam, time, no, basis_rows) -> OneMoreRow:
     A = sp.zeros(D + 1, len(trips))
     for j, S in enumerate(pairs):
         Sc = tuple(sorted(set(range(c)) - set(S)))
-        for e, cf in enumerate(reversed(sp.Poly(pi[j], lam).all_coeffs())):
+        for e, cf in enumerate(coeffs[j]):
             A[e, trips.index(Sc)] += _perm_sign(Sc + S) * cf
     basis = A.nullspace()
     head = (f"{fam}; p_U ∧ π(λ) = p(λ) ℓ(λ) with ℓ linear puts U in a 3-space X meeting"
@@ -786,8 +781,7 @@ def _solid_points(basis, trips, pairs, quads):
     s = len(basis)
     ys = sp.symbols(f"y0:{s}")
     pX = sum((ys[i] * basis[i] for i in range(s)), sp.zeros(len(trips), 1))
-    om = {S: _perm_sign(tuple(sorted(set(range(5)) - set(S))) + S)
-          * pX[trips.index(tuple(sorted(set(range(5)) - set(S))))] for S in pairs}
+    om = _hodge_dual(pX, pairs, trips)
     plucker = [sp.expand(om[(a, b)] * om[(c, d)] - om[(a, c)] * om[(b, d)]
                          + om[(a, d)] * om[(b, c)]) for a, b, c, d in quads]
     out = []
@@ -839,8 +833,7 @@ def _solid_verdict(field, p_X, pi, pairs, trips, k, lam, time) -> tuple:
     :func:`_space_rows`."""
     K = field
     pX = [K.convert(e) if K == sp.QQ else e for e in p_X]
-    rest = {S: tuple(sorted(set(range(5)) - set(S))) for S in pairs}
-    om = {S: _perm_sign(rest[S] + S) * pX[trips.index(rest[S])] for S in pairs}
+    om = _hodge_dual(pX, pairs, trips)
     # X^⊥ = {y : ω ∧ y = 0} (ω the Hodge dual of p_X, the 2-vector y_1 ∧ y_2)
     rows = []
     for a, b, c in trips:
@@ -886,19 +879,32 @@ def _solid_verdict(field, p_X, pi, pairs, trips, k, lam, time) -> tuple:
                 f" by a plane U ⊂ X at ≤ {g} λ")
     if g > k or K != sp.QQ:
         return ("open", f"X {where}: X ∩ W(λ) traces a curve of degree {g}")
-    polys = [sp.Poly(v.as_expr(), lam) for v in gam if not v.is_zero]
     m = k
-    j0 = next(j for j, P in enumerate(polys) if P.degree() == m)
-    lc0 = polys[j0].LC()
-    p0 = sp.Poly(polys[j0].as_expr() / lc0, lam)
-    a0 = [-p0.coeff_monomial(lam ** i) for i in range(m)]
-    dirs = _independent([[-(P - p0 * P.coeff_monomial(lam ** m)).coeff_monomial(lam ** i)
-                          for i in range(m)] for P in polys])
+    a0, dirs = _monic_family([sp.Poly(v.as_expr(), lam) for v in gam if not v.is_zero], m, lam)
     order = family_order(m, a0, dirs, lam, time)
     text = f"X rational: X ∩ W(λ) traces a curve of degree {m}: {order.evidence}"
     if order.lambdas:
         return ("possible", text, order.lambdas, [K.to_sympy(e) for e in Yr[use]])
     return ("none", text) if order.impossible else ("open", text)
+
+
+def _monic_family(polys, m, lam) -> tuple:
+    """(a0, dirs) of :func:`family_order` for the monic members of degree m of the span of
+    ``polys`` (Poly in λ of degree ≤ m, one of degree m): p0 = that one made monic, the
+    directions P − lc_m(P) p0 of the others, an independent subset."""
+    j0 = next(j for j, P in enumerate(polys) if P.degree() == m)
+    p0 = polys[j0].to_field().monic()
+    a0 = [-p0.coeff_monomial(lam ** i) for i in range(m)]
+    dirs = _independent([[-(P - p0 * P.coeff_monomial(lam ** m)).coeff_monomial(lam ** i)
+                          for i in range(m)] for j, P in enumerate(polys) if j != j0])
+    return a0, dirs
+
+
+def _hodge_dual(pX, pairs, trips) -> dict:
+    """The 2-vector ω of a 3-vector p_X of R⁵ (ω_S = ε(S^c S) p_X[S^c]): decomposable
+    together, and ω = y_1 ∧ y_2 for X^⊥ = span(y_1, y_2)."""
+    rest = {S: tuple(sorted(set(range(5)) - set(S))) for S in pairs}
+    return {S: _perm_sign(rest[S] + S) * pX[trips.index(rest[S])] for S in pairs}
 
 
 def _rows_into(G, basis_rows, y, lams, lam) -> tuple:
