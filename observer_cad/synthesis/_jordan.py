@@ -42,7 +42,8 @@ from ._nonlinear import substitute_arguments
 from ._poles import default_eigenvalues
 from ._lambda_search import family_jump_lambdas, one_row_lambdas, span_rows
 from ._order_bound import (chain_order, estimation_order_bound, nonlinear_jordan_bound,
-                           one_more_row, one_row_short, two_more_rows,
+                           one_more_row, one_row_short, three_more_rows,
+                           two_more_rows,
                            residual_order_bound, spread_lambdas)
 from ._reduced import is_stable, jordan_equations, observer_symbols, output_symbols
 from ._signature import residual_response
@@ -400,10 +401,21 @@ def design_jordan(model: PlantModel, *, observer: str, estimate=None,
             alt = _rows_at(F, H, L0, short.lambdas, observer, D, M, st, tried, names)
             if alt is not None:
                 chosen = alt
+    solid = None  # q + 4 rows found: can q + 3 do it? (planes of R⁶)
+    if (chosen is not None and M is not None and M.rows > 1 and span is not None
+            and span.analysed and not span.possible and len(chosen) == span.q + 4
+            and not lambdas):
+        solid = three_more_rows(F, H, L if decoupled else sp.zeros(n, 0), M, LAMBDA, work.time)
+        if solid.possible and solid.rows:  # the rows of a (q + 3)-row model, exactly
+            alt = _given_rows(F, H, solid.lambdas, solid.rows, observer, D, M, st, tried,
+                              names)
+            if alt is not None:
+                chosen = alt
     plane = None  # q + 3 rows found: can q + 2 do it? (decided exactly for planes of R⁴)
     if (chosen is not None and M is not None and M.rows > 1 and span is not None
-            and span.analysed and not span.possible and len(chosen) == span.q + 3
-            and not lambdas):
+            and span.analysed and not span.possible and not lambdas
+            and (len(chosen) == span.q + 3
+                 or (len(chosen) == span.q + 4 and solid is not None and solid.analysed))):
         plane = two_more_rows(F, H, L if decoupled else sp.zeros(n, 0), M, LAMBDA, work.time)
         if plane.possible and plane.rows:  # the rows of a (q + 2)-row model, exactly
             alt = _given_rows(F, H, plane.lambdas, plane.rows, observer, D, M, st, tried,
@@ -475,7 +487,7 @@ def design_jordan(model: PlantModel, *, observer: str, estimate=None,
                               [sp.Matrix(t.row) for t in st.terms], k_, LAMBDA, work.time,
                               lam_list)) if st.terms and M is not None and not lambdas
                           else None, several=M is not None and M.rows > 1, more=more,
-                          short=short, plane=plane)
+                          short=short, plane=plane, solid=solid)
     conds.append(minimal)
     choice = (f"k = {k}: rows with λ = ({', '.join(map(str, lams))}) chosen from"
               f" {len(pool)} candidate row(s) for λ in {{{', '.join(map(str, lam_list))}}};"
@@ -1139,7 +1151,7 @@ def _special_lambdas(observer, F, H, L0, L, M, time):
 
 def _minimality(observer, k, n, lams, lam_list, adm, requested, one_row, jumps, time,
                 bound, chains=(), span=None, nonlinear=None, several=False,
-                more=None, short=None, plane=None) -> Condition:
+                more=None, short=None, plane=None, solid=None) -> Condition:
     """Why fewer rows are impossible, as far as it is proven (METHOD §2b). ``bound(k)``
     gives the :class:`OrderBound` of every reduced model of the task (any F*); ``chains``
     the :class:`ChainOrder` of each order m (z = M x, every λ admissible). A Jordan
@@ -1243,6 +1255,16 @@ def _minimality(observer, k, n, lams, lam_list, adm, requested, one_row, jumps, 
                          f" real stable λ: {plane.evidence}", ref, required=False)
     if plane is not None:
         least += f"; {plane.k} rows: {plane.evidence}"
+        if plane.analysed and not plane.possible and lo >= plane.k:
+            lo = plane.k + 1
+    if solid is not None and solid.analysed and not solid.possible and k == solid.k + 1:
+        return Condition(name, True, found + f"{why}; exactly {solid.k} rows are impossible for"
+                         " every real stable λ, and a model of fewer rows would extend to that"
+                         " many by rows of further λ (their images span all c dimensions and a"
+                         f" model exists): {solid.evidence} (fewer: the lower bound over every F* is"
+                         f" {b.k}{where}: {b.evidence}{least})", ref, required=False)
+    if solid is not None:
+        least += f"; {solid.k} rows: {solid.evidence}"
     return Condition(name, False, found + f"{why}; the lower bound over every F* is {b.k}{where}"
                      f" ({b.evidence}){least}, so the least order of a Jordan model lies in"
                      f" [{lo}, {k}]", ref, required=False)

@@ -40,13 +40,14 @@ from __future__ import annotations
 
 import dataclasses
 import itertools
+import math
 
 import numpy as np
 import sympy as sp
 
 from ..numerics import (exact_rank, gordan_alternative, left_null_echelon, left_null_space,
                         solve_left)
-from ._box_cover import box_cover, quadric_cover
+from ._box_cover import box_cover, pencil_cover, quadric_cover
 from ._canonical import krylov_blocks, member_to_phi
 from sympy.polys.matrices import DomainMatrix
 from sympy.polys.polyfuncs import symmetrize
@@ -57,12 +58,15 @@ from ._reduced import is_stable
 
 __all__ = ["OrderBound", "ChainOrder", "estimation_order_bound", "residual_order_bound",
            "nonlinear_jordan_bound", "OneMoreRow", "one_more_row", "one_row_short", "two_more_rows",
+           "three_more_rows",
            "family_order",
            "chain_order", "chain_system", "hyperplane_functional", "hyperplane_corners",
            "hyperplane_member", "plane_order", "spread_lambdas", "MAX_SUBSETS"]
 
 #: at most this many subsets of the tried λ are used to pin a member of a family of p
 MAX_SUBSETS = 60
+#: angles θ of the pencil parameter t = tan θ searched for a member (:func:`three_more_rows`)
+_PENCIL_ANGLES = 96
 #: seeded random λ sets tried (in floating point first) after those subsets
 SAMPLES = 3000
 
@@ -269,13 +273,28 @@ def two_more_rows(F, H, L, M, lam, time: str) -> OneMoreRow:
     return _hyperplane_rows(F, H, L, M, lam, time, "plane")
 
 
+def three_more_rows(F, H, L, M, lam, time: str) -> OneMoreRow:
+    """Decide exactly whether a Jordan model of z = M x with q + 3 rows can exist when the
+    rows of each λ have a 2-dimensional image W(λ) modulo rowspace [M; H] in c = 6
+    dimensions (METHOD §2b, "Planes of six dimensions"): U, the 3-space of the rows'
+    images, lies in a 4-space X(t) = ker ℓ0(t) ∩ ker ℓ1(t) for a pencil ℓ0 + λ ℓ1 of forms
+    annihilating every W(λ) (a linear space of pencils, computed exactly), and the λ are the
+    roots of u·γ(λ, t), γ spanning X(t) ∩ W(λ). A member with q + 3 real stable roots is
+    searched (and rebuilt exactly, with the row of each λ); otherwise the family, which
+    moves with t, is excluded by :func:`pencil_cover`. Same preconditions as
+    :func:`two_more_rows`; a model of fewer rows extends to q + 3 by rows of further λ, so
+    "impossible" rules out every order up to q + 3."""
+    return _hyperplane_rows(F, H, L, M, lam, time, "solid")
+
+
 def _hyperplane_rows(F, H, L, M, lam, time: str, kind: str) -> OneMoreRow:
     F, H, L, M = (sp.Matrix(X) for X in (F, H, L, M))
     if set().union(*(X.free_symbols for X in (F, H, L, M))):
         return OneMoreRow(False, False, (), "not analysed: symbolic parameters")
     n = F.rows
     short = kind == "short"
-    what = {"short": "one row short", "more": "one more row", "plane": "two more rows"}[kind]
+    what = {"short": "one row short", "more": "one more row", "plane": "two more rows",
+            "solid": "three more rows"}[kind]
 
     def no(why, k=0):
         return OneMoreRow(False, False, (), f"{what} not analysed: {why}", k)
@@ -283,7 +302,7 @@ def _hyperplane_rows(F, H, L, M, lam, time: str, kind: str) -> OneMoreRow:
     rH = exact_rank(H).rank if H.rows else 0
     rMH = exact_rank(sp.Matrix.vstack(M, H)).rank
     q, c = rMH - rH, n - rMH
-    k = q + c - 1 if short else q + 1 if kind == "more" else q + 2
+    k = q + c - 1 if short else {"more": q + 1, "plane": q + 2, "solid": q + 3}[kind]
     if q != M.rows:  # the same models: z's rows independent modulo H
         keep, r_have = [], rH
         for i in range(M.rows):
@@ -312,9 +331,12 @@ def _hyperplane_rows(F, H, L, M, lam, time: str, kind: str) -> OneMoreRow:
     if kind == "more" and f != c - 1 and not lines:  # (before the exact drops and jumps)
         return no(f"the images of the rows modulo rowspace [M; H] have dimension {f}, not"
                   f" {c - 1} (a hyperplane of the {c} dimensions)", k)
-    if kind == "plane" and (f, c) not in ((2, 4), (2, 5)):
+    if kind == "plane" and (f, c) not in ((2, 4), (2, 5), (2, 6)):
         return no(f"the images of the rows modulo rowspace [M; H] have dimension {f} of {c},"
-                  " not planes of 4 or 5 dimensions", k)
+                  " not planes of 4, 5 or 6 dimensions", k)
+    if kind == "solid" and (f, c) != (2, 6):
+        return no(f"the images of the rows modulo rowspace [M; H] have dimension {f} of {c},"
+                  " not planes of 6 dimensions", k)
     _, drop = rank_drop_lambdas(E, lam, time, "E(λ)", "rows inside rowspace [M; H]")
     if not drop.analysed:  # pragma: no cover - singular compressions (probability 0)
         return no(drop.evidence, k)
@@ -327,6 +349,8 @@ def _hyperplane_rows(F, H, L, M, lam, time: str, kind: str) -> OneMoreRow:
                   if jumps.stable else jumps.evidence, k)
     Q = sp.Matrix.hstack(*sp.Matrix.vstack(M, H).nullspace())
     G = (sp.Matrix.vstack(*rows) * Q).applyfunc(sp.expand) if rows else sp.zeros(0, c)
+    if kind == "solid" or c == 6:
+        return _six_rows(G, k, lam, time, no, rows, kind)
     if kind == "plane":
         if c == 4:
             return _plane_rows(G, k, lam, time, no)
@@ -770,6 +794,319 @@ def _space_rows(G, k, lam, time, no, basis_rows) -> OneMoreRow:
         return OneMoreRow(True, True, tuple(lams), text, k,
                           _rows_into(G, basis_rows, y, lams, lam))
     return OneMoreRow(True, False, (), f"{text}: no choice of real stable λ gives {k} rows", k)
+
+
+def _six_rows(G, k, lam, time, no, basis_rows, what) -> OneMoreRow:
+    """:func:`two_more_rows` (k = q + 2, ``what`` "plane") and :func:`three_more_rows`
+    (k = q + 3, "solid") for planes W(λ) of c = 6 dimensions once their preconditions hold
+    (METHOD §2b, "Planes of six dimensions"). The images of a model's k rows span a space
+    U of dimension e = k − q (2 or 3) meeting W(λ_i) at k real stable λ_i (at most one row
+    at each when no W(λ) lies in the spaces below); P_U(λ) = p_U ∧ π(λ) ∈ Λ^(e+2)R⁶ is the
+    (e + 2)-vector of U + W(λ), so P_U = p(λ) ℓ(λ) with deg ℓ ≤ d = D − k and
+    ℓ(λ) ∧ w = 0 for w ∈ W(λ): ℓ lies in the linear space L_d of such curves, and U in the
+    space they all contain. Requirements (else not analysed): no p ≠ 0 has p ∧ π ≡ 0 and
+    the W(λ) span R⁶."""
+    c = 6
+    pi = _pair_minors(G, lam)
+    if pi is None:
+        return no("the images of the rows are dependent for λ generic", k)
+    e = 2 if what == "plane" else 3
+    D = max(sp.degree(x, lam) for x in pi)
+    pairs = list(itertools.combinations(range(c), 2))
+    pim = {S: sp.Poly(x, lam) for S, x in zip(pairs, pi)}
+    fam = (f"modulo rowspace [M; H] the rows of λ span planes W(λ) of 6 dimensions, Plücker"
+           f" vector π(λ) of degree {D}; {k} rows need a {e}-space U meeting W(λ) at {k} real"
+           " stable λ")
+    # T: p ↦ p ∧ π(λ) on Λᵉ R⁶, coefficient by coefficient
+    cols = list(itertools.combinations(range(c), e))
+    T = {}
+    for i, S in enumerate(cols):
+        for S2, P in pim.items():
+            if set(S) & set(S2):
+                continue
+            key = tuple(sorted(S + S2))
+            sign = _perm_sign(S + S2)
+            for (deg,), cf in P.terms():
+                T[(key, deg, i)] = T.get((key, deg, i), 0) + sign * cf
+    keys = sorted({(key, deg) for key, deg, _ in T})
+    Tm = sp.Matrix(len(keys), len(cols), lambda r, i: T.get(keys[r] + (i,), 0))
+    if exact_rank(Tm).rank < len(cols):
+        return no(f"{fam}, but some p ≠ 0 has p ∧ π(λ) ≡ 0 (a space may meet every W(λ))", k)
+    coef = sp.Matrix([list(cf) for r in range(G.rows) for cf in coefficient_rows(G[r, :], lam)])
+    if exact_rank(coef).rank < c:
+        return no(f"{fam}, but every W(λ) lies in one hyperplane", k)
+    d = D - k
+    if d < 0 or (d == 0 and e == 3):
+        return OneMoreRow(True, False, (), f"{fam}: P_U = p_U ∧ π(λ) ≢ 0 has degree ≤ {D}, so"
+                          f" {k} roots leave a factor ℓ of degree {max(d, 0)}"
+                          + (" (none)" if d < 0 else ", a fixed form annihilating every W(λ),"
+                             " which span R⁶") + f": no choice of real stable λ gives {k} rows",
+                          k)
+    if what == "plane":
+        return _fixed_plane_verdict(G, pim, pairs, k, d, lam, time, no, fam)
+    if d > 1:
+        return no(f"{fam}: P_U = p_U ∧ π(λ) has degree {D} > {k + 1} (not decided)", k)
+    return _pencil_verdict(G, pim, k, lam, time, no, fam, basis_rows)
+
+
+def _wedge_rows(G, grade, d, lam) -> tuple:
+    """(index sets of Λ^grade R⁶, basis of L_d): the curves ℓ(λ) = Σ_j ℓ_j λʲ (j ≤ d) of
+    ``grade``-vectors with ℓ(λ) ∧ G_r(λ) ≡ 0 for both rows of G, exactly; each basis
+    element a list of d + 1 dicts (index set → coefficient)."""
+    c = G.cols
+    sets = list(itertools.combinations(range(c), grade))
+    nvar = len(sets) * (d + 1)
+    eqs: dict = {}
+    for r in range(G.rows):
+        polys = [sp.Poly(G[r, a], lam) for a in range(c)]
+        for i, S in enumerate(sets):
+            for a in range(c):
+                if a in S or polys[a].is_zero:
+                    continue
+                key = tuple(sorted(S + (a,)))
+                sign = _perm_sign(S + (a,))
+                for (deg,), cf in polys[a].terms():
+                    for j in range(d + 1):
+                        row = (r, key, deg + j)
+                        eqs.setdefault(row, {})
+                        col = j * len(sets) + i
+                        eqs[row][col] = eqs[row].get(col, 0) + sign * cf
+    A = sp.Matrix(len(eqs), nvar, lambda r, col: 0)
+    for r, row in enumerate(eqs.values()):
+        for col, v in row.items():
+            A[r, col] = v
+    out = []
+    for v in A.nullspace():
+        out.append([{S: v[j * len(sets) + i] for i, S in enumerate(sets) if v[j * len(sets) + i] != 0}
+                    for j in range(d + 1)])
+    return sets, out
+
+
+def _contained(ell, c=6) -> list:
+    """A basis of {x ∈ Rᶜ : ℓ_j ∧ x = 0 for every coefficient ℓ_j of ``ell``}."""
+    rows: dict = {}
+    for j, part in enumerate(ell):
+        for S, v in part.items():
+            for a in range(c):
+                if a in S:
+                    continue
+                key = (j, tuple(sorted(S + (a,))))
+                rows.setdefault(key, [0] * c)
+                rows[key][a] += _perm_sign(S + (a,)) * v
+    if not rows:
+        return [sp.Matrix(sp.eye(c)[i, :]) for i in range(c)]
+    return [v.T for v in sp.Matrix(list(rows.values())).nullspace()]
+
+
+def _fixed_plane_verdict(G, pim, pairs, k, d, lam, time, no, fam) -> OneMoreRow:
+    """k = q + 2 rows in six dimensions: U is a plane, ℓ(λ) a curve of 4-vectors of
+    degree ≤ d containing W(λ) and U."""
+    _, L = _wedge_rows(G, 4, d, lam)
+    head = f"{fam}; P_U = p(λ) ℓ(λ), ℓ of degree ≤ {d} with ℓ(λ) ⊇ W(λ) and U"
+    if not L:
+        return OneMoreRow(True, False, (), f"{head}, and no such ℓ ≠ 0 exists: no choice of"
+                          f" real stable λ gives {k} rows", k)
+    if len(L) > 1:
+        return no(f"{head}: such ℓ form a {len(L)}-dimensional space (not decided)", k)
+    Y = _contained(L[0])
+    if len(Y) < 2:
+        return OneMoreRow(True, False, (), f"{head}: ℓ is unique up to scale and the vectors"
+                          f" every ℓ(λ) contains span {len(Y)} dimension(s), no plane: no"
+                          f" choice of real stable λ gives {k} rows", k)
+    if len(Y) > 2:
+        return no(f"{head}: ℓ is unique up to scale, but the vectors every ℓ(λ) contains span"
+                  f" {len(Y)} dimensions (not decided)", k)
+    # U = Y: it meets W(λ) where p_Y ∧ π(λ) = 0
+    pY = {S: Y[0][S[0]] * Y[1][S[1]] - Y[0][S[1]] * Y[1][S[0]] for S in pairs}
+    comps: dict = {}
+    for S, v in pY.items():
+        if v == 0:
+            continue
+        for S2, P in pim.items():
+            if set(S) & set(S2):
+                continue
+            key = tuple(sorted(S + S2))
+            comps[key] = comps.get(key, sp.Poly(0, lam)) + P * (_perm_sign(S + S2) * v)
+    g = sp.Poly(0, lam)
+    for P in comps.values():
+        g = g.gcd(P) if not P.is_zero else g
+    if g.is_zero:  # pragma: no cover - excluded by T injective
+        return no(f"{head}: the plane Y meets every W(λ)", k)
+    count = sum(mult * _stable_root_count(f, time) for f, mult in g.sqf_list()[1])
+    poly = sp.factor(g.as_expr())
+    text = (f"{head}: ℓ is unique up to scale and fixes U = Y, the plane every ℓ(λ)"
+            f" contains, which meets W(λ) at the roots of {poly}, {count} of them real and"
+            " stable counted with multiplicity (a root of order r holds at most r rows)")
+    if count < k:
+        return OneMoreRow(True, False, (), f"{text}: no choice of real stable λ gives {k} rows",
+                          k)
+    return no(f"{text} (not decided: the rows there are not built)", k)
+
+
+def _pencil_verdict(G, pim, k, lam, time, no, fam, basis_rows) -> OneMoreRow:
+    """k = q + 3 rows in six dimensions: U is a 3-space and P_U = p(λ) ℓ(λ) with ℓ a
+    pencil ℓ0 + λ ℓ1 of forms annihilating U and W(λ) (5-vectors of U + W(λ)); the
+    pencils form the linear space L_1, and U lies in X = ker ℓ0 ∩ ker ℓ1."""
+    c = 6
+    _, L = _wedge_rows(G, 5, 1, lam)
+    head = (f"{fam}; P_U = p(λ) ℓ(λ) with ℓ = ℓ0 + λ ℓ1 a pencil of forms annihilating U and"
+            " every W(λ)")
+    if not L:
+        return OneMoreRow(True, False, (), f"{head}, and no such pencil exists: no choice of"
+                          f" real stable λ gives {k} rows", k)
+    if len(L) > 2:
+        return no(f"{head}: the pencils form a {len(L)}-dimensional space (not decided)", k)
+
+    def form(part):  # the 5-vector Σ ℓ_S e_S as the form x ↦ ℓ ∧ x
+        full = tuple(range(c))
+        return [_perm_sign(tuple(i for i in full if i != a) + (a,))
+                * part.get(tuple(i for i in full if i != a), 0) for a in range(c)]
+
+    t = sp.Dummy("t")
+    b1 = [form(ell[1]) for ell in L]  # ℓ1 of each basis pencil
+    charts = [("t", [x + t * y for x, y in zip(*b1)]), ("1/t", [t * x + y for x, y in zip(*b1)])
+              ] if len(L) == 2 else [("the pencil", b1[0])]
+    gammas = []
+    for name, b in charts:
+        gam = [sp.expand(sum(b[i] * (pim[(i, j)] if i < j else -pim[(j, i)]).as_expr()
+                             for i in range(c) if i != j)) for j in range(c)]
+        gammas.append((name, b, gam))
+    g = max(sp.degree(x, lam) for _, _, gam in gammas for x in gam)
+    X_txt = (f"{len(L)} independent pencils: U lies in a 4-space X(t) = ker ℓ0(t) ∩ ker ℓ1(t)"
+             f" of a {'line' if len(L) == 2 else 'point'} of pencils, X(t) ∩ W(λ) is the line"
+             f" of γ(λ, t) = ι_ℓ1(t) π(λ) (0 only where W(λ) ⊂ X(t)), and U = X ∩ ker u meets"
+             f" W(λ) iff"
+             f" u·γ(λ, t) = 0, a polynomial of degree ≤ {g} in λ")
+    if g < k:
+        return OneMoreRow(True, False, (), f"{head}; {X_txt} < {k}: no choice of real stable"
+                          f" λ gives {k} rows", k)
+    if g > k:
+        return no(f"{head}; {X_txt} > {k} (not decided)", k)
+    found = _pencil_member(gammas, k, lam, t, time)
+    if found is not None:
+        lams, b, where = found
+        rows = _rows_into(G, basis_rows, b, lams, lam)
+        return OneMoreRow(True, True, tuple(lams), f"{head}; {X_txt}: at {where} a member has"
+                          f" {k} real stable roots", k, rows)
+    # W(λ) ⊂ X(t) only at the common zeros of γ(λ, t): none with λ real and stable allowed
+    for name, b, gam in gammas:  # (a found member needs no such check: it is certified)
+        gb = sp.groebner([x for x in gam if x != 0], t, lam, order="lex").exprs
+        if gb == [1]:
+            continue
+        last = sp.Poly(gb[-1], t, lam)
+        if last.degree(t) > 0 or last.degree(lam) <= 0:
+            return no(f"{head}: X({name}) contains W(λ) along a curve (not decided)", k)
+        if _stable_root_count(sp.Poly(gb[-1], lam), time) > 0:
+            return no(f"{head}: some X({name}) contains W(λ) at a real stable root of"
+                      f" {sp.factor(gb[-1])} (not decided)", k)
+    cover_charts = []
+    for name, _, gam in gammas:
+        Cm = sp.Matrix([[sp.Poly(x, lam).coeff_monomial(lam ** i) for i in range(k + 1)]
+                        for x in gam])
+        cover_charts.append((name, _kernel_functionals(Cm, t)))
+    cover = pencil_cover(k, cover_charts, time)
+    if not cover.proven:
+        return no(f"{head}; {X_txt}: no member found, {cover.evidence} (not decided)", k)
+    return OneMoreRow(True, False, (), f"{head}; {X_txt}; the functionals annulling every"
+                      f" u·γ(λ, t) move with t, {cover.evidence}: no choice of real stable λ"
+                      f" gives {k} rows", k)
+
+
+def _kernel_functionals(Cm, t) -> list:
+    """Integer polynomial functionals y(t) (weights of λ⁰ … λᵐ, coefficient lists in t)
+    with Cm(t) y(t) ≡ 0, spanning the kernel at every t where its dimension is generic: the
+    kernel basis normalised on pairs of coordinates, added until their 2 × 2 minors have
+    no common root (one basis can degenerate at some t)."""
+    N = [sp.Matrix([sp.cancel(x) for x in v]) for v in Cm.nullspace()]
+    out, minors = [], []
+    for S in itertools.combinations(range(Cm.cols), len(N)):
+        sub = sp.Matrix([[v[i] for v in N] for i in S])
+        det = sp.cancel(sub.det())
+        if det == 0:
+            continue
+        B = (sp.Matrix.hstack(*N) * sub.inv()).applyfunc(sp.cancel)
+        new = []
+        for j in range(B.cols):
+            col = B[:, j]
+            den = sp.lcm_list([sp.fraction(sp.together(x))[1] for x in col])
+            col = col.applyfunc(lambda x: sp.expand(sp.cancel(x * den)))
+            new.append(col)
+        out += new
+        minors += [sp.expand(a[i] * b[j] - a[j] * b[i]) for a, b in itertools.combinations(
+            out, 2) for i, j in itertools.combinations(range(Cm.cols), 2)]
+        if len(N) < 2 or sp.degree(sp.gcd_list([m for m in minors if m != 0] or [0]), t) == 0:
+            break
+    funcs = []
+    for col in out:
+        assert (Cm * col).applyfunc(sp.expand).is_zero_matrix
+        polys = [sp.Poly(x, t) for x in col]
+        den = math.lcm(*[int(sp.Rational(cf).q) for P in polys for cf in P.coeffs()] or [1])
+        funcs.append([[int(cf * den) for cf in reversed(P.all_coeffs())] if not P.is_zero
+                      else [0] for P in polys])
+    return funcs
+
+
+def _pencil_member(gammas, k, lam, t, time):
+    """A member u·γ(λ, t) with k distinct real stable roots, searched in floating point
+    (parameters on a grid of both charts, k − 2 roots pinned on a grid, the last two the
+    roots of the quadratic left) and then rebuilt exactly: ((λ_i), ℓ1) or None."""
+    grid = ([-sp.Rational(x) for x in ("1/1000", "1/100", "1/10", "1/2", "1", "2", "4",
+                                        "8", "16", "32", "64", "128", "512", "4096")]
+            if time == "continuous" else
+            [sp.Rational(x, 16) for x in range(-15, 16, 2)])
+    # the parameter t = tan θ on a grid of angles (chart 1), and t = ∞ (chart 2 at 0)
+    pars = [sp.Rational(math.tan(math.pi * (i / _PENCIL_ANGLES - 0.5))).limit_denominator(32)
+            for i in range(1, _PENCIL_ANGLES)]
+    for name, b, gam in gammas:
+        Cf = [[float(sp.Poly(x, lam, t).coeff_monomial(lam ** i * t ** j)) for i in range(k + 1)]
+              for x in gam for j in (0, 1)]
+        Cf = np.array(Cf).reshape(len(gam), 2, k + 1)
+        for tv in (pars if name == "t" else [sp.Integer(0)]):
+            Bv = Cf[:, 0, :] + float(tv) * Cf[:, 1, :]
+            _, sv, Vt = np.linalg.svd(Bv)
+            basis = Vt[: int((sv > 1e-9 * sv[0]).sum())]
+            V = np.vander(np.array([float(x) for x in grid]), k + 1, increasing=True)
+            E = V @ basis.T
+            for pins in itertools.combinations(range(len(grid)), k - 2):
+                if basis.shape[0] != k - 1:
+                    break
+                _, _, vt = np.linalg.svd(E[list(pins)])
+                p = vt[-1] @ basis
+                if abs(p[-1]) < 1e-9 * np.abs(p).max():
+                    continue
+                r = np.roots(p[::-1])
+                if np.any(np.abs(r.imag) > 1e-9 * (1 + np.abs(r))):
+                    continue
+                rr = np.sort(r.real)
+                if (np.min(np.diff(rr)) < 1e-6 * (1 + np.abs(rr).max())
+                        or not (np.all(rr < 0) if time == "continuous"
+                                else np.all(np.abs(rr) < 1))):
+                    continue
+                got = _exact_member(b, gam, [grid[i] for i in pins], tv, k, lam, t, time)
+                if got is not None:
+                    return got + ((f"{name} = {tv}" if len(gammas) == 2 else name),)
+    return None
+
+
+def _exact_member(b, gam, pins, tv, k, lam, t, time):
+    """The member through the pinned rational roots at the rational parameter tv, exactly:
+    ((λ_i), ℓ1) when its other roots are real, distinct, stable and not pinned."""
+    polys = [sp.Poly(x.subs(t, tv), lam) for x in gam]
+    A = sp.Matrix([[P.eval(v) for P in polys] for v in pins])
+    for u in A.nullspace():
+        p = sum((P * u[i] for i, P in enumerate(polys) if u[i] != 0), sp.Poly(0, lam))
+        if p.is_zero or p.degree() != k:
+            continue
+        rest = p
+        for v in pins:
+            rest = rest.quo(sp.Poly(lam - v, lam))
+        if rest.degree() != 2 or any(rest.eval(v) == 0 for v in pins):
+            return None
+        if rest.discriminant() <= 0 or _stable_root_count(rest, time) != 2:
+            return None
+        roots = sorted(sp.roots(rest.as_expr(), lam), key=lambda z: float(z))
+        return list(pins) + roots, [x.subs(t, tv) for x in b]
+    return None
 
 
 def _solid_points(basis, trips, pairs, quads):
