@@ -356,12 +356,14 @@ def pencil_cover(m: int, charts, time: str, *, max_cells: int = 40 * BOX_CELLS,
         got = _cover(m, top, excluded, "", None, 0, 200, _PENCIL_MU_DEPTH)
         return got.proven
 
-    for name, functionals in charts:
+    for name, functionals, intervals in charts:
+        if not intervals:
+            continue
         if not functionals:
             return BoxCover(False, examined[0], 0, f"no condition on p for {name}")
         d = max(len(e) for row in functionals for e in row) - 1
         rows = [[list(e) + [0] * (d + 1 - len(e)) for e in row] for row in functionals]
-        todo = [(Fraction(-1), Fraction(0), 0), (Fraction(0), Fraction(1), 0)]
+        todo = [(_fraction(a), _fraction(b), 0) for a, b in intervals]
         while todo:
             a, b, depth = todo.pop()
             if examined[0] > max_cells:
@@ -378,11 +380,20 @@ def pencil_cover(m: int, charts, time: str, *, max_cells: int = 40 * BOX_CELLS,
             todo += [(a, mid, depth + 1), (mid, b, depth + 1)]
     return BoxCover(True, examined[0], deepest[0],
                     f"covered by {examined[0]} cells of the ordered root box times intervals of"
-                    f" the parameter ({', '.join(n for n, _ in charts)} ∈ [−1, 1],"
+                    f" the parameter ({'; '.join(_where(n, iv) for n, _, iv in charts if iv)},"
                     f" {deepest[0]} halvings at most): on"
                     " each, a combination of the conditions has positive Bernstein"
                     " coefficients at every vertex, so no t and no member has its roots real"
                     " and stable")
+
+
+def _fraction(x) -> Fraction:
+    x = sp.Rational(x)
+    return Fraction(int(x.p), int(x.q))
+
+
+def _where(name, intervals) -> str:
+    return f"{name} in " + " ∪ ".join(f"[{a}, {b}]" for a, b in intervals)
 
 
 def _scaled(row) -> tuple:

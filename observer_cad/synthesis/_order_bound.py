@@ -67,6 +67,8 @@ __all__ = ["OrderBound", "ChainOrder", "estimation_order_bound", "residual_order
 MAX_SUBSETS = 60
 #: angles θ of the pencil parameter t = tan θ searched for a member (:func:`three_more_rows`)
 _PENCIL_ANGLES = 96
+#: float members rebuilt exactly at most, the least stiff first (:func:`three_more_rows`)
+_PENCIL_EXACT = 20
 #: seeded random λ sets tried (in floating point first) after those subsets
 SAMPLES = 3000
 
@@ -982,7 +984,10 @@ def _pencil_verdict(G, pim, k, lam, time, no, fam, basis_rows) -> OneMoreRow:
                           f" λ gives {k} rows", k)
     if g > k:
         return no(f"{head}; {X_txt} > {k} (not decided)", k)
-    found = _pencil_member(gammas, k, lam, t, time)
+    mats = [sp.Matrix([[sp.Poly(x, lam).coeff_monomial(lam ** i) for i in range(k + 1)]
+                       for x in gam]) for _, _, gam in gammas]
+    bad = _pencil_signs(mats[0], t, k, time) if len(gammas) == 2 else None
+    found = _pencil_member(gammas, k, lam, t, time, bad)
     if found is not None:
         lams, b, where = found
         rows = _rows_into(G, basis_rows, b, lams, lam)
@@ -999,17 +1004,109 @@ def _pencil_verdict(G, pim, k, lam, time, no, fam, basis_rows) -> OneMoreRow:
         if _stable_root_count(sp.Poly(gb[-1], lam), time) > 0:
             return no(f"{head}: some X({name}) contains W(λ) at a real stable root of"
                       f" {sp.factor(gb[-1])} (not decided)", k)
-    cover_charts = []
-    for name, _, gam in gammas:
-        Cm = sp.Matrix([[sp.Poly(x, lam).coeff_monomial(lam ** i) for i in range(k + 1)]
-                        for x in gam])
-        cover_charts.append((name, _kernel_functionals(Cm, t)))
-    cover = pencil_cover(k, cover_charts, time)
+    if bad is None:  # every parameter value to the cover
+        whole = [(-1, 1)]
+        charts, signs = [(gammas[0][0], whole), (gammas[1][0], whole)][:len(gammas)], ""
+    else:
+        charts, signs = _chart_intervals(bad), (
+            f"the signs (Gordan, exactly at one t between consecutive real roots of the"
+            f" critical polynomials of the annulling functionals; closed under limits) rule out"
+            f" every t but {_describe_intervals(bad)}")
+        if not any(iv for _, iv in charts):
+            return OneMoreRow(True, False, (), f"{head}; {X_txt}; {signs}: no choice of real"
+                              f" stable λ gives {k} rows", k)
+        signs += "; there "
+    cover = pencil_cover(k, [(name, _kernel_functionals(Cm, t), iv) for (name, iv), Cm
+                             in zip(charts, mats)], time)
     if not cover.proven:
-        return no(f"{head}; {X_txt}: no member found, {cover.evidence} (not decided)", k)
-    return OneMoreRow(True, False, (), f"{head}; {X_txt}; the functionals annulling every"
-                      f" u·γ(λ, t) move with t, {cover.evidence}: no choice of real stable λ"
-                      f" gives {k} rows", k)
+        return no(f"{head}; {X_txt}: no member found, {signs}{cover.evidence} (not decided)", k)
+    return OneMoreRow(True, False, (), f"{head}; {X_txt}; {signs}{cover.evidence}: no choice"
+                      f" of real stable λ gives {k} rows", k)
+
+
+def _pencil_signs(Cm, t, k, time):
+    """The open intervals of t (ends rational bounds, None for ±∞) where the sign test
+    does not rule out every member of the family {u·γ(λ, t)} (coefficient rows ``Cm``),
+    or None when its annulling functionals are not a plane for t generic.
+
+    A member with k real stable roots has the coefficients of p (continuous) or of
+    (μ − 1)ᵏ p((μ + 1)/(μ − 1)) (discrete) all of one sign, so a y ≥ 0, y ≠ 0 annulling
+    the family in those coefficients rules t out. They are the plane of functionals
+    w_1(t), w_2(t); such a y exists iff the vectors (w_1e, w_2e) lie in a closed
+    half-plane, which depends only on the signs of the w_ke and of their 2 × 2
+    determinants: constant between consecutive real roots of those polynomials, decided
+    exactly at one rational t there. The set of t ruled out is closed (a limit of
+    certificates annuls the limit family), so the roots themselves follow from their
+    neighbours, and so does t = ∞."""
+    if time != "continuous":
+        mu = sp.Dummy("mu")
+        Tm = sp.Matrix(k + 1, k + 1, lambda i, j: sp.Poly(
+            (mu + 1) ** j * (mu - 1) ** (k - j), mu).coeff_monomial(mu ** i))
+        Cm = Cm * Tm.T  # a row a of λ-coefficients becomes Tm a
+    N = [sp.Matrix([sp.cancel(x) for x in v]) for v in Cm.nullspace()]
+    if len(N) != 2:
+        return None
+    W = []
+    for v in N:
+        den = sp.lcm_list([sp.fraction(sp.together(x))[1] for x in v])
+        W.append([sp.Poly(sp.cancel(x * den), t) for x in v])
+    crit = [P for P in W[0] + W[1] if P.degree() > 0]
+    crit += [W[0][i] * W[1][j] - W[0][j] * W[1][i] for i, j in
+             itertools.combinations(range(k + 1), 2)]
+    crit = [P for P in crit if P.degree() > 0]
+    ends = (sorted((sp.Rational(a), sp.Rational(b)) for (a, b), _ in sp.intervals(crit))
+            if crit else [])
+    if any(ends[i][1] >= ends[i + 1][0] for i in range(len(ends) - 1)):  # touching
+        prod = crit[0]
+        for P in crit[1:]:
+            prod = prod * P
+        ends = _separated_roots(prod.sqf_part())
+    cuts = [None] + ends + [None]
+    bad = []
+    for left, right in zip(cuts, cuts[1:]):
+        lo = left[1] if left else (right[0] - 1 if right else sp.Integer(-1))
+        hi = right[0] if right else lo + 2
+        point = (lo + hi) / 2
+        vecs = [(W[0][e](point), W[1][e](point)) for e in range(k + 1)]
+        if not _half_plane(vecs):
+            bad.append((left[0] if left else None, right[1] if right else None))
+    return bad
+
+
+def _half_plane(vecs) -> bool:
+    """Whether some x ≠ 0 has x·v ≥ 0 for every v of ``vecs`` (exact rationals in R²): if
+    any, an extreme one is perpendicular to some v (or every v is 0)."""
+    nonzero = [v for v in vecs if v != (0, 0)]
+    if not nonzero:
+        return True
+    for a, b in nonzero:
+        for x in ((-b, a), (b, -a)):
+            if all(x[0] * c + x[1] * d >= 0 for c, d in nonzero):
+                return True
+    return False
+
+
+def _chart_intervals(bad) -> list:
+    """The closed intervals of the charts t ∈ [−1, 1] and s = 1/t ∈ [−1, 1] that cover the
+    open t-intervals ``bad`` (None for ±∞)."""
+    one, two = [], []
+    for a, b in bad:
+        a = -sp.oo if a is None else a
+        b = sp.oo if b is None else b
+        if a < 1 and b > -1:
+            one.append((max(a, -1), min(b, 1)))
+        if b > 1:  # t ∈ [max(a, 1), b] ↔ s ∈ [1/b, 1/max(a, 1)]
+            two.append((0 if b == sp.oo else 1 / b, 1 / max(a, 1)))
+        if a < -1:
+            two.append((1 / min(b, -1), 0 if a == -sp.oo else 1 / a))
+    return [("t", one), ("1/t", two)]
+
+
+def _describe_intervals(bad) -> str:
+    if not bad:
+        return "none"
+    return " ∪ ".join(f"({'−∞' if a is None else a}, {'∞' if b is None else b})"
+                      for a, b in bad)
 
 
 def _kernel_functionals(Cm, t) -> list:
@@ -1046,52 +1143,78 @@ def _kernel_functionals(Cm, t) -> list:
     return funcs
 
 
-def _pencil_member(gammas, k, lam, t, time):
-    """A member u·γ(λ, t) with k distinct real stable roots, searched in floating point
-    (parameters on a grid of both charts, k − 2 roots pinned on a grid, the last two the
-    roots of the quadratic left) and then rebuilt exactly: ((λ_i), ℓ1) or None."""
+def _pencil_member(gammas, k, lam, t, time, bad):
+    """A member u·γ(λ, t) with k distinct real stable roots, exactly: ((λ_i), ℓ1, where) or
+    None. Parameters t: where the signs do not rule t out (``bad``, open intervals, None
+    ends for ±∞; when None, t = tan θ on a grid of angles and t = ∞), a grid in each; at
+    each, k − 2 roots pinned on a grid in floating point, the last two the roots of the
+    quadratic left, rebuilt exactly (:func:`_exact_member`); then :func:`family_order`
+    (exact) at the middle of each interval."""
     grid = ([-sp.Rational(x) for x in ("1/1000", "1/100", "1/10", "1/2", "1", "2", "4",
                                         "8", "16", "32", "64", "128", "512", "4096")]
             if time == "continuous" else
             [sp.Rational(x, 16) for x in range(-15, 16, 2)])
-    # the parameter t = tan θ on a grid of angles (chart 1), and t = ∞ (chart 2 at 0)
-    pars = [sp.Rational(math.tan(math.pi * (i / _PENCIL_ANGLES - 0.5))).limit_denominator(32)
-            for i in range(1, _PENCIL_ANGLES)]
-    for name, b, gam in gammas:
-        Cf = [[float(sp.Poly(x, lam, t).coeff_monomial(lam ** i * t ** j)) for i in range(k + 1)]
-              for x in gam for j in (0, 1)]
-        Cf = np.array(Cf).reshape(len(gam), 2, k + 1)
-        for tv in (pars if name == "t" else [sp.Integer(0)]):
-            Bv = Cf[:, 0, :] + float(tv) * Cf[:, 1, :]
-            _, sv, Vt = np.linalg.svd(Bv)
-            basis = Vt[: int((sv > 1e-9 * sv[0]).sum())]
-            V = np.vander(np.array([float(x) for x in grid]), k + 1, increasing=True)
-            E = V @ basis.T
-            for pins in itertools.combinations(range(len(grid)), k - 2):
-                if basis.shape[0] != k - 1:
-                    break
-                _, _, vt = np.linalg.svd(E[list(pins)])
-                p = vt[-1] @ basis
-                if abs(p[-1]) < 1e-9 * np.abs(p).max():
-                    continue
-                r = np.roots(p[::-1])
-                if np.any(np.abs(r.imag) > 1e-9 * (1 + np.abs(r))):
-                    continue
-                rr = np.sort(r.real)
-                if (np.min(np.diff(rr)) < 1e-6 * (1 + np.abs(rr).max())
-                        or not (np.all(rr < 0) if time == "continuous"
-                                else np.all(np.abs(rr) < 1))):
-                    continue
-                got = _exact_member(b, gam, [grid[i] for i in pins], tv, k, lam, t, time)
-                if got is not None:
-                    return got + ((f"{name} = {tv}" if len(gammas) == 2 else name),)
+    name, b, gam = gammas[0]
+    if bad is None:
+        pars = [sp.Rational(math.tan(math.pi * (i / _PENCIL_ANGLES - 0.5))
+                            ).limit_denominator(32) for i in range(1, _PENCIL_ANGLES)]
+        middles = []
+    else:
+        pars, middles = [], []
+        for lo, hi in bad:
+            lo = hi - 64 if lo is None else lo
+            hi = lo + 64 if hi is None else hi
+            pars += [lo + (hi - lo) * sp.Rational(i, 12) for i in range(1, 12)]
+            middles.append((lo + hi) / 2)
+    exact = [(name if len(gammas) == 1 else f"{name} = {tv}", b, [x.subs(t, tv) for x in gam],
+              tv) for tv in (pars if len(gammas) == 2 else [sp.Integer(0)])]
+    if len(gammas) == 2 and bad is None:
+        n2, b2, g2 = gammas[1]
+        exact.append((f"{n2} = 0", b2, [x.subs(t, 0) for x in g2], sp.Integer(0)))
+    V = np.vander(np.array([float(x) for x in grid]), k + 1, increasing=True)
+    hits = []  # (stiffness score, order, pins, where, b, γ at t, t): least stiff first
+    for where, b, gam_t, tv in exact:
+        Cf = np.array([[float(sp.Poly(x, lam).coeff_monomial(lam ** i)) for i in range(k + 1)]
+                       for x in gam_t])
+        _, sv, Vt = np.linalg.svd(Cf)
+        basis = Vt[: int((sv > 1e-9 * sv[0]).sum())]
+        if basis.shape[0] != k - 1:
+            continue
+        E = V @ basis.T
+        for pins in itertools.combinations(range(len(grid)), k - 2):
+            _, _, vt = np.linalg.svd(E[list(pins)])
+            p = vt[-1] @ basis
+            if abs(p[-1]) < 1e-9 * np.abs(p).max():
+                continue
+            r = np.roots(p[::-1])
+            if np.any(np.abs(r.imag) > 1e-9 * (1 + np.abs(r))):
+                continue
+            rr = np.sort(r.real)
+            if (np.min(np.diff(rr)) < 1e-6 * (1 + np.abs(rr).max())
+                    or not (np.all(rr < 0) if time == "continuous"
+                            else np.all(np.abs(rr) < 1))):
+                continue
+            score = (np.abs(rr).max() / np.abs(rr).min() if time == "continuous"
+                     else np.abs(rr).max())
+            hits.append((score, len(hits), pins, where, b, gam_t, tv))
+    for _, _, pins, where, b, gam_t, tv in sorted(hits)[:_PENCIL_EXACT]:
+        got = _exact_member(gam_t, [grid[i] for i in pins], k, lam, time)
+        if got is not None:
+            return got, [x.subs(t, tv) for x in b], where
+    for tv in middles:
+        polys = [sp.Poly(x.subs(t, tv), lam) for x in gam]
+        a0, dirs = _monic_family(polys, k, lam)
+        order = family_order(k, a0, dirs, lam, time)
+        if order.lambdas:
+            return list(order.lambdas), [x.subs(t, tv) for x in b], f"{name} = {tv}"
     return None
 
 
-def _exact_member(b, gam, pins, tv, k, lam, t, time):
-    """The member through the pinned rational roots at the rational parameter tv, exactly:
-    ((λ_i), ℓ1) when its other roots are real, distinct, stable and not pinned."""
-    polys = [sp.Poly(x.subs(t, tv), lam) for x in gam]
+def _exact_member(gam, pins, k, lam, time):
+    """The member u·γ(λ) (``gam`` at one parameter value) through the pinned rational
+    roots, exactly: its roots (the pins first) when the other two are real, distinct,
+    stable and not pinned, else None."""
+    polys = [sp.Poly(x, lam) for x in gam]
     A = sp.Matrix([[P.eval(v) for P in polys] for v in pins])
     for u in A.nullspace():
         p = sum((P * u[i] for i, P in enumerate(polys) if u[i] != 0), sp.Poly(0, lam))
@@ -1104,8 +1227,7 @@ def _exact_member(b, gam, pins, tv, k, lam, t, time):
             return None
         if rest.discriminant() <= 0 or _stable_root_count(rest, time) != 2:
             return None
-        roots = sorted(sp.roots(rest.as_expr(), lam), key=lambda z: float(z))
-        return list(pins) + roots, [x.subs(t, tv) for x in b]
+        return list(pins) + sorted(sp.roots(rest.as_expr(), lam), key=lambda z: float(z))
     return None
 
 
