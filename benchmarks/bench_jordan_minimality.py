@@ -141,6 +141,12 @@ def cases(slow: bool):
     out.append(("`random_model(10, 3, 1, seed=1)`, z = (x1, x2), disturbance decoupled"
                 " (5 rows before the 3-space decision)",
                 random_model(10, 3, 1, seed=1, time="continuous"), sp.eye(10)[:2, :], 4))
+    # ten states, planes of six dimensions: the search found six rows (least order in
+    # [4, 6] before this table's 5-row entry); five rows through a pencil of forms (a member
+    # rebuilt exactly), four impossible (the plane fixed by the unique curve of 4-vectors
+    # meets W(λ) at no real stable λ), so five are minimal
+    out.append(_z12(10, 0, 0, "discrete", " (6 rows before the six-dimensional decisions)",
+                    5))
     if slow:
         out.append(("unmeasured companion block, λ³ + 6λ² + 8λ + 1", PlantModel(
             name="cubic", time="continuous", states=[x1, x2, x3, x4], inputs=[u], outputs=[x4],

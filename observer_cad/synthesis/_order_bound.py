@@ -351,7 +351,7 @@ def _hyperplane_rows(F, H, L, M, lam, time: str, kind: str) -> OneMoreRow:
                   if jumps.stable else jumps.evidence, k)
     Q = sp.Matrix.hstack(*sp.Matrix.vstack(M, H).nullspace())
     G = (sp.Matrix.vstack(*rows) * Q).applyfunc(sp.expand) if rows else sp.zeros(0, c)
-    if kind == "solid" or c == 6:
+    if kind == "solid" or (kind == "plane" and c == 6):
         return _six_rows(G, k, lam, time, no, rows, kind)
     if kind == "plane":
         if c == 4:
