@@ -411,7 +411,7 @@ def design_jordan(model: PlantModel, *, observer: str, estimate=None,
                               names)
             if alt is not None:
                 chosen = alt
-    plane = None  # q + 3 rows found: can q + 2 do it? (decided exactly for planes of R⁴)
+    plane = None  # q + 3 rows found: can q + 2 do it? (planes of R⁴, R⁵, R⁶)
     if (chosen is not None and M is not None and M.rows > 1 and span is not None
             and span.analysed and not span.possible and not lambdas
             and (len(chosen) == span.q + 3
@@ -1261,8 +1261,8 @@ def _minimality(observer, k, n, lams, lam_list, adm, requested, one_row, jumps, 
         return Condition(name, True, found + f"{why}; exactly {solid.k} rows are impossible for"
                          " every real stable λ, and a model of fewer rows would extend to that"
                          " many by rows of further λ (their images span all c dimensions and a"
-                         f" model exists): {solid.evidence} (fewer: the lower bound over every F* is"
-                         f" {b.k}{where}: {b.evidence}{least})", ref, required=False)
+                         f" model exists): {solid.evidence} (fewer: the lower bound over every"
+                         f" F* is {b.k}{where}: {b.evidence}{least})", ref, required=False)
     if solid is not None:
         least += f"; {solid.k} rows: {solid.evidence}"
     return Condition(name, False, found + f"{why}; the lower bound over every F* is {b.k}{where}"

@@ -248,7 +248,8 @@ def two_more_rows(F, H, L, M, lam, time: str) -> OneMoreRow:
     rows of each λ have a 2-dimensional image W(λ) modulo rowspace [M; H] in c = 4
     dimensions — 2-planes of R⁴, lines of P³ (METHOD §2b, "two more rows") — or in c = 5
     dimensions (:func:`_space_rows`: the plane U then lies in one of finitely many
-    3-spaces meeting every W(λ)).
+    3-spaces meeting every W(λ)), or in c = 6 (:func:`_six_rows`: U is the one plane that
+    a curve of 4-vectors containing every W(λ) fixes, when that curve is unique).
 
     Same preconditions as :func:`one_more_row` (M reduced to q rows; no row of a real
     stable λ inside rowspace [M; H] outside rowspace H; no family jump), and fewer rows
@@ -879,8 +880,8 @@ def _wedge_rows(G, grade, d, lam) -> tuple:
             A[r, col] = v
     out = []
     for v in A.nullspace():
-        out.append([{S: v[j * len(sets) + i] for i, S in enumerate(sets) if v[j * len(sets) + i] != 0}
-                    for j in range(d + 1)])
+        part = [{S: v[j * len(sets) + i] for i, S in enumerate(sets)} for j in range(d + 1)]
+        out.append([{S: x for S, x in p.items() if x != 0} for p in part])
     return sets, out
 
 
