@@ -1216,7 +1216,7 @@ def _exact_member(gam, pins, k, lam, time):
     roots, exactly: its roots (the pins first) when the other two are real, distinct,
     stable and not pinned, else None."""
     polys = [sp.Poly(x, lam) for x in gam]
-    A = sp.Matrix([[P.eval(v) for P in polys] for v in pins])
+    A = sp.Matrix([[P(v) for P in polys] for v in pins])
     for u in A.nullspace():
         p = sum((P * u[i] for i, P in enumerate(polys) if u[i] != 0), sp.Poly(0, lam))
         if p.is_zero or p.degree() != k:
@@ -1224,7 +1224,7 @@ def _exact_member(gam, pins, k, lam, time):
         rest = p
         for v in pins:
             rest = rest.quo(sp.Poly(lam - v, lam))
-        if rest.degree() != 2 or any(rest.eval(v) == 0 for v in pins):
+        if rest.degree() != 2 or any(rest(v) == 0 for v in pins):
             return None
         if rest.discriminant() <= 0 or _stable_root_count(rest, time) != 2:
             return None

@@ -571,12 +571,12 @@ def test_two_more_rows_impossible_and_checked_in_floats():
 
 
 def test_two_more_rows_not_analysed_outside_its_case():
-    """Seven states (c = 3): not planes of four or five dimensions; says so, claims
+    """Seven states (c = 3): not planes of four, five or six dimensions; says so, claims
     nothing."""
     st = extract_structure(random_model(7, 2, 0, seed=0, time="continuous"))
     r = two_more_rows(sp.Matrix(st.F), sp.Matrix(st.H), sp.zeros(7, 0), _first_rows(7, 2),
                       LAM, "continuous")
-    assert not r.analysed and not r.possible and "not planes of 4 or 5 dimensions" in r.evidence
+    assert not r.analysed and not r.possible and "not planes of 4, 5 or 6 dimensions" in r.evidence
 
 
 @pytest.mark.slow
