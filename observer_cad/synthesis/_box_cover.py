@@ -173,16 +173,11 @@ def quadric_cover(m: int, S, time: str, *, equality: bool, max_cells: int = BOX_
     Si = [[int(sp.Rational(S[i, j]) * den) for j in range(m + 1)] for i in range(m + 1)]
     levels = max_depth + int(math.log2(_START))
     top = 2 ** levels
-    cache: dict = {}
+    def at_corner(key):
+        a = _product(key, top, time, m)
+        return a, [sum(Si[i][j] * a[j] for j in range(m + 1)) for i in range(m + 1)]
 
-    def vertex(u):
-        key = tuple(sorted(u))
-        got = cache.get(key)
-        if got is None:
-            a = _product(key, top, time, m)
-            got = (a, [sum(Si[i][j] * a[j] for j in range(m + 1)) for i in range(m + 1)])
-            cache[key] = got
-        return got
+    vertex = _symmetric_memo(at_corner)
 
     def bernstein_signs(lo, hi):
         verts = list(itertools.product((0, 1), repeat=m))
@@ -244,28 +239,15 @@ def box_cover(m: int, functionals, time: str, *, max_cells: int = BOX_CELLS,
         return BoxCover(False, 0, 0, "no condition on p: every monic p is a member")
     levels = max_depth + int(math.log2(_START))
     top = 2 ** levels  # coordinates u ∈ [0, top], μ = 2u/top − 1
-    cache: dict = {}
+    def at_corner(key):  # (ℓ_k(g(u)))_k in integers, g symmetric: cached on the sorted corner
+        coef = _product(key, top, time, m)
+        return tuple(sum(w * cj for w, cj in zip(row, coef)) for row in ell)
 
-    def values(u):  # (ℓ_k(g(u)))_k in integers, g symmetric: cached on the sorted corner
-        key = tuple(sorted(u))
-        got = cache.get(key)
-        if got is None:
-            coef = _product(key, top, time, m)
-            got = tuple(sum(w * cj for w, cj in zip(row, coef)) for row in ell)
-            cache[key] = got
-        return got
-
-    last = [None]  # the combination that excluded the previous cell: often works again
+    values = _symmetric_memo(at_corner)
+    combination = _hinted_combination(linprog)
 
     def excluded(lo, hi):
-        V = [values(v) for v in set(itertools.product(*zip(lo, hi)))]
-        hint = last[0]
-        if hint is not None and all(sum(c * x for c, x in zip(hint, row)) > 0 for row in V):
-            return hint
-        c = positive_combination(V, linprog=linprog)
-        if c is not None:
-            last[0] = c
-        return c
+        return combination([values(v) for v in set(itertools.product(*zip(lo, hi)))])
 
     def member(lo, hi):
         centre = tuple(sp.Rational(a + b, top) - 1 for a, b in zip(lo, hi))
@@ -326,32 +308,19 @@ def pencil_cover(m: int, charts, time: str, *, max_cells: int = 40 * BOX_CELLS,
                 for j in range(d + 1)]
 
     def interval_proven(rows, d, a, b) -> bool:
-        cache: dict = {}
+        def at_corner(key):  # the Bernstein coefficients on [a, b] of each h_k(v, ·)
+            coef = _product(key, top, time, m)
+            polys = [[sum(e[i] * cj for e, cj in zip(row, coef)) for i in range(d + 1)]
+                     for row in rows]
+            return list(zip(*(bernstein(q, d, a, b) for q in polys)))
 
-        def vertex_rows(u):
-            key = tuple(sorted(u))
-            got = cache.get(key)
-            if got is None:
-                coef = _product(key, top, time, m)
-                polys = [[sum(e[i] * cj for e, cj in zip(row, coef)) for i in range(d + 1)]
-                         for row in rows]
-                got = list(zip(*(bernstein(q, d, a, b) for q in polys)))
-                cache[key] = got
-            return got
-
-        last = [None]
+        vertex_rows = _symmetric_memo(at_corner)
+        combination = _hinted_combination(linprog)
 
         def excluded(lo, hi):
             examined[0] += 1
             V = {x for v in set(itertools.product(*zip(lo, hi))) for x in vertex_rows(v)}
-            V = [_scaled(x) for x in V]
-            hint = last[0]
-            if hint is not None and all(sum(c * x for c, x in zip(hint, v)) > 0 for v in V):
-                return True
-            c = positive_combination(V, linprog=linprog)
-            if c is not None:
-                last[0] = c
-            return c is not None
+            return combination([_scaled(x) for x in V]) is not None
 
         got = _cover(m, top, excluded, "", None, 0, 200, _PENCIL_MU_DEPTH)
         return got.proven
@@ -385,6 +354,37 @@ def pencil_cover(m: int, charts, time: str, *, max_cells: int = 40 * BOX_CELLS,
                     " each, a combination of the conditions has positive Bernstein"
                     " coefficients at every vertex, so no t and no member has its roots real"
                     " and stable")
+
+
+def _symmetric_memo(compute):
+    """u ↦ compute(sorted u), cached on the sorted corner (the root factors commute)."""
+    cache: dict = {}
+
+    def get(u):
+        key = tuple(sorted(u))
+        got = cache.get(key)
+        if got is None:
+            got = cache[key] = compute(key)
+        return got
+
+    return get
+
+
+def _hinted_combination(linprog):
+    """rows ↦ integer c with c·row > 0 for every row, or None (:func:`positive_combination`),
+    trying first the c that worked last (neighbouring cells often share it)."""
+    last = [None]
+
+    def find(rows):
+        hint = last[0]
+        if hint is not None and all(sum(c * x for c, x in zip(hint, row)) > 0 for row in rows):
+            return hint
+        c = positive_combination(rows, linprog=linprog)
+        if c is not None:
+            last[0] = c
+        return c
+
+    return find
 
 
 def _fraction(x) -> Fraction:

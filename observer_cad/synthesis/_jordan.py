@@ -406,22 +406,14 @@ def design_jordan(model: PlantModel, *, observer: str, estimate=None,
             and span.analysed and not span.possible and len(chosen) == span.q + 4
             and not lambdas):
         solid = three_more_rows(F, H, L if decoupled else sp.zeros(n, 0), M, LAMBDA, work.time)
-        if solid.possible and solid.rows:  # the rows of a (q + 3)-row model, exactly
-            alt = _given_rows(F, H, solid.lambdas, solid.rows, observer, D, M, st, tried,
-                              names)
-            if alt is not None:
-                chosen = alt
+        chosen = _decided_rows(solid, chosen, F, H, observer, D, M, st, tried, names)
     plane = None  # q + 3 rows found: can q + 2 do it? (planes of R⁴, R⁵, R⁶)
     if (chosen is not None and M is not None and M.rows > 1 and span is not None
             and span.analysed and not span.possible and not lambdas
             and (len(chosen) == span.q + 3
                  or (len(chosen) == span.q + 4 and solid is not None and solid.analysed))):
         plane = two_more_rows(F, H, L if decoupled else sp.zeros(n, 0), M, LAMBDA, work.time)
-        if plane.possible and plane.rows:  # the rows of a (q + 2)-row model, exactly
-            alt = _given_rows(F, H, plane.lambdas, plane.rows, observer, D, M, st, tried,
-                              names)
-            if alt is not None:
-                chosen = alt
+        chosen = _decided_rows(plane, chosen, F, H, observer, D, M, st, tried, names)
     for size in range(1, n) if chosen is None else ():  # fewest rows first, every strategy
         chosen = _combination_rows(pool, n, observer, H, D, M, st, tried, names, (size,))
         if chosen is None and sums:  # the basis rows alone do not do it: generic members too
@@ -587,6 +579,17 @@ def _rows_at(F, H, L0, lams, observer, D, M, st, tried, names=()):
             return None
         rows.append((lam, rows_phi[0], rows_j[0]))
     return rows if _check_rows(rows, len(rows), observer, H, D, M, st, tried, names) else None
+
+
+def _decided_rows(decision, chosen, F, H, observer, D, M, st, tried, names):
+    """The design from the rows an exact order decision (:func:`two_more_rows`,
+    :func:`three_more_rows`) returned with its λ, when it builds; else ``chosen``."""
+    if decision.possible and decision.rows:
+        alt = _given_rows(F, H, decision.lambdas, decision.rows, observer, D, M, st, tried,
+                          names)
+        if alt is not None:
+            return alt
+    return chosen
 
 
 def _given_rows(F, H, lams, phis, observer, D, M, st, tried, names=()):
