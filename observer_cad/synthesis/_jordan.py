@@ -1259,7 +1259,7 @@ def _minimality(observer, k, n, lams, lam_list, adm, requested, one_row, jumps, 
     if plane is not None:
         least += f"; {plane.k} rows: {plane.evidence}"
         if plane.analysed and not plane.possible and lo >= plane.k:
-            lo = plane.k + 1
+            lo = max(lo, plane.k + 1)
     if solid is not None and solid.analysed and not solid.possible and k == solid.k + 1:
         return Condition(name, True, found + f"{why}; exactly {solid.k} rows are impossible for"
                          " every real stable λ, and a model of fewer rows would extend to that"

@@ -975,7 +975,7 @@ def _pencil_verdict(G, pim, k, lam, time, no, fam, basis_rows) -> OneMoreRow:
                              for i in range(c) if i != j)) for j in range(c)]
         gammas.append((name, b, gam))
     g = max(sp.degree(x, lam) for _, _, gam in gammas for x in gam)
-    X_txt = (f"{len(L)} independent pencils: U lies in a 4-space X(t) = ker ℓ0(t) ∩ ker ℓ1(t)"
+    X_txt = (f"{len(L)} independent pencil{'s' if len(L) > 1 else ''}: U lies in a 4-space X(t) = ker ℓ0(t) ∩ ker ℓ1(t)"
              f" of a {'line' if len(L) == 2 else 'point'} of pencils, X(t) ∩ W(λ) is the line"
              f" of γ(λ, t) = ι_ℓ1(t) π(λ) (0 only where W(λ) ⊂ X(t)), and U = X ∩ ker u meets"
              f" W(λ) iff"
@@ -1007,7 +1007,7 @@ def _pencil_verdict(G, pim, k, lam, time, no, fam, basis_rows) -> OneMoreRow:
                       f" {sp.factor(gb[-1])} (not decided)", k)
     if bad is None:  # every parameter value to the cover
         whole = [(-1, 1)]
-        charts, signs = [(gammas[0][0], whole), (gammas[1][0], whole)][:len(gammas)], ""
+        charts, signs = [(g[0], whole) for g in gammas], ""
     else:
         charts, signs = _chart_intervals(bad), (
             f"the signs (Gordan, exactly at one t between consecutive real roots of the"
