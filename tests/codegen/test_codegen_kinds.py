@@ -51,6 +51,15 @@ RTOL = 1e-12
 # run time while the numpy oracle folds them into its constants, and the delayed
 # unknown-input estimators subtract nearly equal lagged values; measured ≤ 1.1e-12
 RTOL_STEP = 1e-11
+# whole trajectories of the delayed unknown-input estimate ρ̂ (Figs. 3 and 4): it divides
+# lagged differences by a small quantity, so the order in which the expressions are summed
+# — which follows Python's string hashing (PYTHONHASHSEED) — moves it by 1.05e-10
+# relative: measured with PYTHONHASHSEED = 1 … 6 (the reference and the compiled run each
+# take one of two values 1.05e-10 apart; every other column agrees to < 1e-15)
+RTOL_DELAYED_ESTIMATE = 1e-9
+LOOSE = {("unknown-input rho mismatched, delay 2 (Fig. 3)", "rho_hat"): RTOL_DELAYED_ESTIMATE,
+         ("unknown-input rho mismatched, delay 2, noise (Fig. 4)", "rho_hat"):
+         RTOL_DELAYED_ESTIMATE}
 needs_cc = pytest.mark.skipif(
     not any((Path(d) / "cc").exists() for d in __import__("os").environ.get("PATH", "").split(":")),
     reason="no C compiler")
@@ -198,7 +207,8 @@ def test_trajectory_parity_every_kind(case, built):
     errs = {}
     try:
         for c in ref.columns:
-            errs[c] = _close(ref[c], res[c], what=f"compiled vs reference, column {c}")
+            errs[c] = _close(ref[c], res[c], rtol=LOOSE.get((case, c), RTOL),
+                             what=f"compiled vs reference, column {c}")
     except AssertionError as exc:
         raise AssertionError(f"{exc}\n{_rerun_parity(m, o, sc, ref, res)}") from exc
     # interpreted casadi, the same joint step, whole trajectory
