@@ -975,11 +975,11 @@ def _pencil_verdict(G, pim, k, lam, time, no, fam, basis_rows) -> OneMoreRow:
                              for i in range(c) if i != j)) for j in range(c)]
         gammas.append((name, b, gam))
     g = max(sp.degree(x, lam) for _, _, gam in gammas for x in gam)
-    X_txt = (f"{len(L)} independent pencil{'s' if len(L) > 1 else ''}: U lies in a 4-space X(t) = ker ℓ0(t) ∩ ker ℓ1(t)"
-             f" of a {'line' if len(L) == 2 else 'point'} of pencils, X(t) ∩ W(λ) is the line"
-             f" of γ(λ, t) = ι_ℓ1(t) π(λ) (0 only where W(λ) ⊂ X(t)), and U = X ∩ ker u meets"
-             f" W(λ) iff"
-             f" u·γ(λ, t) = 0, a polynomial of degree ≤ {g} in λ")
+    X_txt = (f"{len(L)} independent pencil{'s' if len(L) > 1 else ''}: U lies in a 4-space"
+             f" X(t) = ker ℓ0(t) ∩ ker ℓ1(t) of a {'line' if len(L) == 2 else 'point'} of"
+             " pencils, X(t) ∩ W(λ) is the line of γ(λ, t) = ι_ℓ1(t) π(λ) (0 only where"
+             " W(λ) ⊂ X(t)), and U = X ∩ ker u meets W(λ) iff u·γ(λ, t) = 0, a polynomial of"
+             f" degree ≤ {g} in λ")
     if g < k:
         return OneMoreRow(True, False, (), f"{head}; {X_txt} < {k}: no choice of real stable"
                           f" λ gives {k} rows", k)
