@@ -1047,10 +1047,7 @@ def _pencil_signs(Cm, t, k, time):
     N = [sp.Matrix([sp.cancel(x) for x in v]) for v in Cm.nullspace()]
     if len(N) != 2:
         return None
-    W = []
-    for v in N:
-        den = sp.lcm_list([sp.fraction(sp.together(x))[1] for x in v])
-        W.append([sp.Poly(sp.cancel(x * den), t) for x in v])
+    W = [[sp.Poly(x, t) for x in _cleared(v)] for v in N]
     crit = [P for P in W[0] + W[1] if P.degree() > 0]
     crit += [W[0][i] * W[1][j] - W[0][j] * W[1][i] for i, j in
              itertools.combinations(range(k + 1), 2)]
@@ -1123,13 +1120,7 @@ def _kernel_functionals(Cm, t) -> list:
         if det == 0:
             continue
         B = (sp.Matrix.hstack(*N) * sub.inv()).applyfunc(sp.cancel)
-        new = []
-        for j in range(B.cols):
-            col = B[:, j]
-            den = sp.lcm_list([sp.fraction(sp.together(x))[1] for x in col])
-            col = col.applyfunc(lambda x: sp.expand(sp.cancel(x * den)))
-            new.append(col)
-        out += new
+        out += [_cleared(B[:, j]) for j in range(B.cols)]
         minors += [sp.expand(a[i] * b[j] - a[j] * b[i]) for a, b in itertools.combinations(
             out, 2) for i, j in itertools.combinations(range(Cm.cols), 2)]
         if len(N) < 2 or sp.degree(sp.gcd_list([m for m in minors if m != 0] or [0]), t) == 0:
@@ -1142,6 +1133,12 @@ def _kernel_functionals(Cm, t) -> list:
         funcs.append([[int(cf * den) for cf in reversed(P.all_coeffs())] if not P.is_zero
                       else [0] for P in polys])
     return funcs
+
+
+def _cleared(v):
+    """A vector of rational functions times the lcm of its denominators: polynomials."""
+    den = sp.lcm_list([sp.fraction(sp.together(x))[1] for x in v])
+    return sp.Matrix([sp.expand(sp.cancel(x * den)) for x in v])
 
 
 def _pencil_member(gammas, k, lam, t, time, bad):
@@ -1167,40 +1164,49 @@ def _pencil_member(gammas, k, lam, t, time, bad):
             hi = lo + 64 if hi is None else hi
             pars += [lo + (hi - lo) * sp.Rational(i, 12) for i in range(1, 12)]
             middles.append((lo + hi) / 2)
-    exact = [(name if len(gammas) == 1 else f"{name} = {tv}", b, [x.subs(t, tv) for x in gam],
-              tv) for tv in (pars if len(gammas) == 2 else [sp.Integer(0)])]
+    tries = [(gammas[0], tv) for tv in (pars if len(gammas) == 2 else [sp.Integer(0)])]
     if len(gammas) == 2 and bad is None:
-        n2, b2, g2 = gammas[1]
-        exact.append((f"{n2} = 0", b2, [x.subs(t, 0) for x in g2], sp.Integer(0)))
+        tries.append((gammas[1], sp.Integer(0)))
+    # γ's coefficients are affine in t: C(t) = C0 + t C1, in floats once per chart
+    affine = {}
+    for chart in {id(g): g for g, _ in tries}.values():
+        C = [[sp.Poly(sp.Poly(x, lam).coeff_monomial(lam ** i), t) for i in range(k + 1)]
+             for x in chart[2]]
+        affine[id(chart)] = tuple(np.array([[float(P.coeff_monomial(t ** j)) for P in row]
+                                            for row in C]) for j in (0, 1))
     V = np.vander(np.array([float(x) for x in grid]), k + 1, increasing=True)
-    hits = []  # (stiffness score, order, pins, where, b, γ at t, t): least stiff first
-    for where, b, gam_t, tv in exact:
-        Cf = np.array([[float(sp.Poly(x, lam).coeff_monomial(lam ** i)) for i in range(k + 1)]
-                       for x in gam_t])
-        _, sv, Vt = np.linalg.svd(Cf)
+    combos = np.array(list(itertools.combinations(range(len(grid)), k - 2)))
+    hits = []  # (stiffness score, order, pins, chart, t): least stiff first
+    for chart, tv in tries:
+        C0, C1 = affine[id(chart)]
+        _, sv, Vt = np.linalg.svd(C0 + float(tv) * C1)
         basis = Vt[: int((sv > 1e-9 * sv[0]).sum())]
         if basis.shape[0] != k - 1:
             continue
-        E = V @ basis.T
-        for pins in itertools.combinations(range(len(grid)), k - 2):
-            _, _, vt = np.linalg.svd(E[list(pins)])
-            p = vt[-1] @ basis
-            if abs(p[-1]) < 1e-9 * np.abs(p).max():
-                continue
-            r = np.roots(p[::-1])
-            if np.any(np.abs(r.imag) > 1e-9 * (1 + np.abs(r))):
-                continue
-            rr = np.sort(r.real)
-            if (np.min(np.diff(rr)) < 1e-6 * (1 + np.abs(rr).max())
-                    or not (np.all(rr < 0) if time == "continuous"
-                            else np.all(np.abs(rr) < 1))):
-                continue
-            score = (np.abs(rr).max() / np.abs(rr).min() if time == "continuous"
-                     else np.abs(rr).max())
-            hits.append((score, len(hits), pins, where, b, gam_t, tv))
-    for _, _, pins, where, b, gam_t, tv in sorted(hits)[:_PENCIL_EXACT]:
-        got = _exact_member(gam_t, [grid[i] for i in pins], k, lam, time)
+        # every pinned set at once: the member through k − 2 pinned roots (a null vector),
+        # its roots as the eigenvalues of its companion matrix
+        null = np.linalg.svd((V @ basis.T)[combos])[2][:, -1, :]
+        P = null @ basis  # coefficients of λ⁰ … λᵏ, one row per pinned set
+        lead = P[:, -1]
+        ok = np.abs(lead) >= 1e-9 * np.abs(P).max(axis=1)
+        comp = np.zeros((int(ok.sum()), k, k))
+        comp[:, 1:, :-1] = np.eye(k - 1)
+        comp[:, :, -1] = -P[ok, :-1] / lead[ok, None]
+        roots = np.linalg.eigvals(comp)
+        real = np.all(np.abs(roots.imag) <= 1e-9 * (1 + np.abs(roots)), axis=1)
+        rr = np.sort(roots.real, axis=1)
+        stable = np.all(rr < 0 if time == "continuous" else np.abs(rr) < 1, axis=1)
+        apart = np.min(np.diff(rr, axis=1), axis=1) >= 1e-6 * (1 + np.abs(rr).max(axis=1))
+        good = real & stable & apart
+        score = (np.abs(rr).max(axis=1) / np.abs(rr).min(axis=1) if time == "continuous"
+                 else np.abs(rr).max(axis=1))
+        for j in np.flatnonzero(good):
+            hits.append((float(score[j]), len(hits), tuple(combos[ok][j]), chart, tv))
+    for _, _, pins, (cname, b, gam), tv in sorted(hits, key=lambda h: h[:2])[:_PENCIL_EXACT]:
+        got = _exact_member([x.subs(t, tv) for x in gam], [grid[i] for i in pins], k, lam,
+                            time)
         if got is not None:
+            where = cname if len(gammas) == 1 else f"{cname} = {tv}"
             return got, [x.subs(t, tv) for x in b], where
     for tv in middles:
         polys = [sp.Poly(x.subs(t, tv), lam) for x in gam]
