@@ -1,4 +1,4 @@
-"""Independent oracle for a symbolic design's assumptions (issue 11 item 6).
+"""Independent oracle for a symbolic design's assumptions.
 
 Written with plain sympy (``together``, ``fraction``, ``factor_list``, ``solve``), not
 with the package's condition helpers: for every entry of every matrix a design
@@ -54,6 +54,17 @@ def _divides(f, g, gens) -> bool:
 
 
 def _holds(assumption, point) -> bool | None:
+    """Whether an assumption holds at a point; for ``Ne(g, 0)`` at an algebraic point (a
+    root found by ``solve``, possibly with surds or the imaginary unit) g is expanded and,
+    if that does not show 0, evaluated to 50 digits: sympy does not reduce a
+    surd expression that equals 0 to 0 by itself."""
+    if isinstance(assumption, sp.Ne) and assumption.rhs == 0:
+        g = sp.expand(assumption.lhs.subs(point))
+        if g == 0:
+            return False
+        if g.is_number:
+            return abs(complex(g.evalf(50))) > 1e-30
+        return None
     v = assumption.subs(point)
     return None if not isinstance(v, (bool, sp.logic.boolalg.BooleanAtom)) else bool(v)
 

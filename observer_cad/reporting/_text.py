@@ -51,6 +51,7 @@ def structure_to_json(st: Structure) -> dict:
         "nonlinear": [{"function": str(t.function.xreplace({t.argument: sp.Symbol("s")})),
                        "argument": str((t.row * sp.Matrix(m.states))[0, 0]),
                        "row": [str(e) for e in t.row]} for t in st.terms],
+        "certificate": st.certificate.to_json() if st.certificate is not None else None,
     }
 
 
@@ -80,6 +81,13 @@ def format_structure(st: Structure) -> str:
         for j, t in enumerate(st.terms, 1):
             ax = (t.row * sp.Matrix(m.states))[0, 0]
             out.append(f"    Psi_{j} = {t.of_state(m.states)}    (A_{j} = {list(t.row)}, argument {ax})")
+    if st.certificate is not None:
+        cert = st.certificate
+        out.append("\n  model certificate: the matrices rebuild the model's equations")
+        out.append(f"    {cert.IDENTITY}")
+        for c in cert.checks:
+            mark = "exact  " if c.exact else "numeric"
+            out.append(f"    [{mark}] {c.equation}: {c.how}")
     return "\n".join(out)
 
 

@@ -35,6 +35,7 @@ from typing import Sequence
 from ..errors import InfeasibleDesignError, ModelError, UsageError
 from ..model import PlantModel
 from ._design import Design
+from ._diagnosability import analyze
 from ._dispatch import design
 from ._signature import fault_sensitivity
 
@@ -282,6 +283,12 @@ def design_bank(model: PlantModel, *, structure=None, faults: Sequence[str] | No
         for i, row in enumerate(rows, 1):
             d, why = attempt(row)
             if d is None:
+                impossible = _impossible_row(model, row, names, extra, symbolic, method, rtol)
+                if impossible:
+                    raise InfeasibleDesignError(
+                        f"{model.where}: --structure row {i} ({_row_text(row)}:"
+                        f" {_describe_row(row, names)}) is not achievable for any order:"
+                        f" {impossible}")
                 raise InfeasibleDesignError(
                     f"{model.where}: --structure row {i} ({_row_text(row)}:"
                     f" {_describe_row(row, names)}) is not achievable: {why}")
@@ -347,6 +354,23 @@ def design_bank(model: PlantModel, *, structure=None, faults: Sequence[str] | No
                  " added greedily, each the row that isolates the most further pairs"
                  " (then detects the most further faults, then has the fewest states)",
                  attempts, extra)
+
+
+def _impossible_row(model, row, names, extra, symbolic, method, rtol) -> str:
+    """The diagnosability analysis's verdict on a row the Jordan search did not realise:
+    why no residual of any order can (a fault of the row not detectable with the row's
+    zeros and the disturbances decoupled), or "" when the analysis finds the row
+    achievable (the refusal then stays the search's, which tried orders below n)."""
+    on = [f for f, c in zip(names, row) if c]
+    off = [f for f, c in zip(names, row) if not c]
+    if not on:
+        return ""
+    result = analyze(model, faults=on, disturbances=off + list(extra), symbolic=symbolic,
+                     method=method, rtol=rtol)
+    blind = [r for r in result.fault_results if not r.detectable]
+    if not blind or any(r.via_substitution for r in blind):
+        return ""  # (a "no" that rests on the argument-substitution search is no proof)
+    return "; ".join(f"{r.fault}: {r.reason}" for r in blind)
 
 
 def _bank(model, names, rows, designs, scheme, choice, attempts, extra) -> ResidualBank:

@@ -20,9 +20,11 @@ import numpy as np
 import sympy as sp
 
 from ..errors import CertificateError
+from ..model import is_identically_zero
 from ..numerics import as_rational, from_rational, number_field, readable
 
-__all__ = ["Identity", "Certificate", "certify_reduced_model", "certify_design"]
+__all__ = ["Identity", "Certificate", "certify_reduced_model", "certify_design",
+           "certify_against_model", "MODEL_PREFIX"]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -269,3 +271,176 @@ def certify_design(plant: dict, mats: dict, *, M=None, substitutions=(), decoupl
     if raise_on_failure and not cert.passed:
         raise CertificateError(f"design failed its certificate: {cert.summary()}")
     return cert
+
+
+#: the prefix of the identities re-checked against the model's own equations
+MODEL_PREFIX = "model: "
+
+
+def _model_jacobians(model):
+    """``(jacobians, outputs)``: ∂f/∂v for v in (x, u, d, ρ) and ∂h/∂x straight from the
+    model's expressions — sympy's ``linear_eq_to_matrix``, nothing of the extraction —
+    when f and h are linear (every coefficient free of the variables, no constant term),
+    else None; ``outputs`` are h with the noise at 0."""
+    from sympy.solvers.solveset import NonlinearError
+    groups = {"x": model.states, "u": model.inputs, "d": model.faults,
+              "rho": model.disturbances}
+    noise0 = {w: 0 for w in model.noise}
+    outs = [h.xreplace(noise0) for h in model.outputs]
+    order = [s for syms in groups.values() for s in syms]
+    try:
+        A, b = sp.linear_eq_to_matrix(list(model.dynamics), order)
+        Hm, c = sp.linear_eq_to_matrix(outs, list(model.states)) if outs else (None, None)
+    except NonlinearError:
+        return None, outs
+    if not (b.is_zero_matrix and (c is None or c.is_zero_matrix)):
+        return None, outs  # a constant term: affine, checked on the equation itself
+    jac, start = {"h": Hm}, 0
+    for key, syms in groups.items():
+        jac[key] = A[:, start:start + len(syms)]
+        start += len(syms)
+    return jac, outs
+
+
+def certify_against_model(model, mats, task, *, nonlinear=(), observer_states=(),
+                          exact: bool = True, tolerance: float = 1e-9,
+                          approximate: bool = False) -> tuple:
+    """A design's reduced model re-derived from the model's own right-hand side f and
+    outputs h (noise at 0), not from the extracted matrices::
+
+        Φ f(x, u, d, ρ) − F* Φ x − J* h(x) − G* u − C* Ψ*(Φ x, h(x), u) − D* d_T − L* ρ_B ≡ 0
+        R* h(x) − H* Φ x ≡ 0,        M x − H_z Φ x − Q h(x) ≡ 0
+
+    with d_T the detected or estimated inputs (D*), ρ_B the bounded ones (interval
+    observers, L*), the faults the task assumes zero set to 0, and the decoupled inputs
+    left in f (so Φ L = 0 is checked again; for an approximate design they are set to 0:
+    its ‖Φ L‖ is reported separately). For a linear model the first identity is checked
+    block by block, with the Jacobians of f and h: Φ ∂f/∂x − F*Φ − J* ∂h/∂x,
+    Φ ∂f/∂u − G*, Φ ∂f/∂d − D*, Φ ∂f/∂ρ (or − L*). Exact designs are decided by
+    :func:`~observer_cad.model.is_identically_zero` (or exact rational products); float
+    designs by relative norms below ``tolerance``. Returns the identities (names start
+    with :data:`MODEL_PREFIX`); the caller decides what a failure means.
+    """
+    m = dict(mats)
+    Phi = sp.Matrix(m["Phi"])
+    k = Phi.rows
+    jac, outs = _model_jacobians(model)
+    by_name = {s.name: s for s in model.faults + model.disturbances}
+    targets = [by_name[t] for t in task.targets] if m.get("D_star") is not None else []
+    bounded = [by_name[t] for t in task.bounded] if m.get("L_star") is not None else []
+    zero = [by_name[t] for t in task.assumed_zero if t in by_name]
+    if m.get("D_star") is None:
+        zero += [by_name[t] for t in task.targets]
+    if approximate:
+        zero += [by_name[t] for t in task.decoupled]
+    zero = set(zero)
+
+    def cols(key, keep):  # Jacobian columns of the inputs kept, in the given order
+        syms = {"d": model.faults, "rho": model.disturbances}[key]
+        return sp.Matrix.hstack(*[jac[key][:, syms.index(s)] for s in keep]) if keep \
+            else sp.zeros(len(model.dynamics), 0)
+
+    checks = []  # (name, [A, B, …]): the identity A − B − … = 0
+    if jac is not None and not nonlinear:
+        d_rest = [s for s in model.faults if s not in zero and s not in targets]
+        r_rest = [s for s in model.disturbances if s not in zero and s not in targets
+                  and s not in bounded]
+
+        def column(s):
+            return jac["d"][:, model.faults.index(s)] if s in model.faults else \
+                jac["rho"][:, model.disturbances.index(s)]
+        blocks = [("Phi df/dx - F* Phi - J* dh/dx",
+                   [("Phi", "x"), ("F_star", "Phi"), ("J_star", "h")])]
+        plant = {"x": jac["x"], "h": jac["h"]}
+        if model.inputs:
+            blocks.append(("Phi df/du - G*", [("Phi", "u"), ("G_star", None)]))
+            plant["u"] = jac["u"]
+        if targets:
+            blocks.append(("Phi df/dd - D*", [("Phi", "T"), ("D_star", None)]))
+            plant["T"] = sp.Matrix.hstack(*[column(s) for s in targets])
+        if bounded:
+            blocks.append(("Phi df/drho - L*", [("Phi", "B"), ("L_star", None)]))
+            plant["B"] = sp.Matrix.hstack(*[column(s) for s in bounded])
+        if d_rest or r_rest:
+            blocks.append(("Phi df/d(decoupled)", [("Phi", "R")]))
+            plant["R"] = sp.Matrix.hstack(*[column(s) for s in d_rest + r_rest])
+        if m.get("R_star") is not None and m.get("H_star") is not None:
+            blocks.append(("R* dh/dx - H* Phi", [("R_star", "h"), ("H_star", "Phi")]))
+        if task.M is not None and m.get("Hz") is not None:
+            blocks.append(("M - Hz Phi - Q dh/dx", [("M", None), ("Hz", "Phi"), ("Q", "h")]))
+            m = dict(m, M=task.M)
+        return _linear_identities(blocks, plant, m, exact, tolerance)
+    x = sp.Matrix(model.states)
+    xs = list(observer_states) if observer_states else list(sp.symbols(f"xs1:{k + 1}"))
+    ys = sp.symbols(f"y1:{len(outs) + 1}")
+    sub = {s: 0 for s in zero}
+    f = sp.Matrix([sp.sympify(e).xreplace(sub) for e in model.dynamics])
+    z = dict(zip(xs, list(Phi * x)))
+    z.update(dict(zip(ys, outs)))
+    h = sp.Matrix(outs)
+    terms = [Phi * f, sp.Matrix(m["F_star"]) * Phi * x, sp.Matrix(m["J_star"]) * h]
+    if model.inputs:
+        terms.append(sp.Matrix(m["G_star"]) * sp.Matrix(model.inputs))
+    if targets:
+        terms.append(sp.Matrix(m["D_star"]) * sp.Matrix(targets))
+    if bounded:
+        terms.append(sp.Matrix(m["L_star"]) * sp.Matrix(bounded))
+    if m.get("C_star") is not None:
+        Cs = sp.Matrix(m["C_star"])
+        psi = {ns.index: ns.function.xreplace(z) for ns in nonlinear}
+        terms += [Cs[:, j] * psi[j + 1] for j in range(Cs.cols) if j + 1 in psi]
+    checks.append(("Phi f - F* Phi x - J* h - G* u - C* Psi* - D* d", terms))
+    if m.get("R_star") is not None and m.get("H_star") is not None:
+        checks.append(("R* h - H* Phi x", [sp.Matrix(m["R_star"]) * h,
+                                            sp.Matrix(m["H_star"]) * Phi * x]))
+    if task.M is not None and m.get("Hz") is not None:
+        checks.append(("M x - Hz Phi x - Q h", [sp.Matrix(task.M) * x,
+                                                 sp.Matrix(m["Hz"]) * Phi * x,
+                                                 sp.Matrix(m["Q"]) * h]))
+    out = []
+    for name, terms in checks:
+        total = terms[0]
+        for t in terms[1:]:
+            total = total - t
+        bad, how = None, "0"
+        for e, parts in zip(total, zip(*[list(t) for t in terms])):
+            test = is_identically_zero(e, scale=parts, rtol=None if exact else tolerance)
+            if not test.holds:
+                bad = e
+                break
+            if not test.exact:
+                how = test.how
+        residual = how if bad is None else readable(sp.simplify(bad) if exact else bad)
+        out.append(Identity(MODEL_PREFIX + name, bad is None, residual))
+    return tuple(out)
+
+
+def _linear_identities(blocks, plant: dict, mats: dict, exact: bool, tolerance: float) -> tuple:
+    """The block identities of :func:`certify_against_model` for a linear model. Each
+    block is ``(name, [(design matrix, plant Jacobian or None), …])``: the first pair's
+    product minus the others' is 0 (``None``: the design matrix alone; ``"Phi"`` as the
+    plant key: the design's Φ on the right). Exact rational matrices multiply in FLINT,
+    symbolic ones in sympy (each entry decided by ``is_identically_zero``), float designs
+    in numpy (relative norm below ``tolerance``)."""
+    if exact:
+        wrap = _exact_wrapper(list(plant.values()) + [mats[a] for _, ps in blocks for a, _ in ps])
+    else:
+        wrap = lambda v: _Arr(_floats(v))  # noqa: E731
+    P = {key: wrap(v) for key, v in plant.items()}
+    X = {key: wrap(v) for key, v in mats.items() if v is not None}
+    P["Phi"] = X["Phi"]
+    out = []
+    for name, pairs in blocks:
+        terms = [X[a] * P[b] if b is not None else X[a] for a, b in pairs]
+        total = terms[0]
+        for t in terms[1:]:
+            total = total - t
+        if not exact:  # relative to the size of the products without cancellation
+            r = total.a
+            scale = max([1.0] + [float(np.linalg.norm(X[a].a)) * (
+                float(np.linalg.norm(P[b].a)) if b is not None else 1.0) for a, b in pairs])
+            rel = float(np.linalg.norm(r)) / scale if r.size else 0.0
+            out.append(Identity(MODEL_PREFIX + name, rel <= tolerance, f"{rel:.2e} (relative)"))
+        else:
+            out.append(_exact_identity(MODEL_PREFIX + name, total))
+    return tuple(out)

@@ -21,10 +21,10 @@ from sympy.polys.matrices import DomainMatrix
 from sympy.polys.matrices.exceptions import DMError
 from sympy.polys.polyerrors import CoercionFailed
 
-from ..errors import ObserverCadError, UsageError
+from ..errors import CertificateError, ObserverCadError, UsageError
 from ..model import ObserverKind, PlantModel, Structure, Task, extract_structure
 from ._assumptions import complete_assumptions
-from ._certificate import Certificate, certify_design
+from ._certificate import MODEL_PREFIX, Certificate, certify_against_model, certify_design
 from ._conditioning import (CONDITIONING_NAME, CONDITIONING_REFERENCE, conditioning_numbers,
                             conditioning_verdict)
 from ._expr import parse_json_expression
@@ -317,7 +317,31 @@ class Design:
         object.__setattr__(self, "method", Method(self.method))
         object.__setattr__(self, "parameters", MappingProxyType(dict(self.parameters)))
         object.__setattr__(self, "assumptions", self._complete_assumptions())
+        object.__setattr__(self, "certificate", self._with_model_check())
         object.__setattr__(self, "conditions", self._with_conditioning())
+
+    def _with_model_check(self) -> Certificate:
+        """The designer's certificate with the identities re-derived from the model's own
+        equations (:func:`~observer_cad.synthesis.certify_against_model`) added, once: the
+        designer checked the matrices against the extracted structure, this checks them
+        against the right-hand side and outputs the engineer wrote. A failure raises
+        :class:`~observer_cad.errors.CertificateError`: a design that fails is never an
+        output."""
+        cert = self.certificate
+        if self.structure is None or cert is None or any(
+                i.name.startswith(MODEL_PREFIX) for i in cert.identities):
+            return cert
+        ids = certify_against_model(
+            self.structure.model, self.matrices.as_dict(), self.task, nonlinear=self.nonlinear,
+            observer_states=self.observer_states, exact=cert.exact,
+            tolerance=cert.tolerance if cert.tolerance is not None else 1e-9,
+            approximate=self.approximate)
+        full = Certificate(tuple(cert.identities) + ids, cert.exact, cert.tolerance)
+        if not full.passed:
+            raise CertificateError(
+                f"{self.structure.model.where}: the design fails its certificate against the"
+                f" model's own equations: {full.summary()}")
+        return full
 
     def _with_conditioning(self) -> tuple:
         """The designer's conditions with the conditioning condition (scale of Φ, noise

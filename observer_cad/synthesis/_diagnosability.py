@@ -898,6 +898,17 @@ def analyze(model: PlantModel, *, faults: Sequence[str] | None = None,
         return _analyze(work, st, fs, dist, candidates, symbolic, method, rtol, max_enumerated)
 
 
+def _failing_at_defaults(conditions, parameters) -> list:
+    """The conditions (``Ne(f, 0)``) a symbolic answer needs that are false at the
+    parameters' defaults (none when a parameter has no default: there is nothing to
+    evaluate at)."""
+    values = dict(parameters)
+    if not values or any(v is None for v in values.values()):
+        return []
+    return sorted((c for c in conditions if sp.sympify(c).xreplace(values) == sp.false),
+                  key=str)
+
+
 def _analyze(work, st, fs, dist, candidates, symbolic, method, rtol, max_enumerated):
     P = _Problem(work, st, fs, dist, method=method, rtol=rtol)
     names = tuple(f.name for f in fs)
@@ -997,6 +1008,12 @@ def _analyze(work, st, fs, dist, candidates, symbolic, method, rtol, max_enumera
                      " at most two decoupled faults only")
     notes.append("a residual of order k = n is a full-order one; the reduced-order designs"
                  " (design --form canonical) search k < n")
+    failing = _failing_at_defaults(all_conds, work.parameters) if symbolic else []
+    if failing:
+        notes.append(f"at the parameter defaults {', '.join(str(c) for c in failing)}"
+                     f" fail{'s' if len(failing) == 1 else ''}: the defaults are a special"
+                     " case this generic answer does not cover (analyse without --symbolic"
+                     " for the answer there)")
     if method == "float":
         notes.append(f"float path: rank decisions by SVD, cut at {P.ops.rtol:.0e}·max(σ_1, 1); the"
                      f" closest decision was {P.ops.margin:.1e} times away from its cut"

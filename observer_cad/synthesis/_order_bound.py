@@ -1560,7 +1560,9 @@ def chain_order(F, H, M, m: int, lam, time: str, tries, L=None, defaults=None) -
     dec = L is not None and L.cols > 0
     A, B = chain_system(F, H, M, m, L)
     if A.free_symbols | B.free_symbols:
-        return _symbolic_chain(A, B, m, lam, tries, dec, defaults or {}, time)
+        # (a parameter without a default has no nominal value: it stays a symbol)
+        known = {p: v for p, v in (defaults or {}).items() if v is not None}
+        return _symbolic_chain(A, B, m, lam, tries, dec, known, time)
     X0 = solve_left(A, B)
     if X0 is None:
         return ChainOrder(m, "empty", -1, None, (), f"m = {m}: M F^{m} ∉ rowspace [M, …,"

@@ -9,6 +9,7 @@
 
 No wall-clock assertions: timings live in benchmarks/bench_synthesis.py.
 """
+import dataclasses
 import re
 import subprocess
 import sys
@@ -43,9 +44,16 @@ def _k_and_rows(model, st, **kw):
 
 
 def _with_matrices(model, mats):
+    """The structure of the plant with these matrices, and that plant as its model (its
+    equations written from the matrices: a design is also checked against them)."""
     im = sp.ImmutableMatrix
     n, l = mats["F"].rows, mats["H"].rows
-    return Structure(model, im(mats["F"]), im(mats["G"]), im(mats["H"]), im(sp.zeros(n, 0)),
+    col = lambda v: sp.Matrix(list(v))  # noqa: E731
+    dyn = (mats["F"] * col(model.states) + mats["G"] * col(model.inputs)
+           + mats["D"] * col(model.faults) + mats["L"] * col(model.disturbances))
+    plant = dataclasses.replace(model, dynamics=tuple(dyn),
+                                outputs=tuple(mats["H"] * col(model.states)))
+    return Structure(plant, im(mats["F"]), im(mats["G"]), im(mats["H"]), im(sp.zeros(n, 0)),
                      im(mats["D"]), im(mats["L"]), im(sp.zeros(l, 0)), ())
 
 
