@@ -32,7 +32,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
 from observer_cad import PlantModel  # noqa: E402
 from observer_cad.model import random_matrices  # noqa: E402
-from observer_cad.synthesis import analyze  # noqa: E402
+from observer_cad.analysis import analyze  # noqa: E402
 from common import load as _load, machine as _machine, write_section
 
 README = Path(__file__).resolve().parent / "README.md"

@@ -37,10 +37,12 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
 from observer_cad.codegen import export_observer  # noqa: E402
 from observer_cad.model import load_model  # noqa: E402
-from observer_cad.observers import DecisionRule, build_observer, decide, decision_rule  # noqa: E402
+from observer_cad.residuals import DecisionRule, decide, decision_rule
+from observer_cad.observers import build_observer  # noqa: E402
 from observer_cad import simulation as _sim  # noqa: E402
 from observer_cad.simulation import evaluate_ensemble, scenario_from_dict  # noqa: E402
-from observer_cad.synthesis import design, design_bank  # noqa: E402
+from observer_cad.synthesis import design
+from observer_cad.analysis import design_bank  # noqa: E402
 from common import load as _load, machine as _machine, publish  # noqa: E402
 
 ROOT = Path(__file__).resolve().parent.parent

@@ -84,7 +84,7 @@ CASES = (("dense:4", "dense rational F*, dense row h, μ = −1 … −k"), ("de
 
 
 def previous_place_poles(Fs, Hs, eigenvalues):
-    """main before issue 14 item 3 (observer_cad/synthesis/_poles.py), verbatim but for
+    """main before issue 14 item 3 (observer_cad/synthesis/core/_poles.py), verbatim but for
     the error classes."""
     Fs, Hs = sp.Matrix(Fs), sp.Matrix(Hs)
     k = Fs.rows

@@ -2,8 +2,8 @@
 
 The package reads as the pipeline, each stage importing only from earlier ones::
 
-    model → numerics → synthesis → observers → simulation → codegen → ensemble
-    → reporting → cli
+    model → numerics → synthesis → analysis → observers → residuals → simulation
+    → codegen → ensemble → reporting → demo → cli
 
 The everyday API is re-exported here::
 
@@ -23,8 +23,8 @@ _LAZY = {
     "model": ("NonlinearTerm", "ObserverKind", "PlantModel", "Structure", "Task",
               "extract_structure", "load_model", "resolve_task"),
     "synthesis": ("Certificate", "Condition", "Design", "DesignMatrices", "DesignRequest",
-                  "certify_reduced_model", "design", "design_canonical", "Analysis", "analyze",
-                  "FaultSensitivity", "ResidualBank", "design_bank"),
+                  "certify_reduced_model", "design", "design_canonical", "FaultSensitivity"),
+    "analysis": ("Analysis", "analyze", "ResidualBank", "design_bank"),
     "observers": ("DremSpec", "Observer", "build_observer"),
     "simulation": ("Scenario", "SimulationResult", "load_scenario", "simulate"),
     "codegen": ("CompiledSimulator",),

@@ -83,7 +83,7 @@ def outcome(request) -> str:
     """The digest of one request's outcome."""
     from observer_cad import design
     from observer_cad.errors import ObserverCadError
-    from observer_cad.synthesis import design_bank
+    from observer_cad.analysis import design_bank
     _, kind, src, opts = request
     model = _model(src)
     try:

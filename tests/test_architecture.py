@@ -14,9 +14,10 @@ import observer_cad
 
 PKG = pathlib.Path(observer_cad.__file__).parent
 #: stage of every top-level module or subpackage; a module may import its own stage or earlier
-STAGES = {"errors": 0, "files": 0, "version": 0, "progress": 0, "model": 1, "numerics": 2, "synthesis": 3, "observers": 4,
-          "simulation": 5, "codegen": 6, "ensemble": 7, "reporting": 8, "cli": 9,
-          "__main__": 10, "drem": 10}  # drem: alias kept for model files written for 0.1
+STAGES = {"errors": 0, "files": 0, "version": 0, "progress": 0, "model": 1, "numerics": 2,
+          "synthesis": 3, "analysis": 4, "observers": 5, "residuals": 6, "simulation": 7,
+          "codegen": 8, "ensemble": 9, "reporting": 10, "demo": 11, "cli": 12,
+          "__main__": 13, "drem": 13}  # drem: alias kept for model files written for 0.1
 
 
 def _modules():

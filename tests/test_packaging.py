@@ -14,7 +14,7 @@ from pathlib import Path
 
 import pytest
 
-from observer_cad.cli import CASES, DIAGNOSABILITY, EXAMPLES_DIR, run_demo
+from observer_cad.demo import CASES, DIAGNOSABILITY, EXAMPLES_DIR, run_demo
 from observer_cad.errors import UsageError
 
 ROOT = Path(__file__).resolve().parent.parent

@@ -1,7 +1,7 @@
-"""Stage 8 — the command line (``observer-cad``) and the seed-paper demo.
+"""Stage 12 — the command line (``observer-cad``).
 
-The demo's names (:mod:`._demo`: numpy, the whole pipeline, plots) are imported on first
-use (PEP 562), so that ``observer-cad design`` does not pay for them (issue 14 item 5).
+The demo's names (:mod:`observer_cad.demo`: numpy, the whole pipeline, plots) are
+imported on first use (PEP 562), so that ``observer-cad design`` does not pay for them.
 """
 from ._main import (main, build_parser)
 
@@ -14,7 +14,7 @@ __all__ = ["CASES", "EXAMPLES_DIR", "FIGURES", "Case", "Run", "run_demo", "DIAGN
 
 def __getattr__(name):
     if name in _DEMO:
-        from ._demo import (BANK_FIGURE, CASES, DIAGNOSABILITY, EXAMPLES_DIR, FIGURES, Case,
+        from ..demo import (BANK_FIGURE, CASES, DIAGNOSABILITY, EXAMPLES_DIR, FIGURES, Case,
                             DiagnosabilityExample, Run, run_demo)
         found = {k: v for k, v in locals().items() if k in _DEMO}
         globals().update(found)

@@ -299,7 +299,7 @@ def _threshold_from_args(args, model, observer, scenario=None, *, seed=None):
             raise UsageError("--initial-error applies to --threshold guaranteed")
         return observer
     from ..model import parse_number
-    from ..observers import ThresholdSpec
+    from ..residuals import ThresholdSpec
     from ..simulation import apply_threshold
     spec = ThresholdSpec.parse(args.threshold)
     e0 = parse_number(args.initial_error, where="--initial-error")
@@ -491,7 +491,7 @@ def _design_from_args(args):
 
 
 def _bank_from_args(args, model):
-    from ..synthesis import design_bank
+    from ..analysis import design_bank
     if args.observer != "diagnostic":
         raise UsageError("--isolate builds a bank of residual generators: use --observer diagnostic")
     for flag, used in (("--form canonical", args.form == "canonical"), ("--robust", args.robust),
@@ -612,7 +612,7 @@ def _cmd_simulate(args) -> int:
     res, engine = _simulate_with_engine(args, model, observer, scenario)
     decisions = None
     if observer.threshold is not None:
-        from ..observers import decide, decision_rule
+        from ..residuals import decide, decision_rule
         from ..reporting import with_decisions
         rule = decision_rule(model, result, persistence=args.persistence)
         decisions = decide(rule, res.columns)
@@ -680,7 +680,7 @@ def _print_evaluation(model, observer, res, decisions) -> None:
         print(f"no fault in the scenario: {o.false_alarm_samples} false-alarm samples;"
               f" diagnosis at the end: {o.diagnosis}")
     if observer.threshold.kind == "guaranteed" and observer.threshold.error_system.faults:
-        from ..observers import min_detectable_fault
+        from ..residuals import min_detectable_fault
         end = t.size if o.onset is None else max(1, int(np.searchsorted(t, o.onset)))
         widths = [float(np.nanmax(np.asarray(res[f"{r}_upper"] - res[f"{r}_lower"])[:end]))
                   for r in rule.residuals]
@@ -714,7 +714,7 @@ def _cmd_ensemble(args) -> int:
     _refuse_failed(observer)
     rule = None
     if observer.threshold is not None:
-        from ..observers import decision_rule
+        from ..residuals import decision_rule
         rule = decision_rule(model, result, persistence=args.persistence)
     elif args.persistence != 1:
         raise UsageError("--persistence applies with --threshold")
@@ -854,7 +854,7 @@ def _cmd_codegen(args) -> int:
     dt = args.dt if args.dt is not None else (0.01 if observer.time == "continuous" else None)
     rule = None
     if observer.threshold is not None:
-        from ..observers import decision_rule
+        from ..residuals import decision_rule
         rule = decision_rule(model, result, persistence=args.persistence)
     elif args.persistence != 1:
         raise UsageError("--persistence applies with --threshold")
@@ -870,7 +870,7 @@ def _cmd_codegen(args) -> int:
 def _cmd_analyze(args) -> int:
     from ..model import load_model
     from ..reporting import analysis_to_json, format_analysis
-    from ..synthesis import analyze
+    from ..analysis import analyze
     result = analyze(load_model(args.model), faults=args.fault or None,
                      disturbances=args.disturbance, candidates=args.candidate,
                      symbolic=args.symbolic, method=args.method, rtol=args.rtol)
@@ -897,7 +897,7 @@ class _ShownAs:
 
 def _cmd_demo(args) -> int:
     from ..files import staged_directory
-    from ._demo import EXAMPLES_DIR, run_demo
+    from ..demo import EXAMPLES_DIR, run_demo
     out = Path(args.out)
     with staged_directory(out) as stage:  # an error leaves an existing --out as it was
         return run_demo(EXAMPLES_DIR, stage, compile=not args.no_compile,

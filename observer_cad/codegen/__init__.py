@@ -1,4 +1,4 @@
-"""Compiled observers: sympy → casadi step functions, C code generation with a cache,
+"""Stage 8 — compiled observers: sympy → casadi step functions, C code generation with a cache,
 whole-trajectory simulation in one compiled call, standalone C export.
 
     from observer_cad.codegen import observer_step, compile_function, CompiledSimulator

@@ -15,7 +15,8 @@ assume there is no NaN.
 from __future__ import annotations
 
 from ..errors import UsageError
-from ..observers import DecisionRule, Observer
+from ..residuals import DecisionRule
+from ..observers import Observer
 
 __all__ = ["MAX_C_RESIDUALS", "DecisionSources", "decision_sources"]
 

@@ -50,7 +50,7 @@ from ..files import atomic_write_text
 from ..errors import UsageError
 from ..numerics import algebraic_to_float
 from ..observers import Observer
-from ..observers import DecisionRule
+from ..residuals import DecisionRule
 from ._decide_c import decision_sources
 from ._translate import (DISCRETISATIONS, c_name, describe, observer_step, split_signals,
                          zoh_matrices)

@@ -1,4 +1,4 @@
-"""Ensembles of runs (issue 16): stage 7 of the pipeline, after codegen.
+"""Stage 9 — ensembles of runs, after code generation.
 
     from observer_cad.ensemble import Backend, run_ensemble
     res = run_ensemble(model, observer, scenario, runs=10_000,

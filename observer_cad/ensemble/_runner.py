@@ -27,7 +27,8 @@ import numpy as np
 
 from ..errors import UsageError
 from ..model import PlantModel
-from ..observers import DecisionRule, Observer, output_symbols
+from ..residuals import DecisionRule
+from ..observers import Observer, output_symbols
 from ..simulation import (MEMORY_LIMIT_ENV, DrawPlan, EnsembleStatistics, Monitors, RunSummaries,
                           Scenario, check_memory, memory_limit, monitors, signal_program,
                           simulate, summarise)

@@ -1,14 +1,12 @@
-"""Stage 4 — observers: the one :class:`Observer` value that simulation and code generation
+"""Stage 5 — observers: the one :class:`Observer` value that simulation and code generation
 consume, and the builders that turn certified designs into observers (virtual sensors,
 residual generators, interval, unknown-input, sliding-mode, DREM).
 """
 from ._builders import (build_observer, virtual_sensor_observer, diagnostic_observer, interval_observer, bank_observer)
-from ._decision import (DecisionRule, Decisions, decision_rule, decide, NO_FAULT, UNKNOWN_PATTERN, MAX_RESIDUALS)
 from ._drem import (shift_matrix, DremSpec, DremTerm, DremClass, DremDesign, ExcitationReport, ExcitationError, analyse, load_drem, gains_from_poles, default_poles, parametrisation_residual, chain_error_residual, drem_design, drem_observer, excitation_report, check_excitation, suggest_gamma, true_unknowns, determinants)
 from ._interval import (interval_observer_nonlinear, full_state_intervals)
 from ._observer import (Observer, estimate_name, output_symbols)
 from ._sliding import (sliding_observer)
-from ._threshold import (ErrorSystem, Threshold, ThresholdSpec, guaranteed_threshold, constant_threshold, residual_outputs, min_detectable_fault, DEFAULT_MARGIN)
 from ._uio import (Derivation, derive_estimate, unknown_input_observer, vector_unknown_input_observer, combine_observers, ALPHA, ALPHA_PREV, ALPHA_EPS, default_gains)
 
-__all__ = ["build_observer", "virtual_sensor_observer", "diagnostic_observer", "interval_observer", "bank_observer", "DecisionRule", "Decisions", "decision_rule", "decide", "NO_FAULT", "UNKNOWN_PATTERN", "MAX_RESIDUALS", "shift_matrix", "DremSpec", "DremTerm", "DremClass", "DremDesign", "ExcitationReport", "ExcitationError", "analyse", "load_drem", "gains_from_poles", "default_poles", "parametrisation_residual", "chain_error_residual", "drem_design", "drem_observer", "excitation_report", "check_excitation", "suggest_gamma", "true_unknowns", "determinants", "interval_observer_nonlinear", "full_state_intervals", "Observer", "estimate_name", "output_symbols", "sliding_observer", "ErrorSystem", "Threshold", "ThresholdSpec", "guaranteed_threshold", "constant_threshold", "residual_outputs", "min_detectable_fault", "DEFAULT_MARGIN", "Derivation", "derive_estimate", "unknown_input_observer", "vector_unknown_input_observer", "combine_observers", "ALPHA", "ALPHA_PREV", "ALPHA_EPS", "default_gains"]
+__all__ = ["build_observer", "virtual_sensor_observer", "diagnostic_observer", "interval_observer", "bank_observer", "shift_matrix", "DremSpec", "DremTerm", "DremClass", "DremDesign", "ExcitationReport", "ExcitationError", "analyse", "load_drem", "gains_from_poles", "default_poles", "parametrisation_residual", "chain_error_residual", "drem_design", "drem_observer", "excitation_report", "check_excitation", "suggest_gamma", "true_unknowns", "determinants", "interval_observer_nonlinear", "full_state_intervals", "Observer", "estimate_name", "output_symbols", "sliding_observer", "Derivation", "derive_estimate", "unknown_input_observer", "vector_unknown_input_observer", "combine_observers", "ALPHA", "ALPHA_PREV", "ALPHA_EPS", "default_gains"]

@@ -10,7 +10,8 @@ import dataclasses
 
 import sympy as sp
 
-from ..synthesis import Design, DesignMatrices, ResidualBank
+from ..synthesis import Design, DesignMatrices
+from ..analysis import ResidualBank
 from ..errors import UsageError
 from ..model import PlantModel
 from ._drem import DremDesign

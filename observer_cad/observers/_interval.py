@@ -64,7 +64,9 @@ from ..model import PlantModel
 from ._observer import Observer, output_symbols
 from ..numerics import box_max, box_min, comparison_stability, neg, pos, rationalize_floats
 from ..model import extract_structure
-from ..synthesis import Domain, RangeAnalyzer, argument_range, derivative_range, format_number, interval_scale, lipschitz, nonlinear_conditions, range_sign, reduced_nonlinearity
+from ..analysis import (Domain, RangeAnalyzer, argument_range, derivative_range, format_number,
+                        interval_scale, lipschitz, nonlinear_conditions, range_sign,
+                        reduced_nonlinearity)
 
 __all__ = ["interval_observer_nonlinear", "full_state_intervals"]
 

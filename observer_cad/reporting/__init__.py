@@ -1,4 +1,4 @@
-"""Stage 7 — reporting: text, Markdown/LaTeX, plots, CSV and interoperability exports.
+"""Stage 10 — reporting: text, Markdown/LaTeX, plots, CSV and interoperability exports.
 """
 from ._analysis import (format_analysis, analysis_to_json)
 from ._ensemble import (write_summary_csv, write_statistics_json, plot_ensemble_histograms, SUMMARY_FILE, STATISTICS_FILE)

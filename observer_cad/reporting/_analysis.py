@@ -1,7 +1,7 @@
 """Text and JSON renderings of a diagnosability analysis (``observer-cad analyze``)."""
 from __future__ import annotations
 
-from ..synthesis import Analysis
+from ..analysis import Analysis
 
 __all__ = ["format_analysis", "analysis_to_json"]
 

@@ -1,4 +1,4 @@
-"""Stage 5 — simulation: JSON scenarios and the reference numpy simulator of plant and
+"""Stage 7 — simulation: JSON scenarios and the reference numpy simulator of plant and
 observer together.
 """
 from ._evaluation import (RunOutcome, Metrics, FaultCase, evaluate_result, evaluate_ensemble, fault_onsets, true_labels)

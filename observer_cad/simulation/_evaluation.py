@@ -38,7 +38,8 @@ import numpy as np
 
 from ..errors import UsageError
 from ..model import PlantModel
-from ..observers import NO_FAULT, UNKNOWN_PATTERN, DecisionRule, Observer, decide
+from ..residuals import NO_FAULT, UNKNOWN_PATTERN, DecisionRule, decide
+from ..observers import Observer
 from ._simulate import Scenario, memory_limit, simulate
 
 __all__ = ["RunOutcome", "Metrics", "FaultCase", "evaluate_result", "evaluate_ensemble",

@@ -15,8 +15,8 @@ import numpy as np
 
 from ..errors import UsageError
 from ..model import PlantModel
-from ..observers import (Observer, ThresholdSpec, constant_threshold, guaranteed_threshold,
-                         residual_outputs)
+from ..observers import Observer
+from ..residuals import ThresholdSpec, constant_threshold, guaranteed_threshold, residual_outputs
 from ._simulate import Scenario, simulate
 
 __all__ = ["quantile_threshold", "fault_free", "apply_threshold"]

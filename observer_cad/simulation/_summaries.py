@@ -72,7 +72,8 @@ import sympy as sp
 
 from ..errors import UsageError
 from ..model import PlantModel, parse_expression
-from ..observers import DecisionRule, Observer, decide
+from ..residuals import DecisionRule, decide
+from ..observers import Observer
 from ._simulate import column_units
 
 __all__ = ["SummaryField", "Monitors", "monitors", "RunSummaries", "summarise",

@@ -21,14 +21,14 @@ from typing import Sequence
 
 from ..errors import InfeasibleDesignError, UsageError
 from ..model import ObserverKind, PlantModel, Task, resolve_task
-from ._canonical import design_canonical
-from ._design import Design, DesignRequest
-from ._diagnostic import design_diagnostic_canonical
-from ._jordan import design_jordan, design_jordan_unknown_input
-from ._poles import default_eigenvalues
-from ._robust import design_robust_canonical, design_robust_jordan
-from ._sliding import design_sliding
-from ._virtual import design_virtual_sensor_canonical
+from .canonical import design_canonical
+from .core import Design, DesignRequest
+from .canonical import design_diagnostic_canonical
+from .jordan import design_jordan, design_jordan_unknown_input
+from .core import default_eigenvalues
+from .robust import design_robust_canonical, design_robust_jordan
+from .sliding import design_sliding
+from .canonical import design_virtual_sensor_canonical
 
 __all__ = ["design", "OBSERVERS"]
 

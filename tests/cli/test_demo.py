@@ -10,8 +10,8 @@ import re
 
 import pytest
 
-import observer_cad.cli._demo as demo  # fault injection: the case list is patched
-import observer_cad.cli._demo_evaluation as evaluation
+import observer_cad.demo._demo as demo  # fault injection: the case list is patched
+import observer_cad.demo._evaluation as evaluation
 from observer_cad.reporting import md_escape, symbol_latex
 
 

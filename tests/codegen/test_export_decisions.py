@@ -26,9 +26,11 @@ import sympy as sp
 from observer_cad.codegen import EXAMPLE_FLAGS, export_observer, export_sources
 from observer_cad.errors import UsageError
 from observer_cad.model import load_model
-from observer_cad.observers import DecisionRule, build_observer, decide, decision_rule
+from observer_cad.residuals import DecisionRule, decide, decision_rule
+from observer_cad.observers import build_observer
 from observer_cad.simulation import scenario_from_dict, simulate
-from observer_cad.synthesis import design, design_bank
+from observer_cad.synthesis import design
+from observer_cad.analysis import design_bank
 
 ROOT = Path(__file__).resolve().parents[2]
 CC = shutil.which("cc")

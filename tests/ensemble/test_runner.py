@@ -23,10 +23,11 @@ from observer_cad.ensemble import (Backend, ReplayError, default_worst_field, re
                                    run_ensemble)
 from observer_cad.errors import UsageError
 from observer_cad.model import load_model
-from observer_cad.observers import build_observer, decision_rule
+from observer_cad.observers import build_observer
+from observer_cad.residuals import decision_rule
 from observer_cad.simulation import (apply_threshold, monitors, scenario_from_dict,
                                      simulate, summarise)
-from observer_cad.observers import ThresholdSpec
+from observer_cad.residuals import ThresholdSpec
 from observer_cad.synthesis import design
 
 from tests.ensemble.tasks import sigint_default

@@ -11,8 +11,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from observer_cad.errors import UsageError
-from observer_cad.observers import (NO_FAULT, UNKNOWN_PATTERN, DecisionRule, decide,
-                                    decision_rule)
+from observer_cad.residuals import NO_FAULT, UNKNOWN_PATTERN, DecisionRule, decide, decision_rule
 
 ROOT = Path(__file__).resolve().parents[2]
 NAN = float("nan")
@@ -171,7 +170,8 @@ def test_missing_threshold_column_is_named():
 
 def test_rule_of_a_bank_and_of_a_design():
     from observer_cad.model import load_model
-    from observer_cad.synthesis import design, design_bank
+    from observer_cad.synthesis import design
+    from observer_cad.analysis import design_bank
     tanks = load_model(ROOT / "models" / "three_tank_isolation.py")
     bank = design_bank(tanks, structure="011,101,110")
     rule = decision_rule(tanks, bank, persistence=4)

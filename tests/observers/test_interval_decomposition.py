@@ -29,7 +29,8 @@ from observer_cad import PlantModel, UsageError, load_model
 from observer_cad.errors import InfeasibleDesignError
 from observer_cad.observers import interval_observer_nonlinear
 from observer_cad.simulation import load_scenario, scenario_from_dict, simulate
-from observer_cad.synthesis import derivative_range, design_jordan, lipschitz
+from observer_cad.analysis import derivative_range, lipschitz
+from observer_cad.synthesis import design_jordan
 
 TOL = 1e-9
 RUNS = 500

@@ -13,10 +13,10 @@ import sympy as sp
 
 from observer_cad import build_observer, design, load_model, simulate
 from observer_cad.errors import ModelError, UsageError
-from observer_cad.observers import (constant_threshold, guaranteed_threshold, min_detectable_fault,
+from observer_cad.residuals import (constant_threshold, guaranteed_threshold, min_detectable_fault,
                                     residual_outputs)
 from observer_cad.simulation import scenario_from_dict
-from observer_cad.synthesis import design_bank
+from observer_cad.analysis import design_bank
 
 
 @pytest.fixture(scope="module")

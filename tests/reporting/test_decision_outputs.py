@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from observer_cad.errors import UsageError
-from observer_cad.observers import NO_FAULT, DecisionRule, decide
+from observer_cad.residuals import NO_FAULT, DecisionRule, decide
 from observer_cad.reporting import (plot_confusion, plot_residuals, plot_simulation,
                                     residual_names, with_decisions, write_signals_csv)
 from observer_cad.simulation import SimulationResult, evaluate_result

@@ -16,7 +16,7 @@ from observer_cad.model import random_model
 from observer_cad.numerics import full_int_text, readable
 from observer_cad.reporting import format_design, format_matrix
 from observer_cad.synthesis import Design, design_jordan
-from observer_cad.synthesis._expr import parse_json_expression
+from observer_cad.synthesis.core._expr import parse_json_expression
 
 HUGE = sp.Rational(3 * 10 ** 5000 + 7, 10 ** 5000 + 3)  # ≈ 3, 5,000 digits
 
@@ -77,7 +77,7 @@ def test_long_or_irrational_lambdas_are_also_shown_approximately(models_dir):
 
 @pytest.mark.slow  # ~10 s: the seed-004 design of a 12-state float-based plant
 def test_seed_004_virtual_sensor_of_a_float_plant():
-    from observer_cad.synthesis._virtual import design_virtual_sensor_canonical
+    from observer_cad.synthesis.canonical._virtual import design_virtual_sensor_canonical
     model = random_model(12, 4, 2, seed=0, integer=False)
     d = design_virtual_sensor_canonical(model, estimate="x1", variant="004")
     assert d.certificate.passed

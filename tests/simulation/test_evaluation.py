@@ -10,8 +10,8 @@ import pytest
 
 from observer_cad.errors import UsageError
 from observer_cad.model import load_model
-from observer_cad.observers import (NO_FAULT, UNKNOWN_PATTERN, DecisionRule, build_observer,
-                                    decide, decision_rule)
+from observer_cad.residuals import NO_FAULT, UNKNOWN_PATTERN, DecisionRule, decide, decision_rule
+from observer_cad.observers import build_observer
 from observer_cad.simulation import (FaultCase, Metrics, SimulationResult, evaluate_ensemble,
                                      evaluate_result, fault_onsets, scenario_from_dict,
                                      true_labels)
@@ -117,7 +117,7 @@ def test_fault_case_validation():
 
 @pytest.fixture(scope="module")
 def tanks():
-    from observer_cad.synthesis import design_bank
+    from observer_cad.analysis import design_bank
     m = load_model(ROOT / "models" / "three_tank_isolation.py")
     bank = design_bank(m, structure="011,101,110")
     return m, bank, build_observer(m, bank)

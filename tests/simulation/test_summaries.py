@@ -24,8 +24,8 @@ import observer_cad.simulation._summaries as summaries_module  # block size patc
 from observer_cad import build_observer, design, load_model, simulate
 from observer_cad.errors import UsageError
 from observer_cad.model import PlantModel
-from observer_cad.observers import (DecisionRule, Observer, decide, decision_rule,
-                                    guaranteed_threshold)
+from observer_cad.residuals import DecisionRule, decide, decision_rule, guaranteed_threshold
+from observer_cad.observers import Observer
 from observer_cad.simulation import (EnsembleStatistics, Monitors, RunSummaries, SummaryField,
                                      load_scenario, monitors, scenario_from_dict, summarise)
 

@@ -8,7 +8,7 @@ import pytest
 
 from observer_cad import build_observer, design, load_model, simulate
 from observer_cad.errors import UsageError
-from observer_cad.observers import ThresholdSpec, guaranteed_threshold
+from observer_cad.residuals import ThresholdSpec, guaranteed_threshold
 from observer_cad.simulation import apply_threshold, fault_free, quantile_threshold, scenario_from_dict
 
 RANDOM = {"u": "0.2*sin(t/10)", "rho": {"uniform": [-0.05, 0.05]},

@@ -24,7 +24,8 @@ import sympy as sp
 from observer_cad import PlantModel, analyze, design, extract_structure, load_model
 from observer_cad.errors import CertificateError, InfeasibleDesignError, ObserverCadError
 from observer_cad.synthesis import (MODEL_PREFIX, certify_against_model, certify_design,
-                                    design_bank, design_canonical)
+                                    design_canonical)
+from observer_cad.analysis import design_bank
 
 ROOT = Path(__file__).resolve().parents[2]
 FDT = ROOT / "tests" / "model" / "data" / "three_tank_fdt.py"

@@ -9,7 +9,9 @@ import pytest
 import sympy as sp
 
 from observer_cad import UsageError, load_model
-from observer_cad.synthesis import argument_range, is_cooperative, is_monotone, lipschitz, model_nonlinearity, nonlinear_conditions, reduced_nonlinearity, stability_condition
+from observer_cad.analysis import (argument_range, is_cooperative, is_monotone, lipschitz,
+                                   model_nonlinearity, nonlinear_conditions, reduced_nonlinearity,
+                                   stability_condition)
 from observer_cad.synthesis import design_jordan
 
 x1, x2, x3, xs1, y1 = sp.symbols("x1 x2 x3 xs1 y1")

@@ -24,7 +24,7 @@ from oracle import frac_left_null_space, frac_rank, krylov_stack
 from observer_cad import PlantModel
 from observer_cad.errors import ModelError, UsageError
 from observer_cad.model import load_model
-from observer_cad.synthesis import analyze, detecting_orders
+from observer_cad.analysis import analyze, detecting_orders
 
 
 # ---------------------------------------------------------------- helpers

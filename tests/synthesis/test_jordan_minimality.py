@@ -11,8 +11,8 @@ import sympy as sp
 from observer_cad import Design, InfeasibleDesignError, PlantModel, UsageError, design
 from observer_cad.errors import CertificateError
 from observer_cad.synthesis import design_jordan, design_jordan_float
-from observer_cad.synthesis._certificate import _algebraic_is_zero
-from observer_cad.synthesis._lambda_search import exact_real_roots, one_row_lambdas
+from observer_cad.synthesis.certificates._certificate import _algebraic_is_zero
+from observer_cad.synthesis.jordan._lambda_search import exact_real_roots, one_row_lambdas
 
 LAM = sp.Symbol("lambda")
 x1, x2, x3, x4, u = sp.symbols("x1 x2 x3 x4 u")

@@ -10,7 +10,7 @@ import sympy as sp
 from observer_cad import PlantModel
 from observer_cad.model import extract_structure
 from observer_cad.synthesis import design_jordan
-from observer_cad.synthesis._order_bound import nonlinear_jordan_bound
+from observer_cad.synthesis.jordan.minimality._order_bound import nonlinear_jordan_bound
 
 LAM = sp.Symbol("lambda")
 x1, x2, x3, x4, u = sp.symbols("x1:5 u")

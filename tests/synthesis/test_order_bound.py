@@ -10,11 +10,13 @@ from observer_cad import PlantModel
 from observer_cad.model import extract_structure, random_model
 from observer_cad.synthesis import design_jordan
 from observer_cad.numerics import solve_left
-from observer_cad.synthesis._order_bound import (chain_order, chain_system, one_more_row,
-                                                 estimation_order_bound, hyperplane_corners,
-                                                 hyperplane_member, plane_order,
-                                                 residual_order_bound)
-from observer_cad.synthesis._poles import default_eigenvalues
+from observer_cad.synthesis.jordan.minimality._order_bound import (chain_order, chain_system,
+                                                                   one_more_row,
+                                                                   estimation_order_bound,
+                                                                   hyperplane_corners,
+                                                                   hyperplane_member, plane_order,
+                                                                   residual_order_bound)
+from observer_cad.synthesis.core._poles import default_eigenvalues
 
 LAM = sp.Symbol("lambda")
 x1, x2, x3, x4, u = sp.symbols("x1 x2 x3 x4 u")

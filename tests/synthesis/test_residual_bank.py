@@ -19,7 +19,7 @@ from observer_cad.cli import main
 from observer_cad.errors import InfeasibleDesignError, UsageError
 from observer_cad.reporting import format_bank
 from observer_cad.simulation import scenario_from_dict
-from observer_cad.synthesis import ResidualBank, design_bank, parse_structure
+from observer_cad.analysis import ResidualBank, design_bank, parse_structure
 
 from signature_oracle import oracle_signature, three_tanks
 
@@ -351,6 +351,6 @@ def test_example_model_three_tank_isolation(models_dir):
 
 
 def test_repeated_structure_row_is_refused():
-    from observer_cad.synthesis import parse_structure
+    from observer_cad.analysis import parse_structure
     with pytest.raises(UsageError, match="repeats row 1"):
         parse_structure("011,011", ["f1", "f2", "f3"])

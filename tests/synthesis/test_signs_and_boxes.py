@@ -13,10 +13,10 @@ from hypothesis import given, settings, strategies as st
 from observer_cad.model import extract_structure, random_model
 from observer_cad.numerics import gordan_alternative, left_null_space
 from observer_cad.synthesis import design_jordan
-from observer_cad.synthesis._box_cover import box_cover, quadric_cover
-from observer_cad.synthesis._jordan import _rows_at
-from observer_cad.synthesis._order_bound import (_cell_points, chain_order, family_order,
-                                                 one_row_short)
+from observer_cad.synthesis.jordan.minimality._box_cover import box_cover, quadric_cover
+from observer_cad.synthesis.jordan._jordan import _rows_at
+from observer_cad.synthesis.jordan.minimality._order_bound import (_cell_points, chain_order,
+                                                                   family_order, one_row_short)
 
 LAM = sp.Symbol("lambda")
 
@@ -186,7 +186,7 @@ def _sampled_max_stable(F, H, M, m, time, rng, samples=2000):
     """The most real stable roots any sampled member of the order-m chain family has
     (float sampling of the family's parameters; an independent look at the claim)."""
     from observer_cad.numerics import solve_left
-    from observer_cad.synthesis._order_bound import chain_system
+    from observer_cad.synthesis.jordan.minimality._order_bound import chain_system
     A, B = chain_system(F, H, M, m)
     X0 = solve_left(A, B)
     basis, _ = left_null_space(A)

@@ -15,9 +15,10 @@ from scipy.optimize import linprog
 
 from observer_cad.model import extract_structure, random_model
 from observer_cad.synthesis import design_jordan
-from observer_cad.synthesis._box_cover import box_cover, pencil_cover
-from observer_cad.synthesis._order_bound import (_half_plane, _perm_sign, one_row_short,
-                                                 three_more_rows, two_more_rows)
+from observer_cad.synthesis.jordan.minimality._box_cover import box_cover, pencil_cover
+from observer_cad.synthesis.jordan.minimality._order_bound import (_half_plane, _perm_sign,
+                                                                   one_row_short, three_more_rows,
+                                                                   two_more_rows)
 
 LAM = sp.Symbol("lam")
 

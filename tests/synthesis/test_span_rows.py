@@ -12,9 +12,9 @@ import sympy as sp
 from observer_cad import PlantModel
 from observer_cad.model import extract_structure, random_model
 from observer_cad.synthesis import design_jordan
-from observer_cad.synthesis._lambda_search import span_rows
-from observer_cad.synthesis._order_bound import (OneMoreRow, _space_rows, one_more_row,
-                                                 two_more_rows)
+from observer_cad.synthesis.jordan._lambda_search import span_rows
+from observer_cad.synthesis.jordan.minimality._order_bound import (OneMoreRow, _space_rows,
+                                                                   one_more_row, two_more_rows)
 
 LAM = sp.Symbol("lambda")
 XS = sp.Symbol("x")  # the second λ of a pair (partner correspondences)
@@ -351,7 +351,7 @@ def test_vectorised_real_roots_agree_with_numpy():
     """The real roots of the pencil scan (closed form for degree 1 and 2, batched companion
     matrices for 3 and 4) are numpy's real roots of each polynomial, one at a time,
     including leading coefficients that vanish."""
-    from observer_cad.synthesis._jordan import _real_roots
+    from observer_cad.synthesis.jordan._jordan import _real_roots
 
     rng = np.random.default_rng(7)
     for deg in (1, 2, 3, 4):
@@ -460,7 +460,7 @@ def test_partner_triples_by_hand(triple, time, found):
     pairs are roots of g, distinct, stable); with an unstable one the verdict is
     impossible, and a float scan of λ_1 over a fine stable grid finds no λ_1 whose two
     partners are real and stable."""
-    from observer_cad.synthesis._order_bound import _partner_triples
+    from observer_cad.synthesis.jordan.minimality._order_bound import _partner_triples
 
     g = _triangle_g(triple)
     verdict, _, lams = _partner_triples(g, LAM, XS, time)
@@ -485,7 +485,7 @@ def test_partner_triples_by_hand(triple, time, found):
 def test_stable_root_count_by_hand():
     """The Sturm count behind the verdict: distinct roots in the open stability region
     (the boundary 0, or ±1, excluded; repeated roots once)."""
-    from observer_cad.synthesis._order_bound import _stable_root_count
+    from observer_cad.synthesis.jordan.minimality._order_bound import _stable_root_count
 
     x = sp.Symbol("x")
     assert _stable_root_count(sp.Poly((x + 1) ** 2 * (x + 2) * x * (x - 3), x), "continuous") == 2

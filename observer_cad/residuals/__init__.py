@@ -1,0 +1,6 @@
+"""Stage 6 — residuals: thresholds, decision rules and their evaluation.
+"""
+from ._decision import (DecisionRule, Decisions, decision_rule, decide, NO_FAULT, UNKNOWN_PATTERN, MAX_RESIDUALS)
+from ._threshold import (ErrorSystem, Threshold, ThresholdSpec, guaranteed_threshold, constant_threshold, residual_outputs, min_detectable_fault, DEFAULT_MARGIN)
+
+__all__ = ["DecisionRule", "Decisions", "decision_rule", "decide", "NO_FAULT", "UNKNOWN_PATTERN", "MAX_RESIDUALS", "ErrorSystem", "Threshold", "ThresholdSpec", "guaranteed_threshold", "constant_threshold", "residual_outputs", "min_detectable_fault", "DEFAULT_MARGIN"]
