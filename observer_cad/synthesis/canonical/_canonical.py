@@ -49,6 +49,7 @@ from sympy.polys.matrices import DomainMatrix
 from ...progress import report
 from ...numerics import SingleThreadBLAS, np_exact, to_sympy_float
 from ..certificates import certify_design, certify_reduced_model
+from ..core import FLOAT_AUTO_N
 from ..core import Condition, Design
 from ...errors import InfeasibleDesignError, UsageError
 from ..core import observer_symbols, output_symbols, reduced_equations, residual_outputs
@@ -64,8 +65,6 @@ from ...numerics import (GrowingLeftNull, as_rational, from_rational, exact_prod
 __all__ = ["design_canonical", "krylov_blocks", "krylov_null_spaces", "member_to_phi",
            "FLOAT_AUTO_N"]
 
-#: Above this state dimension a numeric design uses the float (SVD) path by default.
-FLOAT_AUTO_N = 20
 
 
 # ---------------------------------------------------------------- blocks
