@@ -34,8 +34,9 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
 from observer_cad import build_observer, design, load_model, simulate  # noqa: E402
-from observer_cad.simulation import (DEFAULT_QUANTILES, EnsembleStatistics,  # noqa: E402
-                                     RunSummaries, load_scenario, monitors, summarise)
+from observer_cad.ensemble import DEFAULT_QUANTILES, EnsembleStatistics  # noqa: E402
+from observer_cad.simulation import (RunSummaries, load_scenario, monitors,  # noqa: E402
+                                     summarise)
 from common import load as _load, machine as _machine, publish  # noqa: E402
 
 ROOT = Path(__file__).resolve().parent.parent

@@ -18,8 +18,10 @@ Compiled code reaches the workers as a :class:`observer_cad.codegen.LibrarySpec`
 payload, loaded there with :func:`observer_cad.codegen.load_library`.
 """
 from ._backends import (BACKEND_KINDS, DASK_MISSING, Backend, Interrupted, map_chunks, progress_bar)
+from ._statistics import (EnsembleStatistics, FieldStatistics, GroupStatistics, Statistics, SummaryRow, DEFAULT_QUANTILES)
 from ._runner import (Chunk, EnsembleResult, run_ensemble, replay, replay_worst, ReplayError, ENGINES, default_chunk, CHUNK_BYTES, default_worst_field)
 
 __all__ = ["BACKEND_KINDS", "DASK_MISSING", "Backend", "Interrupted", "map_chunks", "progress_bar",
            "Chunk", "EnsembleResult", "run_ensemble", "replay", "replay_worst", "ReplayError", "ENGINES",
-           "default_chunk", "CHUNK_BYTES", "default_worst_field"]
+           "default_chunk", "CHUNK_BYTES", "default_worst_field", "EnsembleStatistics",
+           "FieldStatistics", "GroupStatistics", "Statistics", "SummaryRow", "DEFAULT_QUANTILES"]

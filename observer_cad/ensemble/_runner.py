@@ -29,10 +29,11 @@ from ..errors import UsageError
 from ..model import PlantModel
 from ..residuals import DecisionRule
 from ..observers import Observer, output_symbols
-from ..simulation import (MEMORY_LIMIT_ENV, DrawPlan, EnsembleStatistics, Monitors, RunSummaries,
-                          Scenario, check_memory, memory_limit, monitors, signal_program,
-                          simulate, summarise)
+from ..simulation import (MEMORY_LIMIT_ENV, DrawPlan, Monitors, RunSummaries, Scenario,
+                          check_memory, memory_limit, monitors, signal_program, simulate,
+                          summarise)
 from ._backends import Backend, Interrupted, map_chunks
+from ._statistics import EnsembleStatistics
 
 __all__ = ["Chunk", "EnsembleResult", "run_ensemble", "replay", "replay_worst", "ReplayError", "ENGINES",
            "default_chunk", "CHUNK_BYTES", "default_worst_field"]
@@ -205,7 +206,7 @@ def _reference_chunk(payload: _ReferencePayload, chunk: Chunk) -> RunSummaries:
 class EnsembleResult:
     """What an ensemble produced.
 
-    ``statistics`` (:class:`~observer_cad.simulation.Statistics`) over the finished runs;
+    ``statistics`` (:class:`~observer_cad.ensemble.Statistics`) over the finished runs;
     ``accumulator`` the per-run summaries (``rows()``, ``worst()``); ``runs`` samples per
     case, ``cases`` the case names (run i is sample i mod runs of case i div runs);
     ``completed`` runs finished (all of them unless ``interrupted``); ``seconds`` wall

@@ -32,7 +32,7 @@ STATISTICS_FILE = "statistics.json"
 
 
 def write_summary_csv(accumulator, out_dir, *, runs: int, seed: int) -> Path:
-    """``DIR/summary.csv`` from an :class:`~observer_cad.simulation.EnsembleStatistics`
+    """``DIR/summary.csv`` from an :class:`~observer_cad.ensemble.EnsembleStatistics`
     (runs per case ``runs`` give each run's sample index); streamed to a temporary file
     in DIR, then renamed (atomic)."""
     out = Path(out_dir)

@@ -1,4 +1,4 @@
-"""Per-run summaries and streaming ensemble statistics (issue 16 item 4).
+"""Per-run summaries (simulation) and the streaming ensemble statistics built on them.
 
 Grouped by what they prove: the fields on hand-made arrays (values worked out by hand);
 the reference simulator on the papers' examples (interval observer of the three-tank, the
@@ -26,8 +26,9 @@ from observer_cad.errors import UsageError
 from observer_cad.model import PlantModel
 from observer_cad.residuals import DecisionRule, decide, decision_rule, guaranteed_threshold
 from observer_cad.observers import Observer
-from observer_cad.simulation import (EnsembleStatistics, Monitors, RunSummaries, SummaryField,
-                                     load_scenario, monitors, scenario_from_dict, summarise)
+from observer_cad.ensemble import EnsembleStatistics
+from observer_cad.simulation import (Monitors, RunSummaries, SummaryField, load_scenario, monitors,
+                                     scenario_from_dict, summarise)
 
 ROOT = Path(__file__).resolve().parents[2]
 NAN = float("nan")
