@@ -32,7 +32,7 @@ import json
 import math
 import numbers
 import os
-from typing import Mapping
+from typing import Mapping, NamedTuple
 
 import numpy as np
 import sympy as sp
@@ -583,50 +583,80 @@ def simulate(model: PlantModel, observer: Observer | None, scenario: Scenario, *
         2 * len(observer.states) + len(observer.outputs) if observer is not None else 0)
     check_memory(scenario, m.time, runs=R, columns=ncols)
     t = scenario.grid(m.time)
-    N = t.size
     ks = np.arange(first_run, first_run + R)
     draws = draw_runs(m, observer, scenario, ks, total=samples or first_run + R)
     layout = parameter_layout(m, observer)
-    pars = list(layout.plant) + list(layout.observer)
-    pvals = [draws.P[:, j] for j in range(len(pars))]
+    pvals = [draws.P[:, j] for j in range(len(layout.plant) + len(layout.observer))]
     if case is None and scenario.cases:  # the first case, as the CLI and ensembles
         case = scenario.case_names[0]
     prog = signal_program(m, scenario, t, case=case)
     Vall = prog.values(scenario.seed, ks)
+    fns = _numeric_functions(m, observer, layout)
+    X = np.zeros((len(fns.xs) + len(fns.obs_states), R, t.size))
+    X[:len(fns.xs), :, 0] = draws.x0.T
+    X[len(fns.xs):, :, 0] = draws.xi0.T
+    U = np.ascontiguousarray(np.moveaxis(Vall, 2, 0)) if fns.ins else np.zeros((0, R, t.size))
+    with np.errstate(all="ignore"):  # non-finite values are reported below, not warned
+        if R == 1:
+            _integrate(fns.f_joint.raw, X[:, 0, :], U[:, 0, :], [v[0] for v in pvals], t,
+                       discrete=m.time == "discrete")
+        else:
+            _integrate(fns.f_joint, X, U, pvals, t, discrete=m.time == "discrete")
+    cols, order, delays = _result_columns(m, observer, fns, X, U, pvals, t)
+    res = finish_result(cols, order, delays, t, m, observer, runs, keep_nonfinite,
+                        where=scenario.source)
+    if draws.plant:
+        par_cols = {name: (v if runs is not None else v[0]) for name, v in draws.plant.items()}
+        res = dataclasses.replace(res, parameters=par_cols)
+    return res
+
+
+class _Functions(NamedTuple):
+    """The numeric functions :func:`simulate` evaluates, with the symbols they order."""
+
+    xs: list            # plant states
+    obs_states: list    # observer states
+    ins: list           # inputs, faults, disturbances, noise
+    ys: list            # output symbols y1 … yp
+    f_joint: object     # (x, ξ, v, p) → the joint state's next value (or derivative)
+    f_y: object         # (x, v, p) → y
+    f_out: object       # (ξ, y, v, p) → the observer's outputs; None without outputs
+
+
+def _numeric_functions(m: PlantModel, observer: Observer | None, layout) -> _Functions:
+    """The plant and observer equations as vectorised numeric functions; the observer
+    sees y = h(x, w) and u, and its parameters are run-time arguments."""
+    pars = list(layout.plant) + list(layout.observer)
     xs = list(m.states)
     ins = list(m.inputs) + list(m.faults) + list(m.disturbances) + list(m.noise)
     ys = list(output_symbols(len(m.outputs)))
     y_expr = list(m.outputs)
     obs_states = list(observer.states) if observer else []
-    # the observer sees y = h(x, w) and u; its parameters are run-time arguments
     # numeric from here on: an exact CRootOf λ becomes its Float (lambdify has no CRootOf)
     obs_upd = [layout.observer_equation(algebraic_to_float(e))
                for e in (observer.update if observer else ())]
     obs_out = [layout.observer_equation(algebraic_to_float(e))
                for _, e in (observer.outputs if observer else ())]
     ysub = dict(zip(ys, y_expr))
-    joint_args = xs + obs_states + ins
-    f_joint = _vector_fn(joint_args + pars,
+    f_joint = _vector_fn(xs + obs_states + ins + pars,
                          list(m.dynamics) + [e.xreplace(ysub) for e in obs_upd])
     f_y = _vector_fn(xs + ins + pars, y_expr)
     f_out = _vector_fn(obs_states + ys + ins + pars, obs_out) if obs_out else None
+    return _Functions(xs, obs_states, ins, ys, f_joint, f_y, f_out)
 
-    X = np.zeros((len(joint_args) - len(ins), R, N))
-    X[:len(xs), :, 0] = draws.x0.T
-    X[len(xs):, :, 0] = draws.xi0.T
-    U = np.ascontiguousarray(np.moveaxis(Vall, 2, 0)) if ins else np.zeros((0, R, N))
-    with np.errstate(all="ignore"):  # non-finite values are reported below, not warned
-        if R == 1:
-            _integrate(f_joint.raw, X[:, 0, :], U[:, 0, :], [v[0] for v in pvals], t,
-                       discrete=m.time == "discrete")
-        else:
-            _integrate(f_joint, X, U, pvals, t, discrete=m.time == "discrete")
+
+def _result_columns(m: PlantModel, observer: Observer | None, fns: _Functions, X, U, pvals,
+                    t) -> tuple:
+    """(columns (R, N), CSV order, delays) of the integrated runs: t, the states, the
+    outputs, the signals, then the observer's outputs (a delayed one aligned)."""
+    xs, ins, ys = fns.xs, fns.ins, fns.ys
+    R, N = X.shape[1], X.shape[2]
     cols = {"t": np.broadcast_to(t, (R, N)).copy()}
     for j, s in enumerate(xs):
         cols[s.name] = X[j]
     allu = [U[j] for j in range(len(ins))]
     with np.errstate(all="ignore"):
-        yv = f_y(*[X[j] for j in range(len(xs))], *allu, *[v[:, None] for v in pvals])
+        yv = fns.f_y(*[X[j] for j in range(len(xs))], *allu, *[v[:, None] for v in pvals])
     for name, v in zip(ys, yv):
         cols[str(name)] = np.asarray(v)
     for j, s in enumerate(ins):
@@ -636,20 +666,15 @@ def simulate(model: PlantModel, observer: Observer | None, scenario: Scenario, *
     order = ["t"] + [s.name for s in xs] + [str(y) for y in ys] + \
         [s.name for s in ins if s not in m.noise]
     delays = {}
-    if f_out is not None:
+    if fns.f_out is not None:
         with np.errstate(all="ignore"):
-            ov = f_out(*[X[len(xs) + j] for j in range(len(obs_states))], *yv, *allu,
-                       *[v[:, None] for v in pvals])
+            ov = fns.f_out(*[X[len(xs) + j] for j in range(len(fns.obs_states))], *yv, *allu,
+                           *[v[:, None] for v in pvals])
         for (name, _), v in zip(observer.outputs, ov):
             delays[name] = int(observer.delays.get(name, 0))
             cols[name] = align_delay(np.array(v, dtype=float), delays[name])
             order.append(name)
-    res = finish_result(cols, order, delays, t, m, observer, runs, keep_nonfinite,
-                        where=scenario.source)
-    if draws.plant:
-        par_cols = {name: (v if runs is not None else v[0]) for name, v in draws.plant.items()}
-        res = dataclasses.replace(res, parameters=par_cols)
-    return res
+    return cols, order, delays
 
 
 def _all_finite(cols, delays) -> bool:

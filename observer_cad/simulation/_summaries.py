@@ -311,75 +311,8 @@ def monitors(model: PlantModel, observer: Observer, *, settle: float = 0.0,
     if rule is not None and not isinstance(rule, DecisionRule):
         raise UsageError(f"monitors: rule must be a DecisionRule, not a {type(rule).__name__}")
     outs = observer.output_names
-    units = column_units(model, observer, outs)
-    fields, estimates, intervals, residuals, skipped = [], [], [], [], []
-
-    def add(name, worse, kind, unit, description):
-        fields.append(SummaryField(name, worse, kind, unit, description))
-
-    done = set()
-    for name in outs:
-        if name in done:
-            continue
-        if name.endswith("_hat"):
-            s = name[:-4]
-            tr = _truth(model, observer, s)
-            if isinstance(tr, str):
-                skipped.append(f"{name} ({tr})")
-                continue
-            u = units.get(name)
-            estimates.append(_Estimate(output=name, prefix=name, truth=tr))
-            add(f"{name}.max_error", "max", "error", u, f"max |{name} − {tr.describe()}|")
-            add(f"{name}.rms_error", "max", "error", u,
-                f"root mean square of {name} − {tr.describe()}")
-            add(f"{name}.final_error", "max", "error", u,
-                f"|{name} − {tr.describe()}| at the last available sample")
-        elif name.endswith(("_lower", "_upper")):
-            s = name[:-6]
-            lo, hi = f"{s}_lower", f"{s}_upper"
-            done |= {lo, hi}
-            if _RESIDUAL.fullmatch(s) and s in outs:
-                continue   # a residual's band: with the residual
-            if lo not in outs or hi not in outs:
-                skipped.append(f"{name} (only one bound of {s})")
-                continue
-            tr = _truth(model, observer, s)
-            if isinstance(tr, str):
-                skipped.append(f"{lo}, {hi} ({tr})")
-                continue
-            u = units.get(lo)
-            tol = f" ± {tolerance:g}" if tolerance else ""
-            intervals.append(_Interval(signal=s, lower=lo, upper=hi, truth=tr))
-            add(f"{s}.violations", "max", "count", None,
-                f"samples with {tr.describe()} outside [{lo}, {hi}]{tol}")
-            add(f"{s}.min_slack", "min", "slack", u,
-                f"min of min({s} − {lo}, {hi} − {s}) (negative: violated)")
-            add(f"{s}.max_width", "max", "width", u, f"max of {hi} − {lo}")
-            add(f"{s}.first_violation", "min", "time", None,
-                f"time of the first violation of {lo} ≤ {s} ≤ {hi} (NaN: none)")
-        elif _RESIDUAL.fullmatch(name):
-            lo, hi = f"{name}_lower", f"{name}_upper"
-            band = lo in outs and hi in outs
-            residuals.append(_Residual(name, lo if band else None, hi if band else None))
-            add(f"{name}.max_abs", "max", "magnitude", units.get(name), f"max |{name}|")
-            if band:
-                add(f"{name}.exceedances", "max", "count", None,
-                    f"samples with {name} < {lo} or {name} > {hi}")
-                add(f"{name}.first_exceedance", "min", "time", None,
-                    f"time {name} first leaves [{lo}, {hi}] (NaN: never)")
-        else:
-            skipped.append(f"{name} (not an estimate, interval bound or residual)")
-    if rule is not None:
-        for n in rule.residuals + rule.lower_names + rule.upper_names:
-            if n not in outs:
-                raise UsageError(f"monitors: the decision rule needs the column '{n}', which"
-                                 f" {observer.name} does not output (outputs: {', '.join(outs)})")
-        add("alarm.first", "min", "time", None, "time of the first alarm (NaN: none)")
-        add("alarm.samples", "max", "count", None, "samples with an alarm")
-        add("diagnosis.code", "max", "code", None,
-            "diagnosis code at the last available sample (Σ alarm_i 2^(i−1))")
-    add("finite", "min", "flag", None, "1 if every value of the run is finite, else 0")
-    add("nonfinite.first", "min", "time", None, "time of the first non-finite value (NaN: none)")
+    found = _output_fields(model, observer, outs, tolerance)
+    fields = (*found.fields, *_rule_fields(rule, observer, outs), *_RUN_FIELDS)
     checked = [s.name for s in model.states] + [f"y{i}" for i in range(1, len(model.outputs) + 1)]
     checked += [s.name for s in (list(model.inputs) + list(model.faults)
                                  + list(model.disturbances) + list(model.noise))]
@@ -387,9 +320,118 @@ def monitors(model: PlantModel, observer: Observer, *, settle: float = 0.0,
     return Monitors(model=model.name, observer=observer.name, fields=tuple(fields),
                     settle=settle, tolerance=tolerance, rule=rule,
                     delays={k: int(v) for k, v in observer.delays.items()},
-                    checked=tuple(dict.fromkeys(checked)), skipped=tuple(skipped),
-                    estimates=tuple(estimates), intervals=tuple(intervals),
-                    residuals=tuple(residuals))
+                    checked=tuple(dict.fromkeys(checked)), skipped=tuple(found.skipped),
+                    estimates=tuple(found.estimates), intervals=tuple(found.intervals),
+                    residuals=tuple(found.residuals))
+
+
+@dataclasses.dataclass
+class _Found:
+    """What :func:`_output_fields` finds among the observer's outputs (built in output order)."""
+
+    fields: list = dataclasses.field(default_factory=list)
+    estimates: list = dataclasses.field(default_factory=list)
+    intervals: list = dataclasses.field(default_factory=list)
+    residuals: list = dataclasses.field(default_factory=list)
+    skipped: list = dataclasses.field(default_factory=list)
+
+
+def _output_fields(model: PlantModel, observer: Observer, outs, tolerance: float) -> _Found:
+    """The summary fields of every output with a truth, in output order: an estimate
+    ``<s>_hat``, an interval ``<s>_lower``/``<s>_upper`` (once per pair), a residual ``r…``
+    (with its band); the other outputs are listed as skipped, with the reason."""
+    units = column_units(model, observer, outs)
+    found = _Found()
+    done = set()
+    for name in outs:
+        if name in done:
+            continue
+        if name.endswith("_hat"):
+            tr = _truth(model, observer, name[:-4])
+            if isinstance(tr, str):
+                found.skipped.append(f"{name} ({tr})")
+                continue
+            found.estimates.append(_Estimate(output=name, prefix=name, truth=tr))
+            found.fields += _estimate_fields(name, tr, units.get(name))
+        elif name.endswith(("_lower", "_upper")):
+            s = name[:-6]
+            lo, hi = f"{s}_lower", f"{s}_upper"
+            done |= {lo, hi}
+            if _RESIDUAL.fullmatch(s) and s in outs:
+                continue   # a residual's band: with the residual
+            if lo not in outs or hi not in outs:
+                found.skipped.append(f"{name} (only one bound of {s})")
+                continue
+            tr = _truth(model, observer, s)
+            if isinstance(tr, str):
+                found.skipped.append(f"{lo}, {hi} ({tr})")
+                continue
+            found.intervals.append(_Interval(signal=s, lower=lo, upper=hi, truth=tr))
+            found.fields += _interval_fields(s, tr, units.get(lo), tolerance)
+        elif _RESIDUAL.fullmatch(name):
+            lo, hi = f"{name}_lower", f"{name}_upper"
+            band = lo in outs and hi in outs
+            found.residuals.append(_Residual(name, lo if band else None, hi if band else None))
+            found.fields += _residual_fields(name, band, units.get(name))
+        else:
+            found.skipped.append(f"{name} (not an estimate, interval bound or residual)")
+    return found
+
+
+def _estimate_fields(name: str, tr: _Truth, u) -> list:
+    """``<s>_hat.max_error``, ``.rms_error``, ``.final_error``."""
+    return [SummaryField(f"{name}.max_error", "max", "error", u, f"max |{name} − {tr.describe()}|"),
+            SummaryField(f"{name}.rms_error", "max", "error", u,
+                         f"root mean square of {name} − {tr.describe()}"),
+            SummaryField(f"{name}.final_error", "max", "error", u,
+                         f"|{name} − {tr.describe()}| at the last available sample")]
+
+
+def _interval_fields(s: str, tr: _Truth, u, tolerance: float) -> list:
+    """``<s>.violations``, ``.min_slack``, ``.max_width``, ``.first_violation``."""
+    lo, hi = f"{s}_lower", f"{s}_upper"
+    tol = f" ± {tolerance:g}" if tolerance else ""
+    return [SummaryField(f"{s}.violations", "max", "count", None,
+                         f"samples with {tr.describe()} outside [{lo}, {hi}]{tol}"),
+            SummaryField(f"{s}.min_slack", "min", "slack", u,
+                         f"min of min({s} − {lo}, {hi} − {s}) (negative: violated)"),
+            SummaryField(f"{s}.max_width", "max", "width", u, f"max of {hi} − {lo}"),
+            SummaryField(f"{s}.first_violation", "min", "time", None,
+                         f"time of the first violation of {lo} ≤ {s} ≤ {hi} (NaN: none)")]
+
+
+def _residual_fields(name: str, band: bool, u) -> list:
+    """``<r>.max_abs``; with a band, ``<r>.exceedances`` and ``<r>.first_exceedance``."""
+    lo, hi = f"{name}_lower", f"{name}_upper"
+    out = [SummaryField(f"{name}.max_abs", "max", "magnitude", u, f"max |{name}|")]
+    if band:
+        out += [SummaryField(f"{name}.exceedances", "max", "count", None,
+                             f"samples with {name} < {lo} or {name} > {hi}"),
+                SummaryField(f"{name}.first_exceedance", "min", "time", None,
+                             f"time {name} first leaves [{lo}, {hi}] (NaN: never)")]
+    return out
+
+
+def _rule_fields(rule: DecisionRule | None, observer: Observer, outs) -> list:
+    """``alarm.first``, ``alarm.samples``, ``diagnosis.code`` with a decision rule (whose
+    columns the observer must output), else none."""
+    if rule is None:
+        return []
+    for n in rule.residuals + rule.lower_names + rule.upper_names:
+        if n not in outs:
+            raise UsageError(f"monitors: the decision rule needs the column '{n}', which"
+                             f" {observer.name} does not output (outputs: {', '.join(outs)})")
+    return [SummaryField("alarm.first", "min", "time", None, "time of the first alarm (NaN: none)"),
+            SummaryField("alarm.samples", "max", "count", None, "samples with an alarm"),
+            SummaryField("diagnosis.code", "max", "code", None,
+                         "diagnosis code at the last available sample (Σ alarm_i 2^(i−1))")]
+
+
+#: the fields of every run, last
+_RUN_FIELDS = (
+    SummaryField("finite", "min", "flag", None, "1 if every value of the run is finite, else 0"),
+    SummaryField("nonfinite.first", "min", "time", None,
+                 "time of the first non-finite value (NaN: none)"))
 
 
 # ---------------------------------------------------------------- per-run summaries
@@ -496,16 +538,51 @@ def summarise(monitors: Monitors, columns, t, *, finite=None, intervals=None) ->
         raise UsageError(f"summarise needs Monitors (from monitors()), not a"
                          f" {type(monitors).__name__}")
     cols = _rows(columns)
+    t = _time_grid(t)
+    N = t.size
+    arrays, R = _gather(monitors, cols, N)
+    windows = _windows(monitors, t)
+    values = {f.name: np.empty(R, dtype=np.float64) for f in monitors.fields}
+    known = None
+    if finite is not None:
+        known = np.asarray(finite, dtype=bool)
+        if known.shape != (R,):
+            raise UsageError(f"summarise: finite must have shape ({R},), got {known.shape}")
+    # blocks of rows small enough for the cache: no large temporaries, and every row is
+    # reduced on its own whatever the block (the result does not depend on R)
+    # (a view of contiguous rows — the compiled batch's columns — is read in place: its
+    # rows count, not its parent's)
+    row_bytes = max([8 * N] + [abs(v.strides[0]) for v in arrays.values()
+                               if not (v.ndim == 2 and v.strides[1] == 8)])
+    B = max(1, (8 * _BLOCK_ELEMENTS) // row_bytes)   # strided views: the parent's rows count
+    given = {}
+    if intervals and known is not None and known.all():
+        given = _given_intervals(monitors, intervals, t, values)
+    with np.errstate(all="ignore"):
+        for a in range(0, R, B):
+            b = min(a + B, R)
+            _summarise_block(monitors, {k: _c(v[a:b]) for k, v in arrays.items()}, t, N, windows,
+                             {k: v[a:b] for k, v in values.items()},
+                             None if known is None else known[a:b], skip=given)
+    return RunSummaries(fields=monitors.fields, values=values)
+
+
+def _time_grid(t) -> np.ndarray:
+    """The (N,) time grid of :func:`summarise` (the first row of an (R, N) one)."""
     t = np.asarray(t, dtype=np.float64)
     if t.ndim == 2:
         t = t[0]
     if t.ndim != 1 or t.size == 0:
         raise UsageError(f"summarise: t must be the (N,) time grid, got shape {t.shape}")
-    N = t.size
-    need = monitors.needs
+    return t
+
+
+def _gather(monitors: Monitors, cols: Mapping, N: int) -> tuple:
+    """(name → (R, N) float64 array, R): the columns the summaries need (all required, of
+    one R), then the other checked columns that are present (for ``finite``)."""
     R = None
     arrays = {}
-    for name in need:
+    for name in monitors.needs:
         arrays[name] = _get(cols, name, R, N)
         R = arrays[name].shape[0]
     for name in monitors.checked:
@@ -515,11 +592,18 @@ def summarise(monitors: Monitors, columns, t, *, finite=None, intervals=None) ->
     if R is None:
         raise UsageError(f"summarise: none of the columns of {monitors.observer} on"
                          f" {monitors.model} is present")
+    return arrays, R
+
+
+def _windows(monitors: Monitors, t: np.ndarray) -> dict:
+    """The samples each summary looks at: per estimate output, interval signal and
+    residual (and ``alarm`` with a rule), the slice with t ≥ settle that every column it
+    reads has (a delayed column lacks its last samples)."""
+    N = t.size
     start = int(np.searchsorted(t, monitors.settle, side="left"))
     delays = monitors.delays
 
     def window(*names):
-        """The slice of samples with t ≥ settle that every column of ``names`` has."""
         d = max((delays.get(n, 0) for n in names), default=0)
         stop = N - d
         if start >= stop:
@@ -539,37 +623,22 @@ def summarise(monitors: Monitors, columns, t, *, finite=None, intervals=None) ->
     if monitors.rule is not None:
         rule = monitors.rule
         windows["alarm"] = window(*(rule.residuals + rule.lower_names + rule.upper_names))
-    values = {f.name: np.empty(R, dtype=np.float64) for f in monitors.fields}
-    known = None
-    if finite is not None:
-        known = np.asarray(finite, dtype=bool)
-        if known.shape != (R,):
-            raise UsageError(f"summarise: finite must have shape ({R},), got {known.shape}")
-    # blocks of rows small enough for the cache: no large temporaries, and every row is
-    # reduced on its own whatever the block (the result does not depend on R)
-    # (a view of contiguous rows — the compiled batch's columns — is read in place: its
-    # rows count, not its parent's)
-    row_bytes = max([8 * N] + [abs(v.strides[0]) for v in arrays.values()
-                               if not (v.ndim == 2 and v.strides[1] == 8)])
-    B = max(1, (8 * _BLOCK_ELEMENTS) // row_bytes)   # strided views: the parent's rows count
-    given = {}
-    if intervals and known is not None and known.all():
-        given = {iv.signal: intervals[iv.signal] for iv in monitors.intervals
-                 if iv.signal in intervals}
-        for sig, (viol, slack, width, first) in given.items():
-            values[f"{sig}.violations"][:] = viol
-            values[f"{sig}.min_slack"][:] = slack
-            values[f"{sig}.max_width"][:] = width
-            first = np.asarray(first, dtype=np.int64)
-            values[f"{sig}.first_violation"][:] = np.where(first >= 0, t[np.maximum(first, 0)],
-                                                           np.nan)
-    with np.errstate(all="ignore"):
-        for a in range(0, R, B):
-            b = min(a + B, R)
-            _summarise_block(monitors, {k: _c(v[a:b]) for k, v in arrays.items()}, t, N, windows,
-                             {k: v[a:b] for k, v in values.items()},
-                             None if known is None else known[a:b], skip=given)
-    return RunSummaries(fields=monitors.fields, values=values)
+    return windows
+
+
+def _given_intervals(monitors: Monitors, intervals: Mapping, t: np.ndarray, values: dict) -> dict:
+    """Writes the interval summaries the compiled loop computed into ``values``; returns
+    them (signal → (violations, min_slack, max_width, first index)), to be skipped."""
+    given = {iv.signal: intervals[iv.signal] for iv in monitors.intervals
+             if iv.signal in intervals}
+    for sig, (viol, slack, width, first) in given.items():
+        values[f"{sig}.violations"][:] = viol
+        values[f"{sig}.min_slack"][:] = slack
+        values[f"{sig}.max_width"][:] = width
+        first = np.asarray(first, dtype=np.int64)
+        values[f"{sig}.first_violation"][:] = np.where(first >= 0, t[np.maximum(first, 0)],
+                                                       np.nan)
+    return given
 
 
 #: rows × samples per block of :func:`summarise`: 1 MB of float64 per temporary (of the
