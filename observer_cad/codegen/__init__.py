@@ -12,7 +12,8 @@ whole-trajectory simulation in one compiled call, standalone C export.
 from ._compile import (CACHE_LOCK, CodegenError, cache_dir, usable_cache_dir, verify_library, compiler, generate_c, compile_source, compile_function, compile_or_interpret, CompiledFunction, STATS, FLAGS, LARGE_SOURCE, LARGE_LEVEL, size_aware_flags, structure, fingerprint, lookup_fingerprint, record_fingerprint, forget_fingerprint, compile_observer_step, compile_plant_step)
 from ._decide_c import (MAX_C_RESIDUALS, DecisionSources, decision_sources)
 from ._export import (export_observer, export_sources, ExportedSources, EXAMPLE_FLAGS, silence_unused_parameters)
-from ._trajectory import (CompiledSimulator, simulate_compiled, loop_source, TRAJ_FLAGS)
+from ._loops import loop_source
+from ._trajectory import (CompiledSimulator, simulate_compiled, TRAJ_FLAGS)
 from ._translate import (to_casadi, Translator, observer_step, plant_step, joint_step, describe, split_signals, rk4, zoh_matrices, DISCRETISATIONS, observer_step_name, plant_step_name, joint_step_name, observer_identity, plant_identity, joint_identity)
 from ._library import (LibrarySpec, library_spec, load_library, loaded_libraries)
 
