@@ -36,9 +36,15 @@ includes ``NAME.h``, so the compiler checks the declared prototypes against the
 definitions.
 
 All files are written atomically (a temporary file in the directory, then renamed).
+
+Where the parts live: the options are checked and the step function built here
+(:func:`export_sources`), ``NAME.c`` and ``NAME.h`` written here from their parts (the
+header's comment, its timing note, its declarations); ``NAME_example.c`` in ``_example``;
+the C literals and comments in ``_ctext``; the decision logic in ``_decide_c``.
 """
 from __future__ import annotations
 
+import dataclasses
 import math
 import re
 from pathlib import Path
@@ -51,7 +57,9 @@ from ..errors import UsageError
 from ..numerics import algebraic_to_float
 from ..observers import Observer
 from ..residuals import DecisionRule
+from ._ctext import c_comment, c_double, c_string
 from ._decide_c import decision_sources
+from ._example import example_source
 from ._translate import (DISCRETISATIONS, c_name, describe, observer_step, split_signals,
                          zoh_matrices)
 
@@ -68,35 +76,10 @@ extern float for goto if inline int long register restrict return short signed s
 struct switch typedef union unsigned void volatile while _Alignas _Alignof _Atomic _Bool
 _Complex _Generic _Imaginary _Noreturn _Static_assert _Thread_local casadi_real casadi_int
 main""".split())
-_ASCII = str.maketrans({"−": "-", "…": "...", "·": "*", "ξ": "xi", "≤": "<=", "≥": ">=",
-                        "—": "-", "–": "-", "⁺": "+", "⁻": "-", "§": "S"})
 
 # a top-level function definition as casadi writes it: one line, at column 0, ending in '{'
 _DEF = re.compile(r"^(?!\s)(?!#)(?!typedef)(?:[A-Za-z_][\w \t\*]*?[\s\*])"
                   r"([A-Za-z_]\w*)\(([^()]*)\)\s*\{[ \t]*$", re.M)
-
-
-def _ascii(text: str) -> str:
-    return str(text).translate(_ASCII).encode("ascii", "replace").decode("ascii")
-
-
-def _comment(text: str) -> str:
-    """Text safe inside a C block comment."""
-    return _ascii(text).replace("*/", "* /").replace("/*", "/ *")
-
-
-def _cstr(s: str) -> str:
-    return '"' + _ascii(s).replace("\\", "\\\\").replace('"', '\\"') + '"'
-
-
-def _cdouble(v: float) -> str:
-    v = float(v)
-    if math.isnan(v):
-        return "NAN"
-    if math.isinf(v):
-        return "INFINITY" if v > 0 else "-INFINITY"
-    r = repr(v)
-    return r if any(c in r for c in ".eE") else r + ".0"
 
 
 def silence_unused_parameters(src: str) -> str:
@@ -186,12 +169,12 @@ def _sizes(f: ca.Function) -> dict:
 
 
 def _names_array(cname, names):
-    items = ", ".join([_cstr(n) for n in names] + ["0"])
+    items = ", ".join([c_string(n) for n in names] + ["0"])
     return f"const char* const {cname}[{len(names) + 1}] = {{{items}}};"
 
 
 def _double_array(cname, vals):
-    items = ", ".join(_cdouble(v) for v in vals) if vals else "0.0"
+    items = ", ".join(c_double(v) for v in vals) if vals else "0.0"
     return f"const casadi_real {cname}[{max(len(vals), 1)}] = {{{items}}};"
 
 
@@ -200,6 +183,16 @@ def export_sources(observer: Observer, *, name: str | None = None, dt: float | N
                    discretisation: str = "rk4",
                    rule: DecisionRule | None = None) -> ExportedSources:
     """The text of the three files (nothing written); see :func:`export_observer`."""
+    name, dt = _checked_options(observer, name, dt, discretisation)
+    parts = _parts(observer, name, dt, discretisation, initial, rule)
+    c_text, h_text = _c_source(parts), _header_source(parts)
+    ex_text = example_source(name, observer, parts.h_arg, parts.ys, parts.us, parts.xs,
+                             parts.outs, parts.dec)
+    return ExportedSources(name, parts.f, c_text, h_text, ex_text)
+
+
+def _checked_options(observer: Observer, name: str | None, dt, discretisation: str) -> tuple:
+    """(C name, step size) after checking the options (one-line UsageError otherwise)."""
     if not isinstance(observer, Observer):
         raise UsageError("export_observer needs an Observer (observer_cad.observers.build_observer)")
     if name is None:
@@ -230,8 +223,38 @@ def export_sources(observer: Observer, *, name: str | None = None, dt: float | N
     if zoh and dt is None:
         raise UsageError("export: discretisation='zoh' needs dt (e^(A dt) is computed when the"
                          " code is generated)")
-    h_arg = observer.time == "continuous" and dt is None
+    return name, dt
 
+
+@dataclasses.dataclass(frozen=True)
+class _Parts:
+    """What the three files are written from: the observer, its casadi step ``f`` and
+    sizes, the signal, state, parameter and output names, the default initial state
+    (``zeroed``: the symbols it took as 0), the decision sources of a rule (or None)."""
+
+    name: str
+    observer: Observer
+    f: ca.Function
+    h_arg: bool        # continuous time without dt: the step size is an argument
+    zoh: bool
+    dt: float | None
+    zoh_text: list     # the ZOH matrices, for the header
+    ys: list
+    us: list
+    xs: list
+    ps: list
+    pvals: list
+    outs: list
+    sz: dict
+    x0: list
+    zeroed: list
+    dec: object
+
+
+def _parts(observer: Observer, name: str, dt, discretisation: str, initial, rule) -> _Parts:
+    """The casadi step function and everything the files say about it."""
+    zoh = discretisation == "zoh"
+    h_arg = observer.time == "continuous" and dt is None
     f = observer_step(observer, h=dt, name=name, discretisation=discretisation)
     zoh_text = []
     if zoh:
@@ -244,19 +267,29 @@ def export_sources(observer: Observer, *, name: str | None = None, dt: float | N
     ps = list(observer.parameters)
     pvals = [float(v) for v in observer.parameters.values()]
     outs = list(observer.output_names)
-    nx, ny, nu, npar, no = len(xs), len(ys), len(us), len(ps), len(outs)
-    sz = _sizes(f)
     x0, zeroed = _initial_state(observer, initial)
     dec = decision_sources(name, observer, rule) if rule is not None else None
+    return _Parts(name, observer, f, h_arg, zoh, dt, zoh_text, ys, us, xs, ps, pvals, outs,
+                  _sizes(f), x0, zeroed, dec)
 
-    # ------------------------------------------------------------------ NAME.c
+
+def _step_params(h_arg: bool) -> str:
+    """The parameters of ``NAME_step``."""
+    return ("const casadi_real* x, const casadi_real* y, const casadi_real* u,"
+            " const casadi_real* p, " + ("casadi_real h, " if h_arg else "")
+            + "casadi_real* x_next, casadi_real* out")
+
+
+def _c_source(parts: _Parts) -> str:
+    """``NAME.c``: casadi's code (parameters marked used), the names and defaults, and
+    ``NAME_step``; the decision logic with a rule."""
+    name, observer, f, h_arg, dec = parts.name, parts.observer, parts.f, parts.h_arg, parts.dec
+    xs, ys, us, ps, pvals, outs, x0 = parts.xs, parts.ys, parts.us, parts.ps, parts.pvals, parts.outs, parts.x0
     cg = ca.CodeGenerator(f"{name}.c", {"casadi_real": "double", "with_header": False})
     cg.add(f)
     body = silence_unused_parameters(cg.dump())
-    step_params = ("const casadi_real* x, const casadi_real* y, const casadi_real* u,"
-                   " const casadi_real* p, " + ("casadi_real h, " if h_arg else "")
-                   + "casadi_real* x_next, casadi_real* out")
-    csrc = [f"/* {name}.c: observer '{_comment(observer.name)}' ({observer.kind},"
+    step_params = _step_params(h_arg)
+    csrc = [f"/* {name}.c: observer '{c_comment(observer.name)}' ({observer.kind},"
             f" {observer.time} time), exported by observer_cad with CasADi {ca.__version__}.",
             f" * See {name}.h for the arguments; built with: cc -std=c99 -Wall -Wextra -Werror"
             f" {name}.c YOUR_MAIN.c -lm",
@@ -292,46 +325,40 @@ def export_sources(observer: Observer, *, name: str | None = None, dt: float | N
              "}", ""]
     if dec is not None:
         csrc.append(dec.c)
-    c_text = "\n".join(csrc)
+    return "\n".join(csrc)
 
-    # ------------------------------------------------------------------ NAME.h
-    G = name.upper()
+
+def _header_source(parts: _Parts) -> str:
+    """``NAME.h``: the documentation comment, then the declarations."""
+    return "\n".join(_header_doc(parts) + _header_declarations(parts))
+
+
+def _header_doc(parts: _Parts) -> list:
+    """The header's comment: equations, the step function, how one call steps, delays,
+    defaults, work vectors, how to call it (and the decision logic)."""
+    name, observer, f, h_arg, dec = parts.name, parts.observer, parts.f, parts.h_arg, parts.dec
+    outs, ps, pvals, sz, x0, zeroed = parts.outs, parts.ps, parts.pvals, parts.sz, parts.x0, parts.zeroed
     doc = describe(f).splitlines()
     delays = {k: int(v) for k, v in observer.delays.items() if int(v)}
-    hl = [f"/* {name}.h: observer '{_comment(observer.name)}' ({observer.kind}, {observer.time}"
+    hl = [f"/* {name}.h: observer '{c_comment(observer.name)}' ({observer.kind}, {observer.time}"
           f" time), exported by observer_cad",
           f" * with CasADi {ca.__version__} (double precision).",
           " *"]
     if observer.description:
-        hl.append(f" * {_comment(observer.description)}")
+        hl.append(f" * {c_comment(observer.description)}")
         hl.append(" *")
     hl += [" * Equations" + (" (x' = dx/dt)" if observer.time == "continuous" else "") + ":"]
-    hl += [f" *   {_comment(e)}" for e in observer.equations_text()]
+    hl += [f" *   {c_comment(e)}" for e in observer.equations_text()]
     hl += [" *", " * The step function (casadi's generated code, arguments in this order):", " *"]
-    hl += [f" *   {_comment(line)}" for line in doc]
+    hl += [f" *   {c_comment(line)}" for line in doc]
     hl += [" *"]
-    if observer.time == "continuous":
-        if h_arg:
-            hl.append(" * Continuous time: one call is one classical RK4 step of size h (an"
-                      " argument), with y and u held over the step.")
-        elif zoh:
-            hl.append(f" * Continuous time, exact zero-order hold: one call advances the"
-                      f" affine update x' = A x + g(y, u, p) by {name}_DT = {dt!r} with y and u"
-                      " held,")
-            hl.append(" * x_next = Ad x + Gamma g(y, u, p) (scipy.linalg.expm, double"
-                      " precision):")
-            hl += zoh_text
-        else:
-            hl.append(f" * Continuous time: one call is one classical RK4 step of size"
-                      f" {name}_DT = {dt!r}, with y and u held over the step.")
-    else:
-        hl.append(" * Discrete time: one call is one sample, x(t+1) = f(x(t), y(t), u(t), p).")
+    hl += _header_timing(parts)
     hl += [" * out is evaluated at the current state x (before the step). x_next must not"
            " alias x: the",
            " * generated code may write x_next[0] before it has read x[1].",
            " *"]
     for o_name, k in delays.items():
-        hl.append(f" * Delay: out '{_comment(o_name)}' (index {outs.index(o_name)}) at step t is"
+        hl.append(f" * Delay: out '{c_comment(o_name)}' (index {outs.index(o_name)}) at step t is"
                   f" the estimate for step t - {k}.")
     if delays:
         hl.append(" *")
@@ -367,29 +394,63 @@ def export_sources(observer: Observer, *, name: str | None = None, dt: float | N
            " *",
            f" * Example: {name}_example.c (cc -std=c99 -Wall -Wextra -Werror {name}.c"
            f" {name}_example.c -lm).",
-           " */",
-           f"#ifndef {G}_H",
-           f"#define {G}_H",
-           "",
-           "#ifdef __cplusplus",
-           'extern "C" {',
-           "#endif",
-           "",
-           "#ifndef casadi_real",
-           "#define casadi_real double",
-           "#endif",
-           "#ifndef casadi_int",
-           "#define casadi_int long long int",
-           "#endif",
-           "",
-           f"#define {name}_NX {nx}   /* observer states x */",
-           f"#define {name}_NY {ny}   /* measured outputs y */",
-           f"#define {name}_NU {nu}   /* known inputs u */",
-           f"#define {name}_NP {npar}   /* parameters p */",
-           f"#define {name}_NOUT {no}   /* outputs out */",
-           f"#define {name}_H_ARG {1 if h_arg else 0}   /* 1: the step size h is an argument */"]
+           " */"]
+    return hl
+
+
+def _header_timing(parts: _Parts) -> list:
+    """What one call of the step function does: a sample, an RK4 step (of size h or
+    NAME_DT) or an exact zero-order-hold step."""
+    name, observer, h_arg, zoh, dt = parts.name, parts.observer, parts.h_arg, parts.zoh, parts.dt
+    out = []
+    if observer.time == "continuous":
+        if h_arg:
+            out.append(" * Continuous time: one call is one classical RK4 step of size h (an"
+                      " argument), with y and u held over the step.")
+        elif zoh:
+            out.append(f" * Continuous time, exact zero-order hold: one call advances the"
+                      f" affine update x' = A x + g(y, u, p) by {name}_DT = {dt!r} with y and u"
+                      " held,")
+            out.append(" * x_next = Ad x + Gamma g(y, u, p) (scipy.linalg.expm, double"
+                      " precision):")
+            out += parts.zoh_text
+        else:
+            out.append(f" * Continuous time: one call is one classical RK4 step of size"
+                      f" {name}_DT = {dt!r}, with y and u held over the step.")
+    else:
+        out.append(" * Discrete time: one call is one sample, x(t+1) = f(x(t), y(t), u(t), p).")
+    return out
+
+
+def _header_declarations(parts: _Parts) -> list:
+    """The header's guard, sizes, names, defaults and prototypes."""
+    name, observer, h_arg, zoh, dt, dec = parts.name, parts.observer, parts.h_arg, parts.zoh, parts.dt, parts.dec
+    xs, ys, us, ps, outs, sz = parts.xs, parts.ys, parts.us, parts.ps, parts.outs, parts.sz
+    nx, ny, nu, npar, no = len(xs), len(ys), len(us), len(ps), len(outs)
+    G = name.upper()
+    step_params = _step_params(h_arg)
+    hl = [f"#ifndef {G}_H",
+          f"#define {G}_H",
+          "",
+          "#ifdef __cplusplus",
+          'extern "C" {',
+          "#endif",
+          "",
+          "#ifndef casadi_real",
+          "#define casadi_real double",
+          "#endif",
+          "#ifndef casadi_int",
+          "#define casadi_int long long int",
+          "#endif",
+          "",
+          f"#define {name}_NX {nx}   /* observer states x */",
+          f"#define {name}_NY {ny}   /* measured outputs y */",
+          f"#define {name}_NU {nu}   /* known inputs u */",
+          f"#define {name}_NP {npar}   /* parameters p */",
+          f"#define {name}_NOUT {no}   /* outputs out */",
+          f"#define {name}_H_ARG {1 if h_arg else 0}   /* 1: the step size h is an argument */"]
     if observer.time == "continuous" and not h_arg:
-        hl.append(f"#define {name}_DT {_cdouble(dt)}   /* the step size baked in"
+        hl.append(f"#define {name}_DT {c_double(dt)}   /* the step size baked in"
                   f" ({'exact ZOH' if zoh else 'RK4'}) */")
     hl += [f"#define {name}_SZ_ARG {sz['SZ_ARG']}",
            f"#define {name}_SZ_RES {sz['SZ_RES']}",
@@ -401,7 +462,7 @@ def export_sources(observer: Observer, *, name: str | None = None, dt: float | N
            f"extern const char* const {name}_y_names[];   /* {', '.join(map(str, ys)) or '-'} */",
            f"extern const char* const {name}_u_names[];   /* {', '.join(map(str, us)) or '-'} */",
            f"extern const char* const {name}_p_names[];   /* {', '.join(map(str, ps)) or '-'} */",
-           f"extern const char* const {name}_out_names[]; /* {_comment(', '.join(outs)) or '-'} */",
+           f"extern const char* const {name}_out_names[]; /* {c_comment(', '.join(outs)) or '-'} */",
            f"extern const casadi_real {name}_x0[];          /* default initial state [NX] */",
            f"extern const casadi_real {name}_p_default[];   /* default parameters [NP] */",
            "",
@@ -438,9 +499,7 @@ def export_sources(observer: Observer, *, name: str | None = None, dt: float | N
            "",
            f"#endif /* {G}_H */",
            ""]
-    h_text = "\n".join(hl)
-    ex_text = _example_source(name, observer, h_arg, ys, us, xs, outs, dec)
-    return ExportedSources(name, f, c_text, h_text, ex_text)
+    return hl
 
 
 def export_observer(observer: Observer, out_dir, *, name: str | None = None,
@@ -480,303 +539,3 @@ def export_observer(observer: Observer, out_dir, *, name: str | None = None,
         except OSError as exc:
             raise UsageError(f"{p}: cannot write: {exc.strerror}") from None
     return paths
-
-
-# ---------------------------------------------------------------------- the example
-def _example_source(name, observer, h_arg, ys, us, xs, outs, dec=None) -> str:
-    N = name
-    sig = [str(s) for s in ys] + [str(s) for s in us]
-    extra = dec.input_columns if dec is not None else []
-    nextra = len(extra)
-    if dec is None:
-        dec_decl = dec_head = dec_step = ""
-        dec_doc = ""
-    else:
-        dec_decl = (f"  double rr[{N}_NRES], lo[{N}_NRES], hi[{N}_NRES];\n"
-                    f"  int counters[{N}_NRES], alarms[{N}_NRES], code = 0;\n")
-        dec_head = (f"  for (i = 0; i < {N}_NRES; ++i) counters[i] = 0;\n"
-                    f"  for (i = 0; i < {N}_NRES; ++i) printf(\",%s_alarm\", {N}_residual_names[i]);\n"
-                    "  printf(\",alarm,diagnosis_code,diagnosis\");\n")
-        lines = []
-        for i, (ri, (lo, hi)) in enumerate(zip(dec.residual_index, dec.thresholds)):
-            src = [f"out[{v}]" if k == "out" else f"v[NSIG + {extra.index(v)}]" for k, v in (lo, hi)]
-            lines.append(f"    rr[{i}] = out[{ri}]; lo[{i}] = {src[0]}; hi[{i}] = {src[1]};")
-        dec_step = ("\n".join(lines) + "\n"
-                    f"    code = {N}_decide(rr, lo, hi, counters, alarms);\n"
-                    f"    for (i = 0; i < {N}_NRES; ++i) printf(\",%d\", alarms[i]);\n"
-                    f"    printf(\",%d,%d,\\\"%s\\\"\", code != 0, code, {N}_diagnosis_text[code]);\n")
-        dec_doc = (f" * Decisions ({N}_decide): after the outputs, <r>_alarm per residual, alarm"
-                   " (any), diagnosis_code and\n"
-                   " * diagnosis (quoted text); thresholds that are not observer outputs are read"
-                   " from the input columns\n"
-                   f" *   {', '.join(extra) or '(none: all are outputs)'} (an empty cell is NaN:"
-                   " not out).\n")
-    usage = (f"usage: {N}_example INPUT.csv" + (" dt=H" if h_arg else "")
-             + " [x0=v1,...] [p=v1,...]")
-    dt_decl = "  double h = 0.0;\n  int have_dt = 0;\n" if h_arg else ""
-    dt_opt = ("""    } else if (strncmp(argv[a], "dt=", 3) == 0) {
-      char* end;
-      h = strtod(argv[a] + 3, &end);
-      if (end == argv[a] + 3 || *end != '\\0' || !(h > 0.0)) {
-        fprintf(stderr, "%s: dt must be a positive number, got '%s'\\n", argv[0], argv[a] + 3);
-        return 2;
-      }
-      have_dt = 1;
-""" if h_arg else "")
-    dt_check = ("""  if (!have_dt) {
-    fprintf(stderr, "%s: dt=H is required (the RK4 step size is an argument of this export)\\n",
-            argv[0]);
-    return 2;
-  }
-""" if h_arg else "")
-    h_set = "  arg[4] = &h;\n" if h_arg else ""
-    sig_items = ", ".join([_cstr(s) for s in sig + extra] + ["0"])
-    dt_doc = "; dt= gives the RK4 step size" if h_arg else ""
-    oname = _comment(observer.name)
-    return f"""/* {N}_example.c: step the observer '{oname}' on a recorded input file.
- *
- * Build:  cc -std=c99 -Wall -Wextra -Werror {N}.c {N}_example.c -lm -o {N}_example
- * Run:    ./{N}_example INPUT.csv{' dt=H' if h_arg else ''} [x0=v1,...] [p=v1,...] > OUTPUT.csv
- *
- * INPUT.csv: a header row, then one row per step.  The observer's signals
- *   {', '.join(sig) or '(none)'}
- * are found by column name (any order; other columns, e.g. a simulator's t or states, are
- * ignored).  Output on stdout, CSV: step, the observer states before the step
- * ({', '.join(xs)}), and the outputs at that state ({_comment(', '.join(outs))}),
- * every number printed with %.17g (doubles round-trip exactly).
- * x0= overrides the initial state {N}_x0, p= the parameters {N}_p_default{dt_doc}.
- * Exit status: 0 ok, 1 the step function failed or out of memory, 2 bad input or usage.
-{dec_doc} */
-#include <math.h>
-#include <stdio.h>
-#include <stdlib.h>
-#include <string.h>
-
-#include "{N}.h"
-
-#define NSIG ({N}_NY + {N}_NU)
-#define NREAD (NSIG + {nextra})   /* signals, then threshold columns read from the input */
-#define ASIZE(n) ((n) > 0 ? (n) : 1)
-
-static const char* const sig_names[NREAD + 1] = {{{sig_items}}};
-
-/* One line without its line end, malloc'd; NULL at the end of the file or when out of
-   memory (*oom set). */
-static char* read_line(FILE* fp, int* oom) {{
-  size_t cap = 256, len = 0;
-  char* buf = (char*)malloc(cap);
-  int c = 0;
-  if (buf == NULL) {{
-    *oom = 1;
-    return NULL;
-  }}
-  while ((c = fgetc(fp)) != EOF && c != '\\n') {{
-    if (len + 1 >= cap) {{
-      char* nb = (char*)realloc(buf, cap * 2);
-      if (nb == NULL) {{
-        free(buf);
-        *oom = 1;
-        return NULL;
-      }}
-      buf = nb;
-      cap *= 2;
-    }}
-    buf[len++] = (char)c;
-  }}
-  if (c == EOF && len == 0) {{
-    free(buf);
-    return NULL;
-  }}
-  if (len > 0 && buf[len - 1] == '\\r') --len;
-  buf[len] = '\\0';
-  return buf;
-}}
-
-static int blank(const char* s) {{
-  for (; *s; ++s)
-    if (*s != ' ' && *s != '\\t') return 0;
-  return 1;
-}}
-
-/* Parse a comma-separated list of exactly n numbers into v. */
-static int parse_list(const char* s, double* v, int n) {{
-  int k = 0;
-  char* end;
-  if (n == 0) return *s == '\\0' ? 0 : -1;
-  for (;;) {{
-    if (k == n) return -1;
-    v[k++] = strtod(s, &end);
-    if (end == s) return -1;
-    while (*end == ' ') ++end;
-    if (*end == '\\0') break;
-    if (*end != ',') return -1;
-    s = end + 1;
-  }}
-  return k == n ? 0 : -1;
-}}
-
-int main(int argc, char** argv) {{
-  FILE* fp;
-  char* line;
-  int oom = 0, status = 0, ncol = 0, i, j, a, mem = -1;
-  int col_of[ASIZE(NREAD)];
-  int* sig_of_col = NULL;
-  long lineno = 1, step = 0;
-  double v[ASIZE(NREAD)];
-  double x[ASIZE({N}_NX)], xn[ASIZE({N}_NX)], out[ASIZE({N}_NOUT)], p[ASIZE({N}_NP)];
-{dt_decl}{dec_decl}  const casadi_real* arg[ASIZE({N}_SZ_ARG)];
-  casadi_real* res[ASIZE({N}_SZ_RES)];
-  casadi_int iw[ASIZE({N}_SZ_IW)];
-  casadi_real w[ASIZE({N}_SZ_W)];
-  casadi_int sz_arg, sz_res, sz_iw, sz_w;
-
-  if (argc < 2 || strcmp(argv[1], "-h") == 0 || strcmp(argv[1], "--help") == 0) {{
-    fprintf(stderr, "{usage}\\n");
-    return argc < 2 ? 2 : 0;
-  }}
-  for (i = 0; i < {N}_NX; ++i) x[i] = {N}_x0[i];
-  for (i = 0; i < {N}_NP; ++i) p[i] = {N}_p_default[i];
-  for (a = 2; a < argc; ++a) {{
-    if (strncmp(argv[a], "x0=", 3) == 0) {{
-      if (parse_list(argv[a] + 3, x, {N}_NX) != 0) {{
-        fprintf(stderr, "%s: x0= needs %d comma-separated numbers\\n", argv[0], {N}_NX);
-        return 2;
-      }}
-    }} else if (strncmp(argv[a], "p=", 2) == 0) {{
-      if (parse_list(argv[a] + 2, p, {N}_NP) != 0) {{
-        fprintf(stderr, "%s: p= needs %d comma-separated numbers\\n", argv[0], {N}_NP);
-        return 2;
-      }}
-{dt_opt}    }} else {{
-      fprintf(stderr, "%s: unknown argument '%s'\\n{usage}\\n", argv[0], argv[a]);
-      return 2;
-    }}
-  }}
-{dt_check}
-  /* the generated code must not need more work space than the header promises */
-  {N}_work(&sz_arg, &sz_res, &sz_iw, &sz_w);
-  if (sz_arg > {N}_SZ_ARG || sz_res > {N}_SZ_RES || sz_iw > {N}_SZ_IW || sz_w > {N}_SZ_W) {{
-    fprintf(stderr, "%s: work vectors larger than {N}.h declares\\n", argv[0]);
-    return 1;
-  }}
-
-  fp = fopen(argv[1], "r");
-  if (fp == NULL) {{
-    fprintf(stderr, "%s: cannot open %s\\n", argv[0], argv[1]);
-    return 2;
-  }}
-  /* header: find the signals' columns */
-  line = read_line(fp, &oom);
-  if (line == NULL) {{
-    fprintf(stderr, oom ? "%s: out of memory\\n" : "%s: %s is empty\\n", argv[0], argv[1]);
-    fclose(fp);
-    return oom ? 1 : 2;
-  }}
-  for (j = 0; j < NREAD; ++j) col_of[j] = -1;
-  {{
-    char* s = line;
-    for (ncol = 0;; ++ncol) {{
-      char* e = strchr(s, ',');
-      char* b = s;
-      char* t;
-      if (e != NULL) *e = '\\0';
-      t = s + strlen(s);
-      while (*b == ' ' || *b == '\\t' || *b == '"') ++b;
-      while (t > b && (t[-1] == ' ' || t[-1] == '\\t' || t[-1] == '"')) *--t = '\\0';
-      for (j = 0; j < NREAD; ++j)
-        if (col_of[j] < 0 && strcmp(b, sig_names[j]) == 0) col_of[j] = ncol;
-      if (e == NULL) break;
-      s = e + 1;
-    }}
-    ++ncol;
-  }}
-  free(line);
-  for (j = 0; j < NREAD; ++j) {{
-    if (col_of[j] < 0) {{
-      fprintf(stderr, "%s: %s has no column '%s'\\n", argv[0], argv[1], sig_names[j]);
-      fclose(fp);
-      return 2;
-    }}
-  }}
-  sig_of_col = (int*)malloc(sizeof(int) * (size_t)ncol);
-  if (sig_of_col == NULL) {{
-    fprintf(stderr, "%s: out of memory\\n", argv[0]);
-    fclose(fp);
-    return 1;
-  }}
-  for (i = 0; i < ncol; ++i) sig_of_col[i] = -1;
-  for (j = 0; j < NREAD; ++j) sig_of_col[col_of[j]] = j;
-
-  for (i = 0; i < ASIZE({N}_SZ_ARG); ++i) arg[i] = 0;
-  for (i = 0; i < ASIZE({N}_SZ_RES); ++i) res[i] = 0;
-  arg[0] = x;
-  arg[1] = v;               /* y: the first NY signals */
-  arg[2] = v + {N}_NY;      /* u: the next NU */
-  arg[3] = p;
-{h_set}  res[0] = xn;
-  res[1] = out;
-  mem = {N}_checkout();
-
-  printf("step");
-  for (i = 0; i < {N}_NX; ++i) printf(",%s", {N}_x_names[i]);
-  for (i = 0; i < {N}_NOUT; ++i) printf(",%s", {N}_out_names[i]);
-{dec_head}  printf("\\n");
-
-  while ((line = read_line(fp, &oom)) != NULL) {{
-    char* s = line;
-    int col, seen = 0;
-    ++lineno;
-    if (blank(line)) {{
-      free(line);
-      continue;
-    }}
-    for (col = 0; col < ncol; ++col) {{
-      char* e = strchr(s, ',');
-      if (e != NULL) *e = '\\0';
-      if (sig_of_col[col] >= 0) {{
-        char* end;
-        double val = strtod(s, &end);
-        while (*end == ' ' || *end == '\\t') ++end;
-        int empty = sig_of_col[col] >= NSIG && blank(s);
-        if (empty) val = NAN;   /* an empty threshold cell: not available (NaN) */
-        if (!empty && (end == s || *end != '\\0')) {{
-          fprintf(stderr, "%s: %s line %ld: column '%s' is not a number\\n", argv[0], argv[1],
-                  lineno, sig_names[sig_of_col[col]]);
-          status = 2;
-          break;
-        }}
-        v[sig_of_col[col]] = val;
-        ++seen;
-      }}
-      if (e == NULL) break;
-      s = e + 1;
-    }}
-    free(line);
-    if (status) break;
-    if (seen != NREAD) {{
-      fprintf(stderr, "%s: %s line %ld: too few columns\\n", argv[0], argv[1], lineno);
-      status = 2;
-      break;
-    }}
-    if ({N}(arg, res, iw, w, mem) != 0) {{
-      fprintf(stderr, "%s: the step function failed at step %ld\\n", argv[0], step);
-      status = 1;
-      break;
-    }}
-    printf("%ld", step);
-    for (i = 0; i < {N}_NX; ++i) printf(",%.17g", x[i]);
-    for (i = 0; i < {N}_NOUT; ++i) printf(",%.17g", out[i]);
-{dec_step}    printf("\\n");
-    for (i = 0; i < {N}_NX; ++i) x[i] = xn[i];
-    ++step;
-  }}
-  if (oom) {{
-    fprintf(stderr, "%s: out of memory\\n", argv[0]);
-    status = 1;
-  }}
-  {N}_release(mem);
-  free(sig_of_col);
-  fclose(fp);
-  return status;
-}}
-"""

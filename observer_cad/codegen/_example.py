@@ -1,0 +1,357 @@
+"""The example program of the standalone C export: ``NAME_example.c``.
+
+It reads a recorded input CSV (a header row; the observer's signals found by column name),
+steps the observer from its initial state and prints the states and outputs of every
+step as CSV (``%.17g``); with a decision rule, the alarms and the diagnosis after them.
+The C is assembled from its parts in source order: the preamble (usage comment,
+includes, the signal names), the helpers (line reader, list parser), the start of
+``main`` (declarations, options, the work-vector check), reading the input's header,
+and the steps.
+"""
+from __future__ import annotations
+
+from ._ctext import c_comment, c_string
+
+__all__ = ["example_source"]
+
+
+def example_source(name, observer, h_arg, ys, us, xs, outs, dec=None) -> str:
+    """The text of ``NAME_example.c`` for ``observer`` (``h_arg``: the step size is an
+    argument; ``ys``, ``us``: the signals; ``xs``, ``outs``: the states' and outputs'
+    names; ``dec``: the :class:`~observer_cad.codegen.DecisionSources` of a rule, or None)."""
+    N = name
+    sig = [str(s) for s in ys] + [str(s) for s in us]
+    extra = dec.input_columns if dec is not None else []
+    dec_decl, dec_head, dec_step, dec_doc = _decision_parts(N, dec)
+    usage = (f"usage: {N}_example INPUT.csv" + (" dt=H" if h_arg else "")
+             + " [x0=v1,...] [p=v1,...]")
+    dt_decl, dt_opt, dt_check, h_set = _step_size_parts(h_arg)
+    sig_items = ", ".join([c_string(s) for s in sig + extra] + ["0"])
+    return (_preamble(N, observer, h_arg, sig, xs, outs, len(extra), sig_items, dec_doc)
+            + _HELPERS + _main_start(N, usage, dt_decl, dec_decl, dt_opt, dt_check)
+            + _READ_HEADER + _steps(N, h_set, dec_head, dec_step))
+
+
+def _decision_parts(N: str, dec) -> tuple:
+    """The example's decision code (declarations, header columns, per step, usage
+    comment); empty without a rule."""
+    if dec is None:
+        return "", "", "", ""
+    extra = dec.input_columns
+    dec_decl = (f"  double rr[{N}_NRES], lo[{N}_NRES], hi[{N}_NRES];\n"
+                f"  int counters[{N}_NRES], alarms[{N}_NRES], code = 0;\n")
+    dec_head = (f"  for (i = 0; i < {N}_NRES; ++i) counters[i] = 0;\n"
+                f"  for (i = 0; i < {N}_NRES; ++i) printf(\",%s_alarm\", {N}_residual_names[i]);\n"
+                "  printf(\",alarm,diagnosis_code,diagnosis\");\n")
+    lines = []
+    for i, (ri, (lo, hi)) in enumerate(zip(dec.residual_index, dec.thresholds)):
+        src = [f"out[{v}]" if k == "out" else f"v[NSIG + {extra.index(v)}]" for k, v in (lo, hi)]
+        lines.append(f"    rr[{i}] = out[{ri}]; lo[{i}] = {src[0]}; hi[{i}] = {src[1]};")
+    dec_step = ("\n".join(lines) + "\n"
+                f"    code = {N}_decide(rr, lo, hi, counters, alarms);\n"
+                f"    for (i = 0; i < {N}_NRES; ++i) printf(\",%d\", alarms[i]);\n"
+                f"    printf(\",%d,%d,\\\"%s\\\"\", code != 0, code, {N}_diagnosis_text[code]);\n")
+    dec_doc = (f" * Decisions ({N}_decide): after the outputs, <r>_alarm per residual, alarm"
+               " (any), diagnosis_code and\n"
+               " * diagnosis (quoted text); thresholds that are not observer outputs are read"
+               " from the input columns\n"
+               f" *   {', '.join(extra) or '(none: all are outputs)'} (an empty cell is NaN:"
+               " not out).\n")
+    return dec_decl, dec_head, dec_step, dec_doc
+
+
+def _step_size_parts(h_arg: bool) -> tuple:
+    """The example's handling of ``dt=H`` (declaration, option, check, argument), when
+    the step size is an argument of the step function; else empty."""
+    dt_decl = "  double h = 0.0;\n  int have_dt = 0;\n" if h_arg else ""
+    dt_opt = ("""    } else if (strncmp(argv[a], "dt=", 3) == 0) {
+      char* end;
+      h = strtod(argv[a] + 3, &end);
+      if (end == argv[a] + 3 || *end != '\\0' || !(h > 0.0)) {
+        fprintf(stderr, "%s: dt must be a positive number, got '%s'\\n", argv[0], argv[a] + 3);
+        return 2;
+      }
+      have_dt = 1;
+""" if h_arg else "")
+    dt_check = ("""  if (!have_dt) {
+    fprintf(stderr, "%s: dt=H is required (the RK4 step size is an argument of this export)\\n",
+            argv[0]);
+    return 2;
+  }
+""" if h_arg else "")
+    h_set = "  arg[4] = &h;\n" if h_arg else ""
+    return dt_decl, dt_opt, dt_check, h_set
+
+
+def _preamble(N: str, observer, h_arg: bool, sig: list, xs: list, outs: list, nextra: int,
+              sig_items: str, dec_doc: str) -> str:
+    """The usage comment, the includes, the sizes and the signal names."""
+    dt_doc = "; dt= gives the RK4 step size" if h_arg else ""
+    oname = c_comment(observer.name)
+    return f"""/* {N}_example.c: step the observer '{oname}' on a recorded input file.
+ *
+ * Build:  cc -std=c99 -Wall -Wextra -Werror {N}.c {N}_example.c -lm -o {N}_example
+ * Run:    ./{N}_example INPUT.csv{' dt=H' if h_arg else ''} [x0=v1,...] [p=v1,...] > OUTPUT.csv
+ *
+ * INPUT.csv: a header row, then one row per step.  The observer's signals
+ *   {', '.join(sig) or '(none)'}
+ * are found by column name (any order; other columns, e.g. a simulator's t or states, are
+ * ignored).  Output on stdout, CSV: step, the observer states before the step
+ * ({', '.join(xs)}), and the outputs at that state ({c_comment(', '.join(outs))}),
+ * every number printed with %.17g (doubles round-trip exactly).
+ * x0= overrides the initial state {N}_x0, p= the parameters {N}_p_default{dt_doc}.
+ * Exit status: 0 ok, 1 the step function failed or out of memory, 2 bad input or usage.
+{dec_doc} */
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "{N}.h"
+
+#define NSIG ({N}_NY + {N}_NU)
+#define NREAD (NSIG + {nextra})   /* signals, then threshold columns read from the input */
+#define ASIZE(n) ((n) > 0 ? (n) : 1)
+
+static const char* const sig_names[NREAD + 1] = {{{sig_items}}};
+
+"""
+
+
+#: line reader, blank-line test and list parser of the example (fixed text)
+_HELPERS = """/* One line without its line end, malloc'd; NULL at the end of the file or when out of
+   memory (*oom set). */
+static char* read_line(FILE* fp, int* oom) {
+  size_t cap = 256, len = 0;
+  char* buf = (char*)malloc(cap);
+  int c = 0;
+  if (buf == NULL) {
+    *oom = 1;
+    return NULL;
+  }
+  while ((c = fgetc(fp)) != EOF && c != '\\n') {
+    if (len + 1 >= cap) {
+      char* nb = (char*)realloc(buf, cap * 2);
+      if (nb == NULL) {
+        free(buf);
+        *oom = 1;
+        return NULL;
+      }
+      buf = nb;
+      cap *= 2;
+    }
+    buf[len++] = (char)c;
+  }
+  if (c == EOF && len == 0) {
+    free(buf);
+    return NULL;
+  }
+  if (len > 0 && buf[len - 1] == '\\r') --len;
+  buf[len] = '\\0';
+  return buf;
+}
+
+static int blank(const char* s) {
+  for (; *s; ++s)
+    if (*s != ' ' && *s != '\\t') return 0;
+  return 1;
+}
+
+/* Parse a comma-separated list of exactly n numbers into v. */
+static int parse_list(const char* s, double* v, int n) {
+  int k = 0;
+  char* end;
+  if (n == 0) return *s == '\\0' ? 0 : -1;
+  for (;;) {
+    if (k == n) return -1;
+    v[k++] = strtod(s, &end);
+    if (end == s) return -1;
+    while (*end == ' ') ++end;
+    if (*end == '\\0') break;
+    if (*end != ',') return -1;
+    s = end + 1;
+  }
+  return k == n ? 0 : -1;
+}
+
+"""
+
+
+def _main_start(N: str, usage: str, dt_decl: str, dec_decl: str, dt_opt: str,
+                dt_check: str) -> str:
+    """``main``'s declarations, its options (x0=, p=, dt=) and the work-vector check."""
+    return f"""int main(int argc, char** argv) {{
+  FILE* fp;
+  char* line;
+  int oom = 0, status = 0, ncol = 0, i, j, a, mem = -1;
+  int col_of[ASIZE(NREAD)];
+  int* sig_of_col = NULL;
+  long lineno = 1, step = 0;
+  double v[ASIZE(NREAD)];
+  double x[ASIZE({N}_NX)], xn[ASIZE({N}_NX)], out[ASIZE({N}_NOUT)], p[ASIZE({N}_NP)];
+{dt_decl}{dec_decl}  const casadi_real* arg[ASIZE({N}_SZ_ARG)];
+  casadi_real* res[ASIZE({N}_SZ_RES)];
+  casadi_int iw[ASIZE({N}_SZ_IW)];
+  casadi_real w[ASIZE({N}_SZ_W)];
+  casadi_int sz_arg, sz_res, sz_iw, sz_w;
+
+  if (argc < 2 || strcmp(argv[1], "-h") == 0 || strcmp(argv[1], "--help") == 0) {{
+    fprintf(stderr, "{usage}\\n");
+    return argc < 2 ? 2 : 0;
+  }}
+  for (i = 0; i < {N}_NX; ++i) x[i] = {N}_x0[i];
+  for (i = 0; i < {N}_NP; ++i) p[i] = {N}_p_default[i];
+  for (a = 2; a < argc; ++a) {{
+    if (strncmp(argv[a], "x0=", 3) == 0) {{
+      if (parse_list(argv[a] + 3, x, {N}_NX) != 0) {{
+        fprintf(stderr, "%s: x0= needs %d comma-separated numbers\\n", argv[0], {N}_NX);
+        return 2;
+      }}
+    }} else if (strncmp(argv[a], "p=", 2) == 0) {{
+      if (parse_list(argv[a] + 2, p, {N}_NP) != 0) {{
+        fprintf(stderr, "%s: p= needs %d comma-separated numbers\\n", argv[0], {N}_NP);
+        return 2;
+      }}
+{dt_opt}    }} else {{
+      fprintf(stderr, "%s: unknown argument '%s'\\n{usage}\\n", argv[0], argv[a]);
+      return 2;
+    }}
+  }}
+{dt_check}
+  /* the generated code must not need more work space than the header promises */
+  {N}_work(&sz_arg, &sz_res, &sz_iw, &sz_w);
+  if (sz_arg > {N}_SZ_ARG || sz_res > {N}_SZ_RES || sz_iw > {N}_SZ_IW || sz_w > {N}_SZ_W) {{
+    fprintf(stderr, "%s: work vectors larger than {N}.h declares\\n", argv[0]);
+    return 1;
+  }}
+
+"""
+
+
+#: open the input and find the signals' columns in its header (fixed text)
+_READ_HEADER = """  fp = fopen(argv[1], "r");
+  if (fp == NULL) {
+    fprintf(stderr, "%s: cannot open %s\\n", argv[0], argv[1]);
+    return 2;
+  }
+  /* header: find the signals' columns */
+  line = read_line(fp, &oom);
+  if (line == NULL) {
+    fprintf(stderr, oom ? "%s: out of memory\\n" : "%s: %s is empty\\n", argv[0], argv[1]);
+    fclose(fp);
+    return oom ? 1 : 2;
+  }
+  for (j = 0; j < NREAD; ++j) col_of[j] = -1;
+  {
+    char* s = line;
+    for (ncol = 0;; ++ncol) {
+      char* e = strchr(s, ',');
+      char* b = s;
+      char* t;
+      if (e != NULL) *e = '\\0';
+      t = s + strlen(s);
+      while (*b == ' ' || *b == '\\t' || *b == '"') ++b;
+      while (t > b && (t[-1] == ' ' || t[-1] == '\\t' || t[-1] == '"')) *--t = '\\0';
+      for (j = 0; j < NREAD; ++j)
+        if (col_of[j] < 0 && strcmp(b, sig_names[j]) == 0) col_of[j] = ncol;
+      if (e == NULL) break;
+      s = e + 1;
+    }
+    ++ncol;
+  }
+  free(line);
+  for (j = 0; j < NREAD; ++j) {
+    if (col_of[j] < 0) {
+      fprintf(stderr, "%s: %s has no column '%s'\\n", argv[0], argv[1], sig_names[j]);
+      fclose(fp);
+      return 2;
+    }
+  }
+  sig_of_col = (int*)malloc(sizeof(int) * (size_t)ncol);
+  if (sig_of_col == NULL) {
+    fprintf(stderr, "%s: out of memory\\n", argv[0]);
+    fclose(fp);
+    return 1;
+  }
+  for (i = 0; i < ncol; ++i) sig_of_col[i] = -1;
+  for (j = 0; j < NREAD; ++j) sig_of_col[col_of[j]] = j;
+
+"""
+
+
+def _steps(N: str, h_set: str, dec_head: str, dec_step: str) -> str:
+    """The step function's arguments, the output header, one step per input row, and
+    the clean-up."""
+    return f"""  for (i = 0; i < ASIZE({N}_SZ_ARG); ++i) arg[i] = 0;
+  for (i = 0; i < ASIZE({N}_SZ_RES); ++i) res[i] = 0;
+  arg[0] = x;
+  arg[1] = v;               /* y: the first NY signals */
+  arg[2] = v + {N}_NY;      /* u: the next NU */
+  arg[3] = p;
+{h_set}  res[0] = xn;
+  res[1] = out;
+  mem = {N}_checkout();
+
+  printf("step");
+  for (i = 0; i < {N}_NX; ++i) printf(",%s", {N}_x_names[i]);
+  for (i = 0; i < {N}_NOUT; ++i) printf(",%s", {N}_out_names[i]);
+{dec_head}  printf("\\n");
+
+  while ((line = read_line(fp, &oom)) != NULL) {{
+    char* s = line;
+    int col, seen = 0;
+    ++lineno;
+    if (blank(line)) {{
+      free(line);
+      continue;
+    }}
+    for (col = 0; col < ncol; ++col) {{
+      char* e = strchr(s, ',');
+      if (e != NULL) *e = '\\0';
+      if (sig_of_col[col] >= 0) {{
+        char* end;
+        double val = strtod(s, &end);
+        while (*end == ' ' || *end == '\\t') ++end;
+        int empty = sig_of_col[col] >= NSIG && blank(s);
+        if (empty) val = NAN;   /* an empty threshold cell: not available (NaN) */
+        if (!empty && (end == s || *end != '\\0')) {{
+          fprintf(stderr, "%s: %s line %ld: column '%s' is not a number\\n", argv[0], argv[1],
+                  lineno, sig_names[sig_of_col[col]]);
+          status = 2;
+          break;
+        }}
+        v[sig_of_col[col]] = val;
+        ++seen;
+      }}
+      if (e == NULL) break;
+      s = e + 1;
+    }}
+    free(line);
+    if (status) break;
+    if (seen != NREAD) {{
+      fprintf(stderr, "%s: %s line %ld: too few columns\\n", argv[0], argv[1], lineno);
+      status = 2;
+      break;
+    }}
+    if ({N}(arg, res, iw, w, mem) != 0) {{
+      fprintf(stderr, "%s: the step function failed at step %ld\\n", argv[0], step);
+      status = 1;
+      break;
+    }}
+    printf("%ld", step);
+    for (i = 0; i < {N}_NX; ++i) printf(",%.17g", x[i]);
+    for (i = 0; i < {N}_NOUT; ++i) printf(",%.17g", out[i]);
+{dec_step}    printf("\\n");
+    for (i = 0; i < {N}_NX; ++i) x[i] = xn[i];
+    ++step;
+  }}
+  if (oom) {{
+    fprintf(stderr, "%s: out of memory\\n", argv[0]);
+    status = 1;
+  }}
+  {N}_release(mem);
+  free(sig_of_col);
+  fclose(fp);
+  return status;
+}}
+"""
