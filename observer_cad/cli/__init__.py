@@ -3,7 +3,8 @@
 The demo's names (:mod:`observer_cad.demo`: numpy, the whole pipeline, plots) are
 imported on first use (PEP 562), so that ``observer-cad design`` does not pay for them.
 """
-from ._main import (main, build_parser)
+from ._main import main
+from ._parser import build_parser
 
 _DEMO = ("CASES", "EXAMPLES_DIR", "FIGURES", "Case", "Run", "run_demo", "DIAGNOSABILITY",
          "BANK_FIGURE", "DiagnosabilityExample")

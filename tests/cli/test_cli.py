@@ -393,7 +393,7 @@ def test_missing_package_is_named_not_an_internal_error(capsys, monkeypatch):
     def broken(args):
         raise ModuleNotFoundError("No module named 'matplotlib.pyplot'", name="matplotlib.pyplot")
 
-    monkeypatch.setattr(cli_main, "_cmd_show", broken)
+    monkeypatch.setattr(cli_main, "cmd_show", broken)
     rc, _, err = run(capsys, ["show", TANK])
     assert rc == 2
     assert err.strip() == ("observer-cad: error: the Python package 'matplotlib' is not installed"
@@ -402,7 +402,7 @@ def test_missing_package_is_named_not_an_internal_error(capsys, monkeypatch):
     def flint_missing(args):  # the import name is not the distribution's name
         raise ModuleNotFoundError("No module named 'flint'", name="flint")
 
-    monkeypatch.setattr(cli_main, "_cmd_show", flint_missing)
+    monkeypatch.setattr(cli_main, "cmd_show", flint_missing)
     rc, _, err = run(capsys, ["show", TANK])
     assert rc == 2 and err.strip().endswith("python3 -m pip install python-flint")
 
@@ -411,7 +411,7 @@ def test_missing_package_is_named_not_an_internal_error(capsys, monkeypatch):
 
     from observer_cad.ensemble import DASK_MISSING
 
-    monkeypatch.setattr(cli_main, "_cmd_show", dask_missing)
+    monkeypatch.setattr(cli_main, "cmd_show", dask_missing)
     rc, _, err = run(capsys, ["show", TANK])
     hint = "pip install 'observer_cad[cluster]'"
     assert rc == 2 and err.strip().endswith(hint) and DASK_MISSING.endswith(hint)
@@ -419,14 +419,14 @@ def test_missing_package_is_named_not_an_internal_error(capsys, monkeypatch):
     def own_module_missing(args):  # a module of observer_cad itself: a packaging bug
         raise ModuleNotFoundError("No module named 'observer_cad.x'", name="observer_cad.x")
 
-    monkeypatch.setattr(cli_main, "_cmd_show", own_module_missing)
+    monkeypatch.setattr(cli_main, "cmd_show", own_module_missing)
     rc, _, err = run(capsys, ["show", TANK])
     assert rc == 1 and "internal error: ModuleNotFoundError" in err
 
     def bug(args):
         raise ZeroDivisionError("division by zero")
 
-    monkeypatch.setattr(cli_main, "_cmd_show", bug)
+    monkeypatch.setattr(cli_main, "cmd_show", bug)
     rc, _, err = run(capsys, ["show", TANK])
     assert rc == 1 and "internal error: ZeroDivisionError: division by zero" in err
     assert "please report" in err

@@ -1,0 +1,118 @@
+"""The commands that design an observer and print or export it: ``design`` (text or
+JSON; a residual bank with ``--isolate``) and ``codegen`` (standalone C).
+"""
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+from ..errors import UsageError
+from ..progress import report
+from ._from_args import design_from_args, observer_options, refuse_failed, threshold_from_args
+
+__all__ = ["cmd_design", "cmd_codegen"]
+
+
+def cmd_design(args) -> int:
+    from ..reporting import format_design, format_observer, format_observer_conditions
+    model, result = design_from_args(args)
+    if getattr(args, "isolate", False):
+        return _cmd_bank(args, model, result)
+    if args.observer == "drem":
+        if args.json:
+            out = result.to_json(equations=False)
+            ob = result.observer.to_json()
+            out.update({"states": ob["states"], "outputs": ob["outputs"],
+                        "equations": ob["equations"]})
+            print(json.dumps(out, indent=2))
+        else:
+            print(result.format())
+        return 0
+    observer = None
+    options = observer_options(args, result)  # a bad --gain is an error here too
+    if not args.symbolic and not result.approximate:
+        # build it here exactly as simulate and codegen do: a design whose observer cannot
+        # be built, or whose observer fails a required condition, is refused now
+        from ..observers import build_observer
+        report("building the observer", stage=True)
+        observer = build_observer(model, result, **options)
+        observer = threshold_from_args(args, model, observer)
+    elif args.threshold is not None:
+        raise UsageError("--threshold needs a numeric, exact design: drop --symbolic"
+                         if args.symbolic else "--threshold: approximate designs have no observer")
+    if args.json:
+        out = result.to_json()
+        if observer is not None:  # the design's own states/equations/outputs stay (what
+            # Design.from_json reads back); the built observer's are beside them
+            out["observer_equations"] = observer.to_json()
+            out["observer_conditions"] = [c.to_json() for c in observer.own_conditions]
+        print(json.dumps(out, indent=2))
+    else:
+        report("formatting the design", stage=True)
+        print(format_design(result))
+        if observer is not None and (observer.kind in ("interval", "unknown-input", "sliding-mode")
+                                     or observer.threshold is not None):
+            print(format_observer(observer))
+        if observer is not None and observer.own_conditions:
+            print(format_observer_conditions(observer))
+    refuse_failed(observer)
+    return 0
+
+
+def _cmd_bank(args, model, bank) -> int:
+    from ..reporting import format_bank
+    observer = None
+    if not args.symbolic:
+        from ..observers import build_observer
+        observer = threshold_from_args(args, model, build_observer(model, bank))
+    elif args.threshold is not None:
+        raise UsageError("--threshold needs numeric parameters: drop --symbolic")
+    if args.json:
+        out = bank.to_json()
+        if observer is not None:
+            out["observer_equations"] = observer.to_json()
+            if observer.threshold is not None:
+                out["threshold_conditions"] = [c.to_json() for c in observer.threshold.conditions]
+        print(json.dumps(out, indent=2))
+    else:
+        print(format_bank(bank))
+        if observer is not None and observer.threshold is not None:
+            from ..reporting import format_observer, format_observer_conditions
+            print(format_observer(observer))
+            print(format_observer_conditions(observer))
+    refuse_failed(observer)
+    return 0
+
+
+def cmd_codegen(args) -> int:
+    from ..observers import build_observer
+    if args.symbolic:
+        raise UsageError("codegen needs numeric parameters: drop --symbolic")
+    model, result = design_from_args(args)
+    report("building the observer", stage=True)
+    observer = build_observer(model, result, **observer_options(args, result))
+    refuse_failed(observer)
+    scenario = None
+    if args.scenario is not None:
+        from ..simulation import load_scenario
+        scenario = load_scenario(args.scenario)
+    observer = threshold_from_args(args, model, observer, scenario)
+    refuse_failed(observer)
+    try:
+        from ..codegen import export_observer
+    except ModuleNotFoundError:  # pragma: no cover - during development only
+        raise UsageError("standalone C export is not available") from None
+    dt = args.dt if args.dt is not None else (0.01 if observer.time == "continuous" else None)
+    rule = None
+    if observer.threshold is not None:
+        from ..residuals import decision_rule
+        rule = decision_rule(model, result, persistence=args.persistence)
+    elif args.persistence != 1:
+        raise UsageError("--persistence applies with --threshold")
+    from ..files import staged_directory
+    out = Path(args.out)
+    with staged_directory(out) as stage:  # the three files together, or none changed
+        paths = export_observer(observer, stage, name=args.name, dt=dt, rule=rule)
+    for p in paths:
+        print(f"wrote {out / Path(p).relative_to(stage)}")
+    return 0
