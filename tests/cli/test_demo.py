@@ -10,7 +10,8 @@ import re
 
 import pytest
 
-import observer_cad.demo._demo as demo  # fault injection: the case list is patched
+import observer_cad.demo._cases as cases
+import observer_cad.demo._run as demo  # fault injection: the case list is patched where run_demo reads it
 import observer_cad.demo._evaluation as evaluation
 from observer_cad.reporting import md_escape, symbol_latex
 
@@ -67,7 +68,7 @@ def test_report_references_existing_pngs(demo_run):
         assert p.is_file() and p.stat().st_size > 10_000, r
         assert p.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     written = {p.name for p in (out / "figures").glob("*.png")}
-    assert written == {name for name, *_ in demo.FIGURES} | {demo.BANK_FIGURE} | {
+    assert written == {name for name, *_ in demo.FIGURES} | {cases.BANK_FIGURE} | {
         evaluation.DRIVE_FIGURE, evaluation.BANK_FIGURE, evaluation.BANK_RUN_FIGURE,
         evaluation.ENSEMBLE_FIGURE, evaluation.ENSEMBLE_WORST_FIGURE}
     assert {r.split("/")[1] for r in refs} == written
@@ -149,15 +150,15 @@ def test_report_has_the_diagnosability_section(demo_run):
     assert "f1/f2 yes, f1/f3 yes, f2/f3 yes" in bank
     assert r"r_{1} &= x^{*(1)}_{1} + y_{2} - y_{3}" in bank  # the bank as one observer
     # simulated with a step fault in f2: only the residuals of f2's column (1, 0, 1) move
-    assert f"](figures/{demo.BANK_FIGURE})" in bank
+    assert f"](figures/{cases.BANK_FIGURE})" in bank
     assert "f2's column of the structure matrix is (1, 0, 1): r1, r3 move" in bank
     assert "r2 stays at rounding level" in bank and "as the structure matrix predicts" in bank
     # exports
-    data = json.loads((out / "designs" / demo.BANK_JSON).read_text(encoding="utf-8"))
+    data = json.loads((out / "designs" / cases.BANK_JSON).read_text(encoding="utf-8"))
     assert data["structure_matrix"] == [[0, 1, 1], [1, 0, 1], [1, 1, 0]]
     assert data["scheme"] == "generalised observer scheme"
     assert all(d["certificate"]["passed"] for d in data["designs"])
-    data = json.loads((out / "designs" / demo.ANALYSIS_JSON).read_text(encoding="utf-8"))
+    data = json.loads((out / "designs" / cases.ANALYSIS_JSON).read_text(encoding="utf-8"))
     assert data["detectable"] == {"f1": True, "f2": True, "f3": False}
     assert data["min_order"] == {"f1": 2, "f2": 2, "f3": None}
     # both example models are shown with the others
@@ -181,7 +182,7 @@ def test_fallback_without_a_compiler(models_dir, tmp_path, monkeypatch):
     assert "figures/drive_residual.png" in report
     assert "skipped" in log  # figures whose designs were not run are skipped, not failed
     # the residual bank falls back too
-    assert f"figures/{demo.BANK_FIGURE}" in report
+    assert f"figures/{cases.BANK_FIGURE}" in report
     assert "Scenario: `models/scenarios/three_tank_isolation.json`. Simulated with:" \
         " reference simulator (numpy)." in report
 
@@ -198,7 +199,7 @@ def test_a_failing_diagnosability_step_is_reported(models_dir, tmp_path, monkeyp
     log = buf.getvalue()
     assert "[diagnosability 1/2]" in log
     assert re.search(r"FAILED: residual bank: .*no_such_model", log), log[-800:]
-    assert f"[figure] {demo.BANK_FIGURE}: skipped" in log
+    assert f"[figure] {cases.BANK_FIGURE}: skipped" in log
     assert "FAILED: diagnosability" in log
     report = (tmp_path / "report.md").read_text(encoding="utf-8")
     assert "### Analysis of `three_tank_faults`" in report and "**FAILED** (residual bank:" in report
