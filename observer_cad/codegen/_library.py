@@ -1,4 +1,4 @@
-"""A compiled library described by value, loadable in any process (issue 16 item 5).
+"""A compiled library described by value, loadable in any process (an ensemble's workers).
 
 A ctypes handle cannot be pickled, and a path to a ``.so`` means nothing on another
 machine.  :class:`LibrarySpec` is what travels instead: the C source, the library name

@@ -165,7 +165,7 @@ CASES = (
 
 @dataclasses.dataclass(frozen=True)
 class DiagnosabilityExample:
-    """The worked example of issue 12 in the report: the analysis of one model, and an
+    """The report's diagnosability example: the analysis of one model, and an
     isolating residual bank (:func:`~observer_cad.synthesis.design_bank`, best scheme)
     for another, simulated on ``scenario``."""
 

@@ -61,7 +61,7 @@ def run_diagnosability(ex: DiagnosabilityExample, models_dir: Path, engine: Engi
         log(f"[diagnosability 1/2] Analysis of {model.name}: faults"
             f" {', '.join(f.name for f in model.faults)};"
             f" decoupled: {', '.join(d.name for d in model.disturbances) or 'nothing'}"
-            "  (issue 12 worked example)")
+            "  (worked example: which faults can be detected and isolated)")
         t0 = time.perf_counter()
         a = out.analysis = analyze(model)
         out.analysis_time = time.perf_counter() - t0
@@ -213,7 +213,7 @@ def diagnosability_summary(diag: DiagOutcome) -> str:
     if diag.error is not None and diag.analysis is None:
         return f"- [diagnosability](#diagnosability): ❌ {md_escape(diag.error)}"
     a = diag.analysis
-    text = (f"- [diagnosability](#diagnosability) (issue 12): analysis of `{a.model_name}` —"
+    text = (f"- [diagnosability](#diagnosability) (which faults can be detected and isolated): analysis of `{a.model_name}` —"
             f" {_count([r.detectable for r in a.fault_results])} faults detectable,"
             f" {_count([p.isolable for p in a.pairs])} pairs isolable")
     if diag.bank is not None:

@@ -1,4 +1,4 @@
-"""The demo report's "Residual evaluation" section (issue 13): guaranteed thresholds, alarms and
+"""The demo report's "Residual evaluation" section: guaranteed thresholds, alarms and
 isolation decisions measured by Monte-Carlo ensembles.
 
 1. The electric drive with an uncertain k5 (``models/electric_drive_uncertain.py``): its
@@ -8,7 +8,7 @@ isolation decisions measured by Monte-Carlo ensembles.
 2. The isolating bank of ``models/three_tank_isolation.py`` with guaranteed thresholds: a step
    fault in each tank and the fault-free case over noisy runs, isolated by matching the alarm
    pattern against the structure matrix — the confusion matrix.
-3. An ensemble (issue 16): the three-tank's interval observer for x1 over thousands of
+3. An ensemble: the three-tank's interval observer for x1 over thousands of
    sampled initial states and noise and disturbance realisations
    (``models/scenarios/three_tank_ensemble.json``), summarised per run, the worst run
    replayed (needs the C compiler; skipped with a note without one).
@@ -198,7 +198,8 @@ def evaluation_summary(ev: EvaluationOutcome) -> str:
         return f"- [residual evaluation](#evaluation): ❌ {md_escape(ev.error or 'not run')}"
     dm = ev.drive_metrics
     med, mx = dm.delay_stats()
-    text = (f"- [residual evaluation](#evaluation) (issue 13): electric drive with uncertain k5 —"
+    text = (f"- [residual evaluation](#evaluation) (thresholds and decisions over Monte-Carlo runs):"
+            f" electric drive with uncertain k5 —"
             f" {dm.false_alarm_runs} false alarms in {dm.case('no fault').runs} fault-free runs,"
             f" d = 0.2 detected in {dm.faulty_runs - dm.missed_detections} of {dm.faulty_runs} runs"
             f" (delay median {_fmt(med)}, max {_fmt(mx)} steps)")
@@ -206,8 +207,8 @@ def evaluation_summary(ev: EvaluationOutcome) -> str:
         text += f"; three-tank bank isolation accuracy {ev.bank_metrics.isolation_accuracy:.3g}"
     if ev.ensemble is not None:
         v = ev.ensemble.statistics.overall.fields["x1.violations"]
-        text += (f"; [ensemble](#ensemble) (issue 16): {v.positive} of {ev.ensemble.completed}"
-                 " three-tank runs left the interval")
+        text += (f"; [ensemble](#ensemble) (the interval observer over sampled runs):"
+                 f" {v.positive} of {ev.ensemble.completed} three-tank runs left the interval")
     if ev.error:
         text += f"; ❌ {md_escape(ev.error)}"
     return text

@@ -51,7 +51,7 @@ def run_demo(models_dir: Path = EXAMPLES_DIR, out_dir: Path = Path("out"), *,
     fig_dir, des_dir = _output_dirs(models_dir, out_dir)
     n = len(CASES)
     log(f"observer-cad demo: {n} designs from seed papers 000, 001, 002, 004"
-        + (", a diagnosability analysis and an isolating residual bank (issue 12)"
+        + (", a diagnosability analysis and an isolating residual bank"
            if DIAGNOSABILITY is not None else "") + f" → {out_dir}/report.md")
     engine = Engine(compile, log)
     models: dict = {}

@@ -1,5 +1,5 @@
 """Where the chunks of an ensemble run: serially, on threads, on loky processes, or on a
-Dask cluster (issue 16 items 5 and 6).
+Dask cluster.
 
 :func:`map_chunks` maps ``task(payload, chunk)`` over ``chunks`` and yields
 ``(chunk, result)`` pairs as they complete (in any order: the caller orders them by the

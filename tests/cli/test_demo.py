@@ -1,4 +1,4 @@
-"""``observer-cad demo`` (issue 7 item 1): designs, compiles, simulates, plots and writes
+"""``observer-cad demo``: designs, compiles, simulates, plots and writes
 ``out/report.md``. One full run into a temporary directory with an empty compile cache;
 the checks are on what it wrote (no wall-clock assertions)."""
 from __future__ import annotations
@@ -40,7 +40,7 @@ def test_demo_succeeds_and_reports_progress(demo_run):
     assert "certificate PASSED" in log and "FAILED" not in log
     assert re.search(r"^total \d+\.\d s", log, re.M), log[-500:]
     assert log.count("[figure]") == len(demo.FIGURES) + 1  # + the residual bank's
-    # the diagnosability steps (issue 12) report their progress like the designs
+    # the diagnosability steps report their progress like the designs
     assert "[diagnosability 1/2] Analysis of three_tank_faults" in log
     assert "f3 is undetectable with rho decoupled" in log
     assert "[diagnosability 2/2] Isolating residual bank for three_tank_isolation" in log
@@ -119,12 +119,12 @@ def test_report_has_latex_conditions_and_timings(demo_run):
 
 @pytest.mark.slow  # the whole demo run, ~10 s
 def test_report_has_the_diagnosability_section(demo_run):
-    """Issue 12 items 5 and 7: the analysis of three_tank_faults as tables, and the
+    """The diagnosability section: the analysis of three_tank_faults as tables, and the
     isolating residual bank of three_tank_isolation with its structure matrix, its
     observer, its simulation and figure, and both exported as JSON."""
     rc, out, log, _ = demo_run
     report = (out / "report.md").read_text(encoding="utf-8")
-    assert "- [diagnosability](#diagnosability) (issue 12)" in report
+    assert "- [diagnosability](#diagnosability) (which faults can be detected and isolated)" in report
     section = report.split('<a id="diagnosability"></a>\n## Diagnosability')[1]
     analysis, bank = section.split("### Isolating residual bank for `three_tank_isolation`")
     # (a) the analysis: detectability with minimal orders, isolability, structure matrix,
@@ -225,7 +225,7 @@ def test_markdown_and_latex_helpers():
 
 @pytest.mark.slow  # the whole demo run
 def test_report_has_the_residual_evaluation(demo_run):
-    """Issue 13: the evaluation section, measured by this run: no false alarm with the
+    """The residual evaluation section, measured by this run: no false alarm with the
     guaranteed threshold over the fault-free runs, the step fault detected in every run with
     its delay, and the three-tank bank's confusion matrix (every run isolated)."""
     rc, out, log, _ = demo_run
@@ -242,8 +242,8 @@ def test_report_has_the_residual_evaluation(demo_run):
 
 @pytest.mark.slow  # the whole demo run
 def test_report_has_the_ensemble(demo_run):
-    """Issue 16: the three-tank interval observer over an ensemble, its statistics and the
-    worst run replayed (a compiler is there: the demo compiles)."""
+    """The ensemble section: the three-tank interval observer over many runs, its
+    statistics and the worst run replayed (a compiler is there: the demo compiles)."""
     rc, out, log, _ = demo_run
     report = (out / "report.md").read_text(encoding="utf-8")
     assert "### Validation over an ensemble" in report
