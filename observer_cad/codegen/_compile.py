@@ -312,11 +312,12 @@ def _compiler_stat_id(path: str) -> str:
 
 def _codegen_digest() -> str:
     """sha256 of this subpackage's sources (computed once per process): a change to the
-    translator, the trajectory loop or the cache invalidates every fingerprint."""
+    translator, the trajectory loops (their C, their argument block, the simulator) or
+    the cache invalidates every fingerprint."""
     if not _SRC_DIGEST:
         h = hashlib.sha256()
         here = Path(__file__).resolve().parent
-        for nm in ("_translate.py", "_trajectory.py", "_compile.py"):
+        for nm in ("_translate.py", "_trajectory.py", "_loops.py", "_engine.py", "_compile.py"):
             try:
                 h.update((here / nm).read_bytes())
             except OSError:
