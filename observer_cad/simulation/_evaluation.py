@@ -2,10 +2,10 @@
 runs, for the fault-free case and each :class:`~observer_cad.residuals.FaultCase` (one
 fault, a constant size from an onset time, the other faults zero), ``runs`` seeded
 realisations of the scenario's uniform random signals with the reference simulator
-(vectorised over runs, in chunks below the memory limit) and aggregates their
-:class:`~observer_cad.residuals.Metrics` (the definitions are in
-:mod:`observer_cad.residuals`' evaluation: detection delay, false alarms, missed
-detections, isolation).
+(vectorised over runs, in chunks below the memory limit) and adds up their
+:class:`~observer_cad.residuals.Metrics` — detection delay, false alarms, missed
+detections, isolation, as defined where :func:`~observer_cad.residuals.evaluate_result`
+computes them from one result's columns.
 """
 from __future__ import annotations
 
