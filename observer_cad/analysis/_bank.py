@@ -1,6 +1,6 @@
-"""Isolating residual banks (issue 12, item 3): several certified minimal-order residual
-generators whose fault signatures, stacked, form a structure matrix S — one row per
-residual, one column per fault, S_ij = 1 when residual i responds to fault j.
+"""Isolating residual banks: several certified minimal-order residual generators whose
+fault signatures, stacked, form a structure matrix S — one row per residual, one column
+per fault, S_ij = 1 when residual i responds to fault j.
 
 Each row is one Jordan-form diagnostic design (METHOD §2b; :func:`design` with
 ``form="jordan"``): the faults marked 1 are its targets (every one seen by the residual),
@@ -218,29 +218,9 @@ class ResidualBank:
                    time=designs[0].time if designs else model.time)
 
 
-def design_bank(model: PlantModel, *, structure=None, faults: Sequence[str] | None = None,
-                disturbances: Sequence[str] = (), symbolic: bool = False,
-                method: str = "auto", rtol: float | None = None) -> ResidualBank:
-    """A bank of minimal-order, certified Jordan residual generators (module docstring).
-
-    Parameters
-    ----------
-    model : PlantModel
-    structure : str or sequence of rows, optional
-        The structure matrix to realise, e.g. ``"110,101,011"`` (one row per residual, one
-        digit per fault of ``faults``; 1 = sensitive). Default: the first achievable of the
-        generalised observer scheme, the dedicated scheme, the best achievable rows.
-    faults : names, optional
-        The columns (default: every declared fault). Faults not named are assumed zero.
-    disturbances : names, optional
-        Further inputs every residual is decoupled from (the model's disturbances always are).
-    symbolic, method, rtol : as for :func:`design`.
-
-    Returns
-    -------
-    ResidualBank
-        Every row realised and re-checked; refusals name the row, the fault and the reason.
-    """
+def _columns(model: PlantModel, faults, disturbances) -> tuple:
+    """The bank's columns (default: every declared fault) and the further inputs every
+    residual is decoupled from, with one-line errors for a clash."""
     names = [f.name for f in model.faults] if not faults else [str(f) for f in faults]
     if not names:
         raise ModelError(f"{model.where}: the model declares no faults to isolate")
@@ -251,17 +231,27 @@ def design_bank(model: PlantModel, *, structure=None, faults: Sequence[str] | No
     if clash:
         raise UsageError(f"'{sorted(clash)[0]}' cannot be both a bank column (--fault) and"
                          " decoupled (--disturbance)")
-    attempts: dict = {}
+    return names, extra
 
-    def attempt(row):
-        """The certified design for a row and its realised row, or the reason it fails."""
+
+class _Rows:
+    """The rows tried so far (not a value: it remembers every attempt): for a row, the
+    certified design and its realised row, or the reason it fails."""
+
+    def __init__(self, model: PlantModel, names, extra, options: dict):
+        self.model, self.names, self.extra, self.options = model, names, extra, options
+        self.attempts: dict = {}
+
+    def __call__(self, row) -> tuple:
+        """(design, "") for an achievable row, (None, reason) otherwise."""
+        attempts, names, model = self.attempts, self.names, self.model
         if row in attempts:
             return attempts[row]
         on = [f for f, c in zip(names, row) if c]
         off = [f for f, c in zip(names, row) if not c]
         try:
-            d = design(model, observer="diagnostic", faults=on, disturbances=off + extra,
-                       form="jordan", symbolic=symbolic, method=method, rtol=rtol)
+            d = design(model, observer="diagnostic", faults=on, disturbances=off + self.extra,
+                       form="jordan", **self.options)
         except InfeasibleDesignError as exc:
             reason = str(exc).split(": ", 1)[-1] if str(exc).startswith(model.where) else str(exc)
             attempts[row] = (None, reason)
@@ -276,44 +266,62 @@ def design_bank(model: PlantModel, *, structure=None, faults: Sequence[str] | No
         attempts[row] = (d, "")
         return attempts[row]
 
-    m = len(names)
-    if structure is not None:
-        rows = parse_structure(structure, names)
-        designs = []
-        for i, row in enumerate(rows, 1):
-            d, why = attempt(row)
-            if d is None:
-                impossible = _impossible_row(model, row, names, extra, symbolic, method, rtol)
-                if impossible:
-                    raise InfeasibleDesignError(
-                        f"{model.where}: --structure row {i} ({_row_text(row)}:"
-                        f" {_describe_row(row, names)}) is not achievable for any order:"
-                        f" {impossible}")
+    def bank(self, rows, designs, scheme, choice) -> ResidualBank:
+        """The bank of these rows; every failed attempt is listed as refused."""
+        return _bank(self.model, self.names, rows, designs, scheme, choice, self.attempts,
+                     self.extra)
+
+
+def _requested_bank(attempt: _Rows, structure) -> ResidualBank:
+    """The requested rows, each realised or refused with the reason (the diagnosability
+    analysis's when no residual of any order can realise it)."""
+    model, names, extra = attempt.model, attempt.names, attempt.extra
+    rows = parse_structure(structure, names)
+    designs = []
+    for i, row in enumerate(rows, 1):
+        d, why = attempt(row)
+        if d is None:
+            impossible = _impossible_row(model, row, names, extra, **attempt.options)
+            if impossible:
                 raise InfeasibleDesignError(
                     f"{model.where}: --structure row {i} ({_row_text(row)}:"
-                    f" {_describe_row(row, names)}) is not achievable: {why}")
-            designs.append(d)
-        return _bank(model, names, rows, designs, REQUESTED,
-                     f"the requested rows {','.join(map(_row_text, rows))}", attempts, extra)
+                    f" {_describe_row(row, names)}) is not achievable for any order:"
+                    f" {impossible}")
+            raise InfeasibleDesignError(
+                f"{model.where}: --structure row {i} ({_row_text(row)}:"
+                f" {_describe_row(row, names)}) is not achievable: {why}")
+        designs.append(d)
+    return attempt.bank(rows, designs, REQUESTED,
+                        f"the requested rows {','.join(map(_row_text, rows))}")
 
-    # 1. generalised observer scheme, 2. dedicated scheme (the same for m ≤ 2)
+
+def _scheme_bank(attempt: _Rows, tried_txt: list):
+    """1. the generalised observer scheme, 2. the dedicated scheme (the same for m ≤ 2):
+    the bank of the first whose every row is achievable, else None (what failed is
+    appended to ``tried_txt``)."""
+    m = len(attempt.names)
     if m == 1:
         schemes = [("detection", [(1,)])]
     else:
         gos = [tuple(0 if j == i else 1 for j in range(m)) for i in range(m)]
         dos = [tuple(1 if j == i else 0 for j in range(m)) for i in range(m)]
         schemes = [(GOS, gos)] + ([(DOS, dos)] if m > 2 else [])
-    tried_txt = []
     for scheme, rows in schemes:
         results = [attempt(r) for r in rows]
         if all(d is not None for d, _ in results):
-            return _bank(model, names, rows, [d for d, _ in results], scheme,
-                         f"{scheme}: every row achievable"
-                         + (f" ({'; '.join(tried_txt)})" if tried_txt else ""), attempts, extra)
+            return attempt.bank(rows, [d for d, _ in results], scheme,
+                                f"{scheme}: every row achievable"
+                                + (f" ({'; '.join(tried_txt)})" if tried_txt else ""))
         bad = [f"{_row_text(r)}" for r, (d, _) in zip(rows, results) if d is None]
         tried_txt.append(f"{scheme} not achievable: row(s) {', '.join(bad)} fail")
+    return None
 
-    # 3. the best achievable rows, greedily
+
+def _best_bank(attempt: _Rows, tried_txt: list) -> ResidualBank:
+    """3. the best achievable rows, added greedily: each the row that isolates the most
+    further pairs (then detects the most further faults, then has the fewest states)."""
+    model, names = attempt.model, attempt.names
+    m = len(names)
     if m <= FULL_SEARCH_FAULTS:
         cands = [r for r in itertools.product((0, 1), repeat=m) if any(r)]
     else:
@@ -323,7 +331,7 @@ def design_bank(model: PlantModel, *, structure=None, faults: Sequence[str] | No
     ok = [(r, attempt(r)[0]) for r in cands]
     ok = [(r, d) for r, d in ok if d is not None]
     if not ok:
-        reasons = "; ".join(f"{_row_text(r)}: {attempts[r][1]}" for r in cands[:6])
+        reasons = "; ".join(f"{_row_text(r)}: {attempt.attempts[r][1]}" for r in cands[:6])
         raise InfeasibleDesignError(f"{model.where}: no residual detects any of"
                                     f" {', '.join(names)}: {reasons}")
 
@@ -349,11 +357,41 @@ def design_bank(model: PlantModel, *, structure=None, faults: Sequence[str] | No
             break
         chosen.append((best[1], best[2]))
     rows = [r for r, _ in chosen]
-    return _bank(model, names, rows, [d for _, d in chosen], BEST,
-                 "; ".join(tried_txt) + f"; achievable rows: {', '.join(_row_text(r) for r, _ in ok)};"
-                 " added greedily, each the row that isolates the most further pairs"
-                 " (then detects the most further faults, then has the fewest states)",
-                 attempts, extra)
+    return attempt.bank(rows, [d for _, d in chosen], BEST,
+                        "; ".join(tried_txt) + f"; achievable rows: {', '.join(_row_text(r) for r, _ in ok)};"
+                        " added greedily, each the row that isolates the most further pairs"
+                        " (then detects the most further faults, then has the fewest states)")
+
+
+def design_bank(model: PlantModel, *, structure=None, faults: Sequence[str] | None = None,
+                disturbances: Sequence[str] = (), symbolic: bool = False,
+                method: str = "auto", rtol: float | None = None) -> ResidualBank:
+    """A bank of minimal-order, certified Jordan residual generators (module docstring).
+
+    Parameters
+    ----------
+    model : PlantModel
+    structure : str or sequence of rows, optional
+        The structure matrix to realise, e.g. ``"110,101,011"`` (one row per residual, one
+        digit per fault of ``faults``; 1 = sensitive). Default: the first achievable of the
+        generalised observer scheme, the dedicated scheme, the best achievable rows.
+    faults : names, optional
+        The columns (default: every declared fault). Faults not named are assumed zero.
+    disturbances : names, optional
+        Further inputs every residual is decoupled from (the model's disturbances always are).
+    symbolic, method, rtol : as for :func:`design`.
+
+    Returns
+    -------
+    ResidualBank
+        Every row realised and re-checked; refusals name the row, the fault and the reason.
+    """
+    names, extra = _columns(model, faults, disturbances)
+    attempt = _Rows(model, names, extra, dict(symbolic=symbolic, method=method, rtol=rtol))
+    if structure is not None:
+        return _requested_bank(attempt, structure)
+    tried_txt: list = []
+    return _scheme_bank(attempt, tried_txt) or _best_bank(attempt, tried_txt)
 
 
 def _impossible_row(model, row, names, extra, symbolic, method, rtol) -> str:

@@ -110,7 +110,7 @@ def _simulate_with_engine(args, model, observer, scenario):
 def _print_evaluation(model, observer, res, decisions) -> None:
     """The threshold and what the decisions found on this scenario, a few lines."""
     import numpy as np
-    from ..simulation import evaluate_result
+    from ..residuals import evaluate_result
     print(f"threshold: {observer.threshold.text()}")
     rule = decisions.rule
     alarm = np.asarray(decisions.alarm)

@@ -26,8 +26,9 @@ import numpy as np
 from ..errors import ObserverCadError, describe_failure
 from ..model import load_model
 from ..observers import build_observer
-from ..residuals import decide, decision_rule, guaranteed_threshold, min_detectable_fault
-from ..simulation import FaultCase, evaluate_ensemble, fault_free, load_scenario, simulate
+from ..residuals import (FaultCase, decide, decision_rule, guaranteed_threshold,
+                         min_detectable_fault)
+from ..simulation import evaluate_ensemble, fault_free, load_scenario, simulate
 from ..synthesis import design
 from ..analysis import design_bank
 

@@ -243,113 +243,15 @@ class PlantModel:
         if len(self.dynamics) != len(self.states):
             raise DimensionError(
                 f"{where}: {len(self.states)} states but {len(self.dynamics)} dynamics equations")
-
-        # parameters: symbol -> exact default (or None)
-        params = {}
-        raw = self.parameters or {}
-        if not isinstance(raw, Mapping):
-            raw = {p: None for p in _symbols(raw, "parameters", where)}
-        for p, v in raw.items():
-            if not isinstance(p, sp.Symbol):
-                raise ModelError(f"{where}: parameter {p!r} is not a sympy Symbol")
-            params[p] = None if v is None else to_rational(v, f"{where}: parameter '{p}'")
+        params = _parameter_defaults(self.parameters, where)
         set_("parameters", MappingProxyType(params))
-
-        # every symbol in exactly one role
-        roles: dict[sp.Symbol, str] = {}
-        for role, syms in (("states", self.states), ("inputs", self.inputs),
-                           ("faults", self.faults), ("disturbances", self.disturbances),
-                           ("noise", self.noise), ("parameters", tuple(params))):
-            for s in syms:
-                if s in roles:
-                    raise ModelError(
-                        f"{where}: symbol '{s}' is declared in two roles: {roles[s]} and {role}")
-                roles[s] = role
-        for s, role in roles.items():
-            if _RESERVED.fullmatch(s.name):
-                raise ModelError(
-                    f"{where}: the {role[:-1] if role != 'noise' else role} name '{s}' is reserved"
-                    " (t is the time, y1, y2, … the outputs and xs1, xs2, … an observer's"
-                    " states in every equation and output file): rename it")
-        # each expression's symbols collected once (one walk over its terms)
-        declared = set(roles)
-        noise = set(self.noise)
-        dyn_syms = [free_symbols(f) for f in self.dynamics]
-        out_syms = [free_symbols(h) for h in self.outputs]
-        for i, (x, fs) in enumerate(zip(self.states, dyn_syms)):
-            for s in sorted(fs - declared, key=str):
-                raise ModelError(
-                    f"{where}: undeclared symbol '{s}' in dynamics equation {i + 1} (for {x})")
-            for s in sorted(fs & noise, key=str):
-                raise ModelError(
-                    f"{where}: noise '{s}' appears in dynamics equation {i + 1} (for {x});"
-                    " measurement noise may enter the outputs only")
-        unknown = set(self.inputs) | set(self.faults) | set(self.disturbances)
-        for i, (h, hs) in enumerate(zip(self.outputs, out_syms)):
-            name = f"y{i + 1}"
-            for s in sorted(hs - declared, key=str):
-                raise ModelError(f"{where}: undeclared symbol '{s}' in output {name} = {h}")
-            for s in sorted(hs & unknown, key=str):
-                raise ModelError(
-                    f"{where}: output {name} = {h} depends on {roles[s][:-1]} '{s}';"
-                    " outputs may contain states, noise and parameters only")
-        in_outputs = set().union(*out_syms)
-        for w in self.noise:
-            if w not in in_outputs:
-                raise ModelError(f"{where}: noise '{w}' is declared but appears in no output")
-        in_dynamics = set().union(*dyn_syms)
-        for role, syms in (("fault", self.faults), ("disturbance", self.disturbances)):
-            for s in syms:
-                if s not in in_dynamics:
-                    raise ModelError(f"{where}: {role} '{s}' is declared but appears in no"
-                                     " dynamics equation")
-
-        # bounds
-        bounds = {}
-        for s, b in (self.bounds or {}).items():
-            if not isinstance(s, sp.Symbol) or s not in roles:
-                raise ModelError(f"{where}: bounds given for undeclared symbol '{s}'")
-            if roles[s] not in ("faults", "disturbances", "noise", "inputs"):
-                raise ModelError(
-                    f"{where}: bounds may be given for faults, disturbances, noise and inputs;"
-                    f" '{s}' is in {roles[s]}")
-            try:
-                lo, hi = b
-            except (TypeError, ValueError):
-                raise ModelError(f"{where}: bounds of '{s}' must be a pair (low, high)") from None
-            lo = to_rational(lo, f"{where}: lower bound of '{s}'")
-            hi = to_rational(hi, f"{where}: upper bound of '{s}'")
-            if bool(lo > hi):
-                raise ModelError(f"{where}: bounds of '{s}' have low {lo} > high {hi}")
-            bounds[s] = (lo, hi)
-        set_("bounds", MappingProxyType(bounds))
-
-        # domain: relations in the states (and parameters)
-        dom = []
-        for i, rel in enumerate(self.domain or ()):
-            if not isinstance(rel, sp.core.relational.Relational):
-                raise ModelError(f"{where}: domain[{i + 1}] = {rel!r} is not a sympy relation")
-            extra = rel.free_symbols - set(self.states) - set(params)
-            if extra:
-                raise ModelError(
-                    f"{where}: domain[{i + 1}] = {rel} uses '{sorted(extra, key=str)[0]}',"
-                    " which is not a state or parameter")
-            dom.append(rel)
-        set_("domain", tuple(dom))
-
+        roles = _symbol_roles(self, params, where)
+        _check_expression_symbols(self, roles, where)
+        set_("bounds", MappingProxyType(_declared_bounds(self.bounds, roles, where)))
+        set_("domain", _state_domain(self.domain, self.states, params, where))
         if self.linear_part is not None:
-            try:
-                F = sp.ImmutableMatrix(self.linear_part)
-            except Exception:
-                raise ModelError(f"{where}: linear_part is not a matrix") from None
-            n = len(self.states)
-            if F.shape != (n, n):
-                raise DimensionError(f"{where}: linear_part must be {n}x{n}, got {F.shape[0]}x{F.shape[1]}")
-            extra = F.free_symbols - set(params)
-            if extra:
-                raise ModelError(
-                    f"{where}: linear_part uses '{sorted(extra, key=str)[0]}', which is not a parameter")
-            set_("linear_part", F)
+            set_("linear_part", _checked_linear_part(self.linear_part, len(self.states), params,
+                                                     where))
         set_("units", MappingProxyType(_units(self.units, roles, where)))
         set_("uncertainty", MappingProxyType(_uncertainty(self.uncertainty, params, where)))
 
@@ -474,6 +376,129 @@ class PlantModel:
             lines.append(f"| parameters | {', '.join(str(p) for p in self.parameters)} |")
         lines += ["", "$$" + self._equations_latex() + "$$"]
         return "\n".join(lines)
+
+
+def _parameter_defaults(raw: Any, where: str) -> dict:
+    """Parameters: symbol → exact default (or None); a list of symbols has no defaults."""
+    params = {}
+    raw = raw or {}
+    if not isinstance(raw, Mapping):
+        raw = {p: None for p in _symbols(raw, "parameters", where)}
+    for p, v in raw.items():
+        if not isinstance(p, sp.Symbol):
+            raise ModelError(f"{where}: parameter {p!r} is not a sympy Symbol")
+        params[p] = None if v is None else to_rational(v, f"{where}: parameter '{p}'")
+    return params
+
+
+def _symbol_roles(model: "PlantModel", params: dict, where: str) -> dict:
+    """Every symbol in exactly one role, none with a reserved name: symbol → role."""
+    roles: dict[sp.Symbol, str] = {}
+    for role, syms in (("states", model.states), ("inputs", model.inputs),
+                       ("faults", model.faults), ("disturbances", model.disturbances),
+                       ("noise", model.noise), ("parameters", tuple(params))):
+        for s in syms:
+            if s in roles:
+                raise ModelError(
+                    f"{where}: symbol '{s}' is declared in two roles: {roles[s]} and {role}")
+            roles[s] = role
+    for s, role in roles.items():
+        if _RESERVED.fullmatch(s.name):
+            raise ModelError(
+                f"{where}: the {role[:-1] if role != 'noise' else role} name '{s}' is reserved"
+                " (t is the time, y1, y2, … the outputs and xs1, xs2, … an observer's"
+                " states in every equation and output file): rename it")
+    return roles
+
+
+def _check_expression_symbols(model: "PlantModel", roles: dict, where: str) -> None:
+    """Every symbol of the equations declared; noise in the outputs only, and in some
+    output; outputs free of inputs, faults and disturbances; every fault and disturbance
+    in some dynamics equation. Each expression's symbols are collected once (one walk
+    over its terms)."""
+    declared = set(roles)
+    noise = set(model.noise)
+    dyn_syms = [free_symbols(f) for f in model.dynamics]
+    out_syms = [free_symbols(h) for h in model.outputs]
+    for i, (x, fs) in enumerate(zip(model.states, dyn_syms)):
+        for s in sorted(fs - declared, key=str):
+            raise ModelError(
+                f"{where}: undeclared symbol '{s}' in dynamics equation {i + 1} (for {x})")
+        for s in sorted(fs & noise, key=str):
+            raise ModelError(
+                f"{where}: noise '{s}' appears in dynamics equation {i + 1} (for {x});"
+                " measurement noise may enter the outputs only")
+    unknown = set(model.inputs) | set(model.faults) | set(model.disturbances)
+    for i, (h, hs) in enumerate(zip(model.outputs, out_syms)):
+        name = f"y{i + 1}"
+        for s in sorted(hs - declared, key=str):
+            raise ModelError(f"{where}: undeclared symbol '{s}' in output {name} = {h}")
+        for s in sorted(hs & unknown, key=str):
+            raise ModelError(
+                f"{where}: output {name} = {h} depends on {roles[s][:-1]} '{s}';"
+                " outputs may contain states, noise and parameters only")
+    in_outputs = set().union(*out_syms)
+    for w in model.noise:
+        if w not in in_outputs:
+            raise ModelError(f"{where}: noise '{w}' is declared but appears in no output")
+    in_dynamics = set().union(*dyn_syms)
+    for role, syms in (("fault", model.faults), ("disturbance", model.disturbances)):
+        for s in syms:
+            if s not in in_dynamics:
+                raise ModelError(f"{where}: {role} '{s}' is declared but appears in no"
+                                 " dynamics equation")
+
+
+def _declared_bounds(raw: Any, roles: dict, where: str) -> dict:
+    """Bounds of faults, disturbances, noise and inputs: symbol → exact (low, high)."""
+    bounds = {}
+    for s, b in (raw or {}).items():
+        if not isinstance(s, sp.Symbol) or s not in roles:
+            raise ModelError(f"{where}: bounds given for undeclared symbol '{s}'")
+        if roles[s] not in ("faults", "disturbances", "noise", "inputs"):
+            raise ModelError(
+                f"{where}: bounds may be given for faults, disturbances, noise and inputs;"
+                f" '{s}' is in {roles[s]}")
+        try:
+            lo, hi = b
+        except (TypeError, ValueError):
+            raise ModelError(f"{where}: bounds of '{s}' must be a pair (low, high)") from None
+        lo = to_rational(lo, f"{where}: lower bound of '{s}'")
+        hi = to_rational(hi, f"{where}: upper bound of '{s}'")
+        if bool(lo > hi):
+            raise ModelError(f"{where}: bounds of '{s}' have low {lo} > high {hi}")
+        bounds[s] = (lo, hi)
+    return bounds
+
+
+def _state_domain(relations: Any, states, params: dict, where: str) -> tuple:
+    """The domain: sympy relations in the states (and parameters)."""
+    dom = []
+    for i, rel in enumerate(relations or ()):
+        if not isinstance(rel, sp.core.relational.Relational):
+            raise ModelError(f"{where}: domain[{i + 1}] = {rel!r} is not a sympy relation")
+        extra = rel.free_symbols - set(states) - set(params)
+        if extra:
+            raise ModelError(
+                f"{where}: domain[{i + 1}] = {rel} uses '{sorted(extra, key=str)[0]}',"
+                " which is not a state or parameter")
+        dom.append(rel)
+    return tuple(dom)
+
+
+def _checked_linear_part(linear_part: Any, n: int, params: dict, where: str) -> sp.ImmutableMatrix:
+    """The declared F of the linear/nonlinear split: n×n, in the parameters only."""
+    try:
+        F = sp.ImmutableMatrix(linear_part)
+    except Exception:
+        raise ModelError(f"{where}: linear_part is not a matrix") from None
+    if F.shape != (n, n):
+        raise DimensionError(f"{where}: linear_part must be {n}x{n}, got {F.shape[0]}x{F.shape[1]}")
+    extra = F.free_symbols - set(params)
+    if extra:
+        raise ModelError(
+            f"{where}: linear_part uses '{sorted(extra, key=str)[0]}', which is not a parameter")
+    return F
 
 
 def _uncertainty(raw: Any, params: Mapping, where: str) -> dict:

@@ -354,45 +354,66 @@ def _linear_in_disguise(m, variables):
     return {v: c for v, c in coeffs.items() if c != 0}, sp.cancel(p.coeff_monomial(1) / den)
 
 
-def extract_structure(model: PlantModel) -> Structure:
-    """Recognise F, G, H, C, D, L, W and the nonlinear terms of a model, and certify them.
+class _Collected:
+    """The right-hand side read term by term (not a value: filled equation by equation):
+    F, G, D, L as lists of rows (a sympy Matrix's item assignment costs ~0.1 ms, 10 s for
+    a 300-state model; made matrices at the end), the slot (matrix, column) of every
+    variable that enters linearly, and the nonlinear columns — their variable parts m in
+    order of appearance, the column of each, the coefficients C_ij and each column's
+    (φ in s, s, row A_j)."""
 
-    Every right-hand side is split into additive terms with constant factors distributed
-    over sums (``(u − x/a − f1)/b`` is u/b − x/(a b) − f1/b) and products and integer
-    powers of the variables expanded where that exposes a linear term; what is linear in
-    one variable with a constant coefficient goes to F, G, D, L, the rest (grouped by its
-    variable part) to C Ψ. The result carries its :class:`ModelCertificate`: the matrices
-    rebuild every equation exactly (or, where algebra cannot decide, at random rational
-    points, said so).
+    def __init__(self, model: PlantModel):
+        xs, us = model.states, model.inputs
+        ds, rs = model.faults, model.disturbances
+        n = len(xs)
+        zero = sp.Integer(0)
+        self.F = [[zero] * n for _ in range(n)]
+        self.G = [[zero] * len(us) for _ in range(n)]
+        self.D = [[zero] * len(ds) for _ in range(n)]
+        self.L = [[zero] * len(rs) for _ in range(n)]
+        self.simple = {}  # variable -> (matrix, column)
+        for mat, syms in ((self.F, xs), (self.G, us), (self.D, ds), (self.L, rs)):
+            for k, v in enumerate(syms):
+                self.simple[v] = (mat, k)
+        self.funcs: list = []  # m (x,u-dependent part) per column, in order of appearance
+        self.index: dict = {}  # m -> column j
+        self.coeffs: dict = {}  # (i, j) -> coefficient
+        self.info: list = []  # (function expr in s, s, row) per column
 
-    Raises :class:`ModelError` (one line, naming the equation and symbol) when the
-    right-hand side is not affine in u, d or ρ in the required way, when an output
-    is not linear in the states, when a nonlinear term's argument is not a single
-    linear form in the states, or when the extracted matrices do not rebuild an equation
-    (naming the term they lose).
-    """
-    where = model.where
-    xs, us = model.states, model.inputs
-    ds, rs = model.faults, model.disturbances
-    variables = set(xs) | set(us) | set(ds) | set(rs) | set(model.noise)
+
+def _check_nonlinear_term(t, m, eq, model: PlantModel, variables, where) -> None:
+    """Step 2: in a nonlinear term t = c·m, unknown inputs must enter linearly with
+    constant coefficients (D, L constant); controls affinely (φ(A x, u) may hold u)."""
+    us, ds = model.inputs, model.faults
+    unknown = set(ds) | set(model.disturbances)
+    for sym in sorted(m.free_symbols & unknown, key=str):
+        role = "fault" if sym in ds else "disturbance"
+        k = sp.diff(t, sym)
+        bad = k.free_symbols & variables
+        if bad & (set(us) | unknown):
+            raise ModelError(
+                f"{where}: {eq} is not affine in {role} '{sym}' (its coefficient"
+                f" {k} depends on '{sorted(bad, key=str)[0]}')")
+        raise ModelError(
+            f"{where}: {eq}: {role} '{sym}' enters with the coefficient {k}, which"
+            f" depends on state '{sorted(bad, key=str)[0]}'; it must be constant")
+    for sym in sorted(m.free_symbols & set(us), key=str):
+        k = sp.diff(t, sym)
+        bad = k.free_symbols & (set(us) | unknown)
+        if bad:
+            raise ModelError(
+                f"{where}: {eq} is not affine in input '{sym}' (its coefficient {k}"
+                f" depends on '{sorted(bad, key=str)[0]}')")
+
+
+def _read_dynamics(model: PlantModel, variables, where) -> _Collected:
+    """Steps 1 and 2 for every equation: additive terms with constant factors
+    distributed and linear terms exposed; linear ones to F, G, D, L, nonlinear ones
+    checked and collected by their variable part (the argument row A_j recognised once)."""
+    xs = model.states
     n = len(xs)
-    zero = sp.Integer(0)
-    # filled entry by entry as lists (a sympy Matrix's item assignment costs ~0.1 ms,
-    # 10 s for a 300-state model), made matrices after the loop
-    F = [[zero] * n for _ in range(n)]
-    G = [[zero] * len(us) for _ in range(n)]
-    D = [[zero] * len(ds) for _ in range(n)]
-    L = [[zero] * len(rs) for _ in range(n)]
-    simple = {}  # variable -> (matrix, column)
-    for mat, syms in ((F, xs), (G, us), (D, ds), (L, rs)):
-        for k, v in enumerate(syms):
-            simple[v] = (mat, k)
-    unknown = set(ds) | set(rs)
-    funcs: list = []  # m (x,u-dependent part) per column, in order of appearance
-    index: dict = {}  # m -> column j
-    coeffs: dict = {}  # (i, j) -> coefficient
-    info: list = []  # (function expr in s, s, row) per column
-
+    got = _Collected(model)
+    simple = got.simple
     for i, (x_i, f) in enumerate(zip(xs, model.dynamics)):
         eq = f"dynamics equation {i + 1} (for {x_i})"
         report(f"extracting the structure of {model.name}: equation {i + 1} of {n}")
@@ -410,39 +431,27 @@ def extract_structure(model: PlantModel) -> Structure:
             if m in simple:  # linear: a constant times one variable
                 _accumulate([(simple[m], c)], i)
                 continue
-            # Step 2: a nonlinear term. Unknown inputs must enter linearly with constant
-            # coefficients (D, L constant); controls affinely (φ(A x, u) may hold u)
+            # Step 2: a nonlinear term
             t = c * m
-            for sym in sorted(m.free_symbols & unknown, key=str):
-                role = "fault" if sym in ds else "disturbance"
-                k = sp.diff(t, sym)
-                bad = k.free_symbols & variables
-                if bad & (set(us) | unknown):
-                    raise ModelError(
-                        f"{where}: {eq} is not affine in {role} '{sym}' (its coefficient"
-                        f" {k} depends on '{sorted(bad, key=str)[0]}')")
-                raise ModelError(
-                    f"{where}: {eq}: {role} '{sym}' enters with the coefficient {k}, which"
-                    f" depends on state '{sorted(bad, key=str)[0]}'; it must be constant")
-            for sym in sorted(m.free_symbols & set(us), key=str):
-                k = sp.diff(t, sym)
-                bad = k.free_symbols & (set(us) | unknown)
-                if bad:
-                    raise ModelError(
-                        f"{where}: {eq} is not affine in input '{sym}' (its coefficient {k}"
-                        f" depends on '{sorted(bad, key=str)[0]}')")
-            if m not in index:  # recognise the argument row A_j
+            _check_nonlinear_term(t, m, eq, model, variables, where)
+            if m not in got.index:  # recognise the argument row A_j
                 found = known if known is not None else _argument(m, xs, variables)
                 if isinstance(found, str):
                     raise ModelError(f"{where}: {eq}: the nonlinear term {t} is not of the"
                                      f" form phi(A x, u): {found}")
-                index[m] = len(funcs)
-                funcs.append(m)
-                info.append(list(found))
-            j = index[m]
-            coeffs[(i, j)] = coeffs.get((i, j), 0) + c
+                got.index[m] = len(got.funcs)
+                got.funcs.append(m)
+                got.info.append(list(found))
+            j = got.index[m]
+            got.coeffs[(i, j)] = got.coeffs.get((i, j), 0) + c
+    return got
 
-    # a nonlinear-looking term that is affine once cancelled is linear after all
+
+def _linear_after_all(got: _Collected, variables, n: int) -> None:
+    """A nonlinear-looking term that is affine once cancelled is linear after all: its
+    coefficients move to F, G, D, L (a constant to a constant column)."""
+    zero = sp.Integer(0)
+    funcs, index, coeffs, info = got.funcs, got.index, got.coeffs, got.info
     for j, m in enumerate(funcs):
         affine = _linear_in_disguise(m, variables)
         if affine is None:
@@ -451,7 +460,7 @@ def extract_structure(model: PlantModel) -> Structure:
         for (i, jj), c in list(coeffs.items()):
             if jj != j:
                 continue
-            _accumulate([(simple[v], c * a) for v, a in lin_part.items()], i)
+            _accumulate([(got.simple[v], c * a) for v, a in lin_part.items()], i)
             del coeffs[(i, jj)]
             if const != 0:
                 if sp.Integer(1) not in index:
@@ -461,45 +470,51 @@ def extract_structure(model: PlantModel) -> Structure:
                 k = index[sp.Integer(1)]
                 coeffs[(i, k)] = coeffs.get((i, k), 0) + c * const
 
-    F, G, D, L = (exact_matrix(n, len(v), [e for row in M for e in row])
-                  for M, v in ((F, xs), (G, us), (D, ds), (L, rs)))
-    q = len(funcs)
+
+def _nonlinear_columns(got: _Collected, n: int) -> tuple:
+    """C from the collected coefficients, without the columns that cancelled out
+    entirely: (C, info of the columns kept)."""
+    q = len(got.funcs)
     C = sp.zeros(n, q)
-    for (i, j), c in coeffs.items():
+    for (i, j), c in got.coeffs.items():
         C[i, j] = c
-    # drop columns that cancelled out entirely
     keep = [j for j in range(q) if any(sp.cancel(C[i, j]) != 0 for i in range(n))]
     C = C[:, keep] if keep else sp.zeros(n, 0)
-    info = [info[j] for j in keep]
+    return C, [got.info[j] for j in keep]
 
-    # Step 3: the model's own linear/nonlinear split (formal terms β_j A_j x)
-    if model.linear_part is not None:
-        F_user = sp.Matrix(model.linear_part)
-        delta = F - F_user
-        if any(sp.cancel(e) != 0 for e in delta):
-            betas = sp.symbols(f"beta0:{len(info)}")
-            resid = delta - sum(
-                (b * C[:, j] * sp.Matrix([info[j][2]]) for j, b in enumerate(betas)), sp.zeros(n, n))
-            sol = sp.solve(list(resid), betas, dict=True) if betas else []
-            if not sol:
-                raise ModelError(
-                    f"{where}: linear_part cannot be split off: the difference from the"
-                    " right-hand side's own linear part is not a combination β_j C_j A_j"
-                    " of the nonlinear terms' columns and arguments")
-            sol = sol[0]
-            for j, b in enumerate(betas):
-                beta = sp.cancel(sol.get(b, 0).xreplace({bb: 0 for bb in betas}))
-                info[j][0] = info[j][0] + beta * info[j][1]
-            F = F_user
 
-    # normalise signs: first nonzero entry of each C column not negative
-    for j in range(C.shape[1]):
-        first = next((C[i, j] for i in range(n) if C[i, j] != 0), None)
-        if first is not None and first.could_extract_minus_sign():
-            C[:, j] = -C[:, j]
-            info[j][0] = -info[j][0]
+def _own_linear_part(model: PlantModel, F, C, info, n: int, where) -> sp.Matrix:
+    """Step 3: the model's own linear/nonlinear split: the difference from the
+    right-hand side's linear part absorbed into the nonlinear functions as formal terms
+    β_j A_j x (``info`` updated). Returns the F to use."""
+    if model.linear_part is None:
+        return F
+    F_user = sp.Matrix(model.linear_part)
+    delta = F - F_user
+    if any(sp.cancel(e) != 0 for e in delta):
+        betas = sp.symbols(f"beta0:{len(info)}")
+        resid = delta - sum(
+            (b * C[:, j] * sp.Matrix([info[j][2]]) for j, b in enumerate(betas)), sp.zeros(n, n))
+        sol = sp.solve(list(resid), betas, dict=True) if betas else []
+        if not sol:
+            raise ModelError(
+                f"{where}: linear_part cannot be split off: the difference from the"
+                " right-hand side's own linear part is not a combination β_j C_j A_j"
+                " of the nonlinear terms' columns and arguments")
+        sol = sol[0]
+        for j, b in enumerate(betas):
+            beta = sp.cancel(sol.get(b, 0).xreplace({bb: 0 for bb in betas}))
+            info[j][0] = info[j][0] + beta * info[j][1]
+        F = F_user
+    return F
 
-    # Outputs: y = H x + W w (term by term: cheap for long outputs)
+
+def _read_outputs(model: PlantModel, where) -> tuple:
+    """Outputs: y = H x + W w, term by term (cheap for long outputs): (H, W) as exact
+    matrices."""
+    xs = model.states
+    n = len(xs)
+    zero = sp.Integer(0)
     H = [[zero] * n for _ in model.outputs]
     W = [[zero] * len(model.noise) for _ in model.outputs]
     xidx = {x: k for k, x in enumerate(xs)}
@@ -529,9 +544,46 @@ def extract_structure(model: PlantModel) -> Structure:
                     w = sorted(m.free_symbols & set(model.noise), key=str)[0]
                     raise ModelError(f"{where}: output {name} = {h} is not linear in the"
                                      f" noise '{w}'")
-
     H = exact_matrix(len(model.outputs), n, [e for row in H for e in row])
     W = exact_matrix(len(model.outputs), len(model.noise), [e for row in W for e in row])
+    return H, W
+
+
+def extract_structure(model: PlantModel) -> Structure:
+    """Recognise F, G, H, C, D, L, W and the nonlinear terms of a model, and certify them.
+
+    Every right-hand side is split into additive terms with constant factors distributed
+    over sums (``(u − x/a − f1)/b`` is u/b − x/(a b) − f1/b) and products and integer
+    powers of the variables expanded where that exposes a linear term; what is linear in
+    one variable with a constant coefficient goes to F, G, D, L, the rest (grouped by its
+    variable part) to C Ψ. The result carries its :class:`ModelCertificate`: the matrices
+    rebuild every equation exactly (or, where algebra cannot decide, at random rational
+    points, said so).
+
+    Raises :class:`ModelError` (one line, naming the equation and symbol) when the
+    right-hand side is not affine in u, d or ρ in the required way, when an output
+    is not linear in the states, when a nonlinear term's argument is not a single
+    linear form in the states, or when the extracted matrices do not rebuild an equation
+    (naming the term they lose).
+    """
+    where = model.where
+    xs, us = model.states, model.inputs
+    ds, rs = model.faults, model.disturbances
+    variables = set(xs) | set(us) | set(ds) | set(rs) | set(model.noise)
+    n = len(xs)
+    got = _read_dynamics(model, variables, where)
+    _linear_after_all(got, variables, n)
+    F, G, D, L = (exact_matrix(n, len(v), [e for row in M for e in row])
+                  for M, v in ((got.F, xs), (got.G, us), (got.D, ds), (got.L, rs)))
+    C, info = _nonlinear_columns(got, n)
+    F = _own_linear_part(model, F, C, info, n, where)
+    # normalise signs: first nonzero entry of each C column not negative
+    for j in range(C.shape[1]):
+        first = next((C[i, j] for i in range(n) if C[i, j] != 0), None)
+        if first is not None and first.could_extract_minus_sign():
+            C[:, j] = -C[:, j]
+            info[j][0] = -info[j][0]
+    H, W = _read_outputs(model, where)
     terms = tuple(NonlinearTerm(fn, s, sp.ImmutableMatrix([row]))
                   for fn, s, row in info)
     C = exact_matrix(*C.shape, list(C)) if not isinstance(C, sp.ImmutableMatrix) else C

@@ -2,53 +2,9 @@
 extension and mixing (DREM), continuous time (METHOD §5; seed 003, Dang, Pyrkin,
 Bobtsov & Vedyakov 2021).
 
-Plant class
------------
-::
-
-    x' = A x + Q(y) θ(t) + V(t) u (+ g(y, u)),     y = Cᵀ x = x1,
-
-A the N×N shift matrix (xi' = x(i+1) + …, xN' = …), C = e1, θ(t) ∈ Rᑫ and V(t) ∈ Rᴺ
-polynomials in t of declared degrees with unknown coefficients, Q(y) (N×q) known and a
-function of y only, u a single known input. g(y, u) is a known term (absent in the
-paper; it enters the ζ filter unchanged). Entries of V that are identically zero are
-known and dropped from the unknowns.
-
-Model-file form
----------------
-An ordinary :class:`~observer_cad.model.PlantModel` plus a declaration ``drem``::
-
-    x1, x2, tau, u = sp.symbols("x1 x2 tau u")
-    a0, a1, c0, c1, v1, v2 = sp.symbols("a0 a1 c0 c1 v1 v2")   # unknown coefficients
-    theta = [a0 + a1*tau, c0 + c1*tau]                        # θ(τ)
-    V = [v1, v2]                                              # V(τ)
-    model = PlantModel(
-        name="...", time="continuous", states=[x1, x2, tau], inputs=[u], outputs=[x1],
-        dynamics=[x2 - theta[0]*x1 + V[0]*u,
-                  -theta[1]*(x1 + x1**3) + V[1]*u,
-                  1],                                          # the clock: tau' = 1
-        parameters={a0: 2, a1: 0.05, ...})                     # TRUE values (simulation only)
-    drem = DremSpec(clock=tau, theta=theta, V=V, theta_degree=1, v_degree=0)
-
-* Time enters the plant through a **clock state** (``clock``, dynamics exactly 1,
-  initial value 0 by default), so the reference simulator integrates θ(t), V(t) exactly;
-  it is not part of x. The observer carries its own copy of the clock, started at the
-  plant clock's initial value (it reads time, never the unknown coefficients).
-* ``theta`` and ``V`` are the polynomials θ_k(τ), V_j(τ). Each coefficient of a power
-  of τ is 0 or a nonzero number times one **unknown** coefficient symbol; every unknown
-  appears in exactly one θ_k or V_j. Unknowns are declared as model parameters (their
-  values are the truth the simulator uses; the observer never reads them). Parameters
-  that are not unknowns are known constants and are substituted by their values.
-* ``theta_degree`` / ``v_degree`` (an int, or one per entry) are the declared degrees m,
-  n (each polynomial's degree in τ must not exceed its declared degree; a larger
-  declared degree adds unknown derivatives that are zero).
-* Q(y) and g are **derived** from the dynamics (Q_jk = ∂f_j/∂θ_k) and validated:
-  :func:`analyse` raises a one-line :class:`~observer_cad.errors.ModelError` naming the
-  equation or symbol when the model is not in the class (A not the shift, y ≠ x1, Q
-  depending on anything but y, θ or V not a polynomial of its declared degree, an
-  unknown entering non-linearly or outside θ and V, several inputs, noise, …).
-
-:func:`load_drem` reads ``model`` and ``drem`` from a model file.
+The plant class, its declaration (:class:`DremSpec`) and its recognition
+(:func:`analyse`) are in :mod:`._drem_class`; the excitation checks after a simulation in
+:mod:`._drem_excitation`.
 
 Derivation (verified symbolically by :func:`parametrisation_residual` and
 :func:`chain_error_residual`, and numerically in tests/test_drem.py)
@@ -99,12 +55,6 @@ the clock: c_i = Σ_{j ≥ i} φ^(j)(τ) (−τ)^{j−i} / (i! (j−i)!).
 State: x̂ = ζ_1 − Σ_r Σ_i P_{1,r,i} ξ_{r,i} (filter bank 1; + e^{F_1 t} x̂(0) with the ε
 variant) — the printed signs are right.
 
-Excitation. Δ is an output; ``Delta2_integral`` = ∫Δ² is an observer state. The error
-of the last chain element contracts by exp(−γ ∫Δ² dt) over a window, so
-:func:`excitation_report` calls the excitation insufficient on a window where
-γ ∫Δ² < ``min_contraction`` (default 1, one e-fold), and :func:`check_excitation` raises
-:class:`ExcitationError` with the message.
-
 API
 ---
 ``drem_design(model, spec, *, poles=None, gains=None, gamma=1, include_epsilon=False,
@@ -122,301 +72,22 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from typing import Mapping, Sequence
+from typing import Sequence
 
-import numpy as np
 import sympy as sp
 
 from ..synthesis import Condition, parse_json_expression
-from ..errors import ModelError, ObserverCadError, UsageError
-from ..model import PlantModel, load_model_module, model_from_module, to_rational
+from ..errors import UsageError
+from ..model import PlantModel, to_rational
 from ..numerics import rational_approximation
-from ._observer import Observer, output_symbols
+from ._observer import Observer
+from ._drem_class import DremClass, DremSpec, DremTerm, analyse
 
-__all__ = ["shift_matrix", "DremSpec", "DremTerm", "DremClass", "DremDesign", "ExcitationReport",
-           "ExcitationError", "analyse", "load_drem", "gains_from_poles", "default_poles",
-           "parametrisation_residual", "chain_error_residual", "drem_design",
-           "drem_observer", "excitation_report", "check_excitation", "suggest_gamma", "true_unknowns",
+__all__ = ["shift_matrix", "DremDesign", "gains_from_poles", "default_poles",
+           "parametrisation_residual", "chain_error_residual", "drem_design", "drem_observer",
            "determinants"]
 
 REFERENCE = "seed 003 (Statements 1–3); METHOD §5"
-
-
-class ExcitationError(ObserverCadError):
-    """Δ(t) was too small over a window: the DREM estimates are not converging."""
-
-
-# =============================================================== the declaration
-@dataclasses.dataclass(frozen=True)
-class DremSpec:
-    """What a model file declares next to its PlantModel (see the module docstring).
-
-    clock : Symbol
-        The state that is time (dynamics 1).
-    theta : list of Expr
-        θ_1(τ) … θ_q(τ), polynomials in the clock with unknown coefficients.
-    V : list of Expr
-        V_1(τ) … V_N(τ) (0 for an entry the input does not enter).
-    theta_degree, v_degree : int or list of int
-        Declared degrees m, n (one for all entries, or one per entry).
-    gamma : number, optional
-        The chain gain the model's author found suitable (Δ's scale depends on the
-        model and the input; see :func:`suggest_gamma`); :func:`drem_design` uses it
-        when no ``gamma`` is passed (else 1).
-    """
-
-    clock: sp.Symbol
-    theta: tuple
-    V: tuple
-    theta_degree: object = 0
-    v_degree: object = 0
-    gamma: object = None
-
-    def __post_init__(self):
-        if not isinstance(self.clock, sp.Symbol):
-            raise ModelError(f"DremSpec: clock must be a sympy Symbol, got {self.clock!r}")
-        for what in ("theta", "V"):
-            seq = getattr(self, what)
-            if isinstance(seq, (sp.Expr, int, float)):
-                seq = (seq,)
-            try:
-                seq = tuple(sp.sympify(e) for e in seq)
-            except (TypeError, sp.SympifyError):
-                raise ModelError(f"DremSpec: {what} must be a list of sympy expressions") from None
-            object.__setattr__(self, what, seq)
-        if not self.theta and not self.V:
-            raise ModelError("DremSpec: declare at least one theta or V entry")
-
-
-@dataclasses.dataclass(frozen=True)
-class DremTerm:
-    """One unknown polynomial φ_r(t) and its regressor column b_r(y, u) (in y1, u)."""
-
-    name: str  # theta1 … / V1 …
-    kind: str  # "theta" | "V" | "x0"
-    column: tuple  # N expressions in y1 and the input
-    degree: int  # declared degree d_r (D_r = d_r + 1 chain elements)
-    poly: sp.Expr  # φ_r(τ) with the unknown coefficient symbols (x0: the state symbol)
-    coefficients: tuple  # ((power i, unknown symbol, factor), …): coeff of τ^i = factor·symbol
-
-    @property
-    def length(self) -> int:
-        return self.degree + 1
-
-
-@dataclasses.dataclass(frozen=True)
-class DremClass:
-    """A model recognised as x' = A x + Q(y) θ(t) + V(t) u + g(y, u), y = x1."""
-
-    model: PlantModel
-    spec: DremSpec
-    clock: sp.Symbol
-    states: tuple  # x1 … xN (without the clock)
-    input: sp.Symbol
-    y: sp.Symbol  # the signal symbol y1
-    Q: sp.Matrix  # N×q in y1
-    known: tuple  # g(y1, u), N entries
-    terms: tuple  # of DremTerm: V terms first, then theta (the paper's order)
-    unknowns: tuple  # unknown coefficient symbols
-    truth: Mapping  # unknown symbol -> value (from the model's parameters), may be empty
-
-    @property
-    def N(self) -> int:
-        return len(self.states)
-
-    @property
-    def p(self) -> int:
-        """Number of unknowns ϑ of the regression (without the ε variant)."""
-        return sum(t.length for t in self.terms)
-
-    def unknown_labels(self) -> list:
-        """Labels of ϑ in order: ``theta1``, ``theta1_d1``, …"""
-        return [t.name if i == 0 else f"{t.name}_d{i}" for t in self.terms for i in range(t.length)]
-
-
-def _as_degrees(value, n: int, what: str, where: str) -> tuple:
-    if isinstance(value, (int, np.integer)) and not isinstance(value, bool):
-        vals = (int(value),) * n
-    else:
-        try:
-            vals = tuple(int(v) for v in value)
-        except (TypeError, ValueError):
-            raise ModelError(f"{where}: drem.{what} must be an int or a list of ints") from None
-        if len(vals) != n:
-            raise ModelError(f"{where}: drem.{what} has {len(vals)} entries for {n} polynomials")
-    for v in vals:
-        if v < 0:
-            raise ModelError(f"{where}: drem.{what} = {v} is negative")
-    return vals
-
-
-def analyse(model: PlantModel, spec: DremSpec) -> DremClass:
-    """Recognise ``model`` as a member of the DREM class declared by ``spec``.
-
-    Raises :class:`ModelError` (one line, naming the equation or symbol) when it is not.
-    """
-    where = model.where
-    if not isinstance(spec, DremSpec):
-        raise ModelError(f"{where}: 'drem' is a {type(spec).__name__}, not a DremSpec")
-    # Step 1: time domain, roles, the clock
-    if model.time != "continuous":
-        raise ModelError(f"{where}: the DREM observer is continuous-time; the model is {model.time}")
-    for role in ("faults", "disturbances", "noise"):
-        if getattr(model, role):
-            raise ModelError(f"{where}: the DREM class has no {role}; declared:"
-                             f" {', '.join(map(str, getattr(model, role)))}")
-    if len(model.inputs) != 1:
-        raise ModelError(f"{where}: the DREM class has one known input u; the model has"
-                         f" {len(model.inputs)}")
-    u = model.inputs[0]
-    clock = spec.clock
-    if clock not in model.states:
-        raise ModelError(f"{where}: drem.clock '{clock}' is not a state of the model")
-    ci = model.states.index(clock)
-    if sp.simplify(model.dynamics[ci] - 1) != 0:
-        raise ModelError(f"{where}: dynamics equation {ci + 1} (for the clock {clock}) must be 1,"
-                         f" got {model.dynamics[ci]}")
-    xs = tuple(s for s in model.states if s != clock)
-    N = len(xs)
-    if N < 1:
-        raise ModelError(f"{where}: the model has no state besides the clock")
-    # Step 2: unknown coefficients vs known parameters
-    if len(spec.V) != N:
-        raise ModelError(f"{where}: drem.V has {len(spec.V)} entries for N = {N} states")
-    polys = [(f"theta{k + 1}", "theta", e) for k, e in enumerate(spec.theta)] + \
-            [(f"V{j + 1}", "V", e) for j, e in enumerate(spec.V)]
-    unknowns, owner = [], {}
-    for name, _, e in polys:
-        for s in sorted(e.free_symbols - {clock}, key=str):
-            if s not in model.parameters:
-                role = model.role_of(s)
-                raise ModelError(f"{where}: drem {name} = {e} uses '{s}', which is "
-                                 + (f"a {role[:-1]}; coefficients must be unknown parameters"
-                                    if role else "not declared in the model"))
-            if s in owner:
-                raise ModelError(f"{where}: unknown '{s}' appears in both {owner[s]} and {name};"
-                                 " each unknown coefficient belongs to one polynomial")
-            owner[s] = name
-            unknowns.append(s)
-    known_vals = {}
-    for p, v in model.parameters.items():
-        if p in owner:
-            continue
-        if v is None:
-            raise ModelError(f"{where}: known parameter '{p}' has no value")
-        known_vals[p] = v
-    truth = {p: model.parameters[p] for p in unknowns if model.parameters[p] is not None}
-    # Step 3: each polynomial, its degree and coefficient structure
-    th_deg = _as_degrees(spec.theta_degree, len(spec.theta), "theta_degree", where)
-    v_deg = _as_degrees(spec.v_degree, N, "v_degree", where)
-    degrees = list(th_deg) + list(v_deg)
-    info = {}
-    for (name, kind, e), dd in zip(polys, degrees):
-        e = sp.expand(e.xreplace(known_vals))
-        own = [s for s in unknowns if owner[s] == name]
-        if not own:
-            if kind == "theta":
-                raise ModelError(f"{where}: drem {name} = {e} has no unknown coefficient")
-            info[name] = None  # known V_j (e.g. 0): part of g
-            continue
-        poly = sp.Poly(e, clock)
-        if poly.degree() > dd:
-            raise ModelError(f"{where}: drem {name} = {e} has degree {poly.degree()} in {clock}"
-                             f" but the declared degree is {dd}")
-        coeffs = []
-        for (i,), c in poly.terms():
-            ok = False
-            if c.free_symbols and len(c.free_symbols) == 1:
-                s = next(iter(c.free_symbols))
-                f = sp.simplify(c / s)
-                ok = s in own and f.is_number and f != 0
-            if not ok:
-                raise ModelError(f"{where}: drem {name}: the coefficient of {clock}**{i} is {c};"
-                                 " it must be a number times one unknown coefficient")
-            coeffs.append((i, s, f))
-        info[name] = (dd, e, tuple(sorted(coeffs, key=lambda t: t[0])))
-    # Step 4: the dynamics: A x, Q(y) θ, V u, g
-    ysym = output_symbols(1)[0]
-    outs = [sp.expand(h.xreplace(known_vals)) for h in model.outputs]
-    if len(outs) != 1 or sp.expand(outs[0] - xs[0]) != 0:
-        raise ModelError(f"{where}: the DREM class measures y = {xs[0]} only (C = e1);"
-                         f" outputs are {', '.join(map(str, model.outputs))}")
-    dyn = [sp.expand(model.dynamics[model.states.index(x)].xreplace(known_vals)) for x in xs]
-    q = len(spec.theta)
-    Q = sp.zeros(N, q)
-    theta_exprs = [info[f"theta{k + 1}"][1] for k in range(q)]
-    V_exprs = [info[f"V{j + 1}"][1] if info[f"V{j + 1}"] else
-               sp.expand(spec.V[j].xreplace(known_vals)) for j in range(N)]
-    for j, f in enumerate(dyn):
-        eq = f"dynamics equation {model.states.index(xs[j]) + 1} (for {xs[j]})"
-        for s in unknowns:
-            if sp.diff(f, s).free_symbols & set(unknowns):
-                raise ModelError(f"{where}: {eq} is not linear in the unknown '{s}'")
-        for k in range(q):
-            i0, s0, f0 = info[f"theta{k + 1}"][2][0]
-            qjk = sp.cancel(sp.diff(f, s0) / (f0 * clock ** i0))
-            bad = qjk.free_symbols - {xs[0]}
-            if bad:
-                s = sorted(bad, key=str)[0]
-                raise ModelError(f"{where}: {eq}: Q[{j + 1},{k + 1}] (multiplying theta{k + 1})"
-                                 f" = {qjk} depends on '{s}'; Q may depend on y = {xs[0]} only")
-            Q[j, k] = qjk
-        for jj in range(N):
-            if info[f"V{jj + 1}"] is None:
-                continue
-            i0, s0, f0 = info[f"V{jj + 1}"][2][0]
-            col = sp.cancel(sp.diff(f, s0) / (f0 * clock ** i0))
-            want = u if jj == j else 0
-            if sp.expand(col - want) != 0:
-                raise ModelError(f"{where}: {eq}: the unknown '{s0}' of V{jj + 1} multiplies {col};"
-                                 f" V(t) u must enter equation {jj + 1} as V{jj + 1}(t)*{u} only")
-        shift = xs[j + 1] if j + 1 < N else sp.Integer(0)
-        g = sp.expand(f - shift - sum(Q[j, k] * theta_exprs[k] for k in range(q)) - V_exprs[j] * u)
-        bad = g.free_symbols & set(unknowns)
-        if bad:
-            raise ModelError(f"{where}: {eq}: the unknown '{sorted(bad, key=str)[0]}' enters"
-                             " outside Q(y) θ(t) + V(t) u (check the declared polynomials)")
-        if clock in g.free_symbols:
-            raise ModelError(f"{where}: {eq}: the known term {g} depends on the clock {clock};"
-                             " time may enter through θ(t) and V(t) only")
-        others = g.free_symbols & set(xs[1:])
-        if others:
-            s = sorted(others, key=str)[0]
-            want = 1 if s == shift else 0
-            raise ModelError(f"{where}: {eq}: A must be the shift matrix ({xs[j]}' = {shift}"
-                             f" + Q(y) θ + V u): the coefficient of '{s}' is {sp.diff(f, s)},"
-                             f" not {want}")
-        info[f"g{j}"] = g.xreplace({xs[0]: ysym})
-    # Step 5: the terms in the paper's order (V first, then θ)
-    terms = []
-    for j in range(N):
-        it = info[f"V{j + 1}"]
-        if it is None:
-            continue
-        col = tuple(u if i == j else sp.Integer(0) for i in range(N))
-        terms.append(DremTerm(f"V{j + 1}", "V", col, it[0], it[1], it[2]))
-    for k in range(q):
-        it = info[f"theta{k + 1}"]
-        col = tuple(sp.expand(Q[i, k].xreplace({xs[0]: ysym})) for i in range(N))
-        if all(c == 0 for c in col):
-            raise ModelError(f"{where}: theta{k + 1} enters no dynamics equation (Q column {k + 1} is 0)")
-        terms.append(DremTerm(f"theta{k + 1}", "theta", col, it[0], it[1], it[2]))
-    return DremClass(model=model, spec=spec, clock=clock, states=xs, input=u, y=ysym,
-                     Q=Q.xreplace({xs[0]: ysym}),
-                     known=tuple(info[f"g{j}"] for j in range(N)), terms=tuple(terms),
-                     unknowns=tuple(unknowns), truth=truth)
-
-
-def load_drem(path) -> tuple:
-    """``(model, spec)`` from a model file defining ``model`` and ``drem``."""
-    module = load_model_module(path)  # the file runs once, for both
-    model = model_from_module(module, path)
-    spec = getattr(module, "drem", None)
-    if spec is None:
-        raise ModelError(f"{path}: the model file declares no 'drem' (a DremSpec) for the DREM observer")
-    if not isinstance(spec, DremSpec):
-        raise ModelError(f"{path}: 'drem' is a {type(spec).__name__}, not a DremSpec")
-    return model, spec
 
 
 # =============================================================== gains
@@ -647,6 +318,198 @@ class DremDesign:
         return "\n".join(out)
 
 
+def _filters(N: int, l: int, labels, poles, gains) -> tuple:
+    """Step 1: l distinct gain vectors K_a with F_a = A − K_a Cᵀ Hurwitz, from the poles
+    (default :func:`default_poles`) or the gains: (pole sets, gains)."""
+    if gains is not None and poles is not None:
+        raise UsageError("give poles or gains, not both")
+    if gains is not None:
+        Ks = [sp.Matrix([to_rational(v, "gain") for v in K]) for K in gains]
+        for K in Ks:
+            if K.shape != (N, 1):
+                raise UsageError(f"each gain vector needs {N} entries")
+        pole_sets = []
+        for K in Ks:
+            F = shift_matrix(N) - K * sp.eye(N)[0, :]
+            ev = [complex(v) for v in sp.Poly(F.charpoly(sp.Symbol("s")).as_expr(),
+                                              sp.Symbol("s")).nroots()]
+            if max(v.real for v in ev) >= 0:
+                raise UsageError(f"gain K = {list(K)}: A − K Cᵀ is not Hurwitz (poles {ev})")
+            pole_sets.append(tuple(rational_approximation(v.real, 1e-12) if abs(v.imag) < 1e-12
+                                   else v for v in ev))  # nroots' floats, within 1e-12
+    else:
+        pole_sets = [tuple(ps) for ps in (poles if poles is not None else default_poles(N, l))]
+        for ps in pole_sets:
+            if len(ps) != N:
+                raise UsageError(f"each pole set needs N = {N} poles, got {len(ps)}")
+        Ks = [gains_from_poles(ps) for ps in pole_sets]
+        pole_sets = [tuple(to_rational(v, "pole") for v in ps) for ps in pole_sets]
+    if len(Ks) != l:
+        raise UsageError(f"{l} filters are needed (one per unknown: {', '.join(labels)}),"
+                         f" {len(Ks)} given")
+    if len({tuple(K) for K in Ks}) != l:
+        raise UsageError("the gain vectors K must be distinct")
+    return pole_sets, Ks
+
+
+def _design_conditions(cls: DremClass, terms, pole_sets, Ks) -> list:
+    """The class, the filters, and Step 2: the parametrisation and the chain verified
+    symbolically."""
+    N = cls.N
+    conds = []
+    conds.append(Condition("model in the DREM class (A shift, C = e1, Q = Q(y))", True,
+                           f"N = {N}, Q(y) = {cls.Q.tolist()}, unknowns "
+                           f"{', '.join(map(str, cls.unknowns))}", REFERENCE))
+    for a, (ps, K) in enumerate(zip(pole_sets, Ks), 1):
+        conds.append(Condition(f"filter {a}: F = A − K Cᵀ Hurwitz", True,
+                               f"poles {', '.join(map(str, ps))}; K = {list(K)}", "METHOD §5"))
+    res = parametrisation_residual(N, [t.degree for t in cls.terms])
+    ok_par = all(e == 0 for e in res)
+    conds.append(Condition("ζ = x + Σ Ω_k V^(k−1) + Σ P_i θ^(i−1) + ε with ε' = F ε", ok_par,
+                           "verified symbolically for generic K (filters with − b, − P_i)",
+                           "seed 003 Statement 2"))
+    ok_chain = all(all(e == 0 for e in chain_error_residual(D))
+                   for D in sorted({t.length for t in terms}))
+    conds.append(Condition("gradient chain: ξ_i estimates φ^(i−1)(t)", ok_chain,
+                           "ξ̃_i' = ξ̃_{i+1} − γΔ²ξ̃_i verified symbolically",
+                           "seed 003 Statement 3, eq. (8)"))
+    if not (ok_par and ok_chain):  # pragma: no cover - the derivation is fixed
+        raise AssertionError("DREM derivation check failed")
+    return conds
+
+
+def _namer(model: PlantModel):
+    """The observer's state names, refused when one clashes with a model symbol."""
+    taken = {str(s) for s in model.states + model.inputs} | {str(p) for p in model.parameters}
+    taken |= {"y1"}
+
+    def sym(nm):
+        if nm in taken:
+            raise UsageError(f"observer state name '{nm}' clashes with a model symbol; rename it")
+        return sp.Symbol(nm)
+
+    return sym
+
+
+class _Bank:
+    """The observer's equations while they are built (not a value): states, their
+    updates and initial values, and the filter banks' states (ζ_a, P_a, the ε
+    regressors χ_a, E_1)."""
+
+    def __init__(self):
+        self.states, self.update, self.initial = [], [], {}
+        self.zeta, self.P, self.chi = [], [], []
+        self.E1 = None
+
+    def add(self, syms, rhs) -> None:
+        self.states += list(syms)
+        self.update += list(rhs)
+
+
+def _filter_states(cls: DremClass, Fs, Ks, include_epsilon: bool, sym) -> _Bank:
+    """Step 3: per filter a, ζ_a' = F_a ζ_a + K_a y + g and P_{a,r,k}' = F_a P_{a,r,k} −
+    (b_r or P_{a,r,k−1}); with ε, E_1' = F_1 E_1 (E_1(0) = I) and χ_a' = F_aᵀ χ_a
+    (χ_a(0) = e1) for a > 1."""
+    N, y = cls.N, cls.y
+    bank = _Bank()
+    g = sp.Matrix(cls.known)
+    for a in range(len(Ks)):
+        F, K = Fs[a], Ks[a]
+        z = sp.Matrix([sym(f"zeta{a + 1}_{i + 1}") for i in range(N)])
+        bank.zeta.append(z)
+        bank.add(z, F * z + K * y + g)
+        Pa = {}
+        for t in cls.terms:
+            prev = sp.Matrix(t.column)
+            for k in range(1, t.length + 1):
+                Pk = sp.Matrix([sym(f"P{a + 1}_{t.name}_{k}_{i + 1}") for i in range(N)])
+                bank.add(Pk, F * Pk - prev)
+                Pa[(t.name, k)] = Pk
+                prev = Pk
+        bank.P.append(Pa)
+        if not include_epsilon:
+            continue
+        if a == 0:
+            E = sp.Matrix(N, N, lambda i, j: sym(f"E1_{i + 1}_{j + 1}"))
+            bank.E1 = E
+            bank.add(E, F * E)
+            for i in range(N):
+                for j in range(N):
+                    bank.initial[E[i, j]] = 1 if i == j else 0
+            bank.chi.append(E.row(0))
+        else:
+            w = sp.Matrix([sym(f"chi{a + 1}_{i + 1}") for i in range(N)])
+            bank.add(w, F.T * w)
+            bank.initial[w[0]] = 1
+            bank.chi.append(w.T)
+    return bank
+
+
+def _mixing(cls: DremClass, terms, bank: _Bank, sym) -> tuple:
+    """Step 4: the regression Y = Φ ϑ (Y_a = Cᵀζ_a − y), mixed by Cramer (Δ, ρ), and the
+    estimator chains ξ appended to the bank: (Y, Φ, Δ, ξ, γ symbol)."""
+    l = len(bank.zeta)
+    Yv = sp.Matrix([bank.zeta[a][0] - cls.y for a in range(l)])
+    Phi = sp.zeros(l, l)
+    col = 0
+    for t in terms:
+        for k in range(1, t.length + 1):
+            for a in range(l):
+                if t.kind == "x0":
+                    Phi[a, col] = -bank.chi[a][terms.index(t) - len(cls.terms)]
+                else:
+                    Phi[a, col] = bank.P[a][(t.name, k)][0]
+            col += 1
+    Delta, rhos = determinants(Phi.row_join(Yv))
+    gsym = sp.Symbol("gamma")
+    xi = {}
+    col = 0
+    for t in terms:
+        for k in range(1, t.length + 1):
+            xi[(t.name, k)] = sym(f"xi_{t.name}_{k}")
+    for t in terms:
+        for k in range(1, t.length + 1):
+            s = xi[(t.name, k)]
+            nxt = xi[(t.name, k + 1)] if k < t.length else 0
+            bank.add([s], [nxt + gsym * Delta * (rhos[col] - Delta * s)])
+            col += 1
+    return Yv, Phi, Delta, xi, gsym
+
+
+def _drem_outputs(cls: DremClass, bank: _Bank, xi, clk, Delta, J, include_epsilon: bool,
+                  regression) -> list:
+    """Step 5: x̂, the polynomials and their derivatives, the coefficients (from the
+    clock), x(0) with ε, Δ and ∫Δ²; ``regression`` (Y, Φ) when exposed."""
+    xhat = bank.zeta[0]
+    for t in cls.terms:
+        for k in range(1, t.length + 1):
+            xhat = xhat - bank.P[0][(t.name, k)] * xi[(t.name, k)]
+    if include_epsilon:
+        x0hat = sp.Matrix([xi[(f"{x}_0", 1)] for x in cls.states])
+        xhat = xhat + bank.E1 * x0hat
+    outputs = [(f"{x}_hat", xhat[i]) for i, x in enumerate(cls.states)]
+    for t in cls.terms:
+        outputs.append((f"{t.name}_hat", xi[(t.name, 1)]))
+        for k in range(2, t.length + 1):
+            outputs.append((f"{t.name}_d{k - 1}_hat", xi[(t.name, k)]))
+    for t in cls.terms:
+        d = t.degree
+        for i, s, f in t.coefficients:
+            ci = sum(xi[(t.name, j + 1)] * (-clk) ** (j - i) / (math.factorial(i) * math.factorial(j - i))
+                     for j in range(i, d + 1))
+            outputs.append((f"{s}_hat", sp.expand(ci / f)))
+    if include_epsilon:
+        outputs += [(f"{x}_0_hat", xi[(f"{x}_0", 1)]) for x in cls.states]
+    outputs.append(("Delta", Delta))
+    outputs.append(("Delta2_integral", J))
+    if regression is not None:
+        Yv, Phi = regression
+        l = Yv.rows
+        outputs += [(f"Y{a + 1}", Yv[a]) for a in range(l)]
+        outputs += [(f"Phi{a + 1}_{c + 1}", Phi[a, c]) for a in range(l) for c in range(l)]
+    return outputs
+
+
 def drem_design(model: PlantModel, spec: DremSpec, *, poles=None, gains=None, gamma=None,
                 include_epsilon: bool = False, expose_regression: bool = False,
                 name: str | None = None) -> DremDesign:
@@ -679,168 +542,25 @@ def drem_design(model: PlantModel, spec: DremSpec, *, poles=None, gains=None, ga
     gam = to_rational(gamma, "gamma")
     if not gam > 0:
         raise UsageError(f"gamma must be positive, got {gamma}")
-    # Step 1: l distinct gain vectors, F_a Hurwitz, poles reported
-    if gains is not None and poles is not None:
-        raise UsageError("give poles or gains, not both")
-    if gains is not None:
-        Ks = [sp.Matrix([to_rational(v, "gain") for v in K]) for K in gains]
-        for K in Ks:
-            if K.shape != (N, 1):
-                raise UsageError(f"each gain vector needs {N} entries")
-        pole_sets = []
-        for K in Ks:
-            F = shift_matrix(N) - K * sp.eye(N)[0, :]
-            ev = [complex(v) for v in sp.Poly(F.charpoly(sp.Symbol("s")).as_expr(),
-                                              sp.Symbol("s")).nroots()]
-            if max(v.real for v in ev) >= 0:
-                raise UsageError(f"gain K = {list(K)}: A − K Cᵀ is not Hurwitz (poles {ev})")
-            pole_sets.append(tuple(rational_approximation(v.real, 1e-12) if abs(v.imag) < 1e-12
-                                   else v for v in ev))  # nroots' floats, within 1e-12
-    else:
-        pole_sets = [tuple(ps) for ps in (poles if poles is not None else default_poles(N, l))]
-        for ps in pole_sets:
-            if len(ps) != N:
-                raise UsageError(f"each pole set needs N = {N} poles, got {len(ps)}")
-        Ks = [gains_from_poles(ps) for ps in pole_sets]
-        pole_sets = [tuple(to_rational(v, "pole") for v in ps) for ps in pole_sets]
-    if len(Ks) != l:
-        raise UsageError(f"{l} filters are needed (one per unknown: {', '.join(labels)}),"
-                         f" {len(Ks)} given")
-    if len({tuple(K) for K in Ks}) != l:
-        raise UsageError("the gain vectors K must be distinct")
-    A = shift_matrix(N)
-    e1 = sp.eye(N)[0, :]
-    Fs = [A - K * e1 for K in Ks]
-    conds = []
-    conds.append(Condition("model in the DREM class (A shift, C = e1, Q = Q(y))", True,
-                           f"N = {N}, Q(y) = {cls.Q.tolist()}, unknowns "
-                           f"{', '.join(map(str, cls.unknowns))}", REFERENCE))
-    for a, (ps, K) in enumerate(zip(pole_sets, Ks), 1):
-        conds.append(Condition(f"filter {a}: F = A − K Cᵀ Hurwitz", True,
-                               f"poles {', '.join(map(str, ps))}; K = {list(K)}", "METHOD §5"))
-    # Step 2: symbolic verification of the parametrisation and of the chain
-    res = parametrisation_residual(N, [t.degree for t in cls.terms])
-    ok_par = all(e == 0 for e in res)
-    conds.append(Condition("ζ = x + Σ Ω_k V^(k−1) + Σ P_i θ^(i−1) + ε with ε' = F ε", ok_par,
-                           "verified symbolically for generic K (filters with − b, − P_i)",
-                           "seed 003 Statement 2"))
-    ok_chain = all(all(e == 0 for e in chain_error_residual(D))
-                   for D in sorted({t.length for t in terms}))
-    conds.append(Condition("gradient chain: ξ_i estimates φ^(i−1)(t)", ok_chain,
-                           "ξ̃_i' = ξ̃_{i+1} − γΔ²ξ̃_i verified symbolically",
-                           "seed 003 Statement 3, eq. (8)"))
-    if not (ok_par and ok_chain):  # pragma: no cover - the derivation is fixed
-        raise AssertionError("DREM derivation check failed")
-    # Step 3: observer states
-    taken = {str(s) for s in model.states + model.inputs} | {str(p) for p in model.parameters}
-    taken |= {"y1"}
-    u, y = cls.input, cls.y
-
-    def sym(nm):
-        if nm in taken:
-            raise UsageError(f"observer state name '{nm}' clashes with a model symbol; rename it")
-        return sp.Symbol(nm)
-
-    states, update, initial = [], [], {}
-    zeta, P, chi, E1 = [], [], [], None
-    g = sp.Matrix(cls.known)
-    for a in range(l):
-        F, K = Fs[a], Ks[a]
-        z = sp.Matrix([sym(f"zeta{a + 1}_{i + 1}") for i in range(N)])
-        zeta.append(z)
-        states += list(z)
-        update += list(F * z + K * y + g)
-        Pa = {}
-        for t in cls.terms:
-            prev = sp.Matrix(t.column)
-            for k in range(1, t.length + 1):
-                Pk = sp.Matrix([sym(f"P{a + 1}_{t.name}_{k}_{i + 1}") for i in range(N)])
-                states += list(Pk)
-                update += list(F * Pk - prev)
-                Pa[(t.name, k)] = Pk
-                prev = Pk
-        P.append(Pa)
-        if include_epsilon:
-            if a == 0:
-                E = sp.Matrix(N, N, lambda i, j: sym(f"E1_{i + 1}_{j + 1}"))
-                E1 = E
-                states += list(E)
-                update += list(F * E)
-                for i in range(N):
-                    for j in range(N):
-                        initial[E[i, j]] = 1 if i == j else 0
-                chi.append(E.row(0))
-            else:
-                w = sp.Matrix([sym(f"chi{a + 1}_{i + 1}") for i in range(N)])
-                states += list(w)
-                update += list(F.T * w)
-                initial[w[0]] = 1
-                chi.append(w.T)
-    # Step 4: the regression rows, the mixing
-    Yv = sp.Matrix([zeta[a][0] - y for a in range(l)])
-    Phi = sp.zeros(l, l)
-    col = 0
-    for t in terms:
-        for k in range(1, t.length + 1):
-            for a in range(l):
-                if t.kind == "x0":
-                    Phi[a, col] = -chi[a][terms.index(t) - len(cls.terms)]
-                else:
-                    Phi[a, col] = P[a][(t.name, k)][0]
-            col += 1
-    Delta, rhos = determinants(Phi.row_join(Yv))
-    gsym = sp.Symbol("gamma")
-    xi = {}
-    col = 0
-    for t in terms:
-        for k in range(1, t.length + 1):
-            xi[(t.name, k)] = sym(f"xi_{t.name}_{k}")
-    for t in terms:
-        for k in range(1, t.length + 1):
-            s = xi[(t.name, k)]
-            nxt = xi[(t.name, k + 1)] if k < t.length else 0
-            states.append(s)
-            update.append(nxt + gsym * Delta * (rhos[col] - Delta * s))
-            col += 1
+    pole_sets, Ks = _filters(N, l, labels, poles, gains)
+    Fs = [shift_matrix(N) - K * sp.eye(N)[0, :] for K in Ks]
+    conds = _design_conditions(cls, terms, pole_sets, Ks)
+    sym = _namer(model)
+    bank = _filter_states(cls, Fs, Ks, include_epsilon, sym)
+    Yv, Phi, Delta, xi, gsym = _mixing(cls, terms, bank, sym)
     clk = sym(f"{cls.clock}_obs")
-    states.append(clk)
-    update.append(sp.Integer(1))
-    initial[clk] = cls.clock  # the plant clock's initial value
+    bank.add([clk], [sp.Integer(1)])
+    bank.initial[clk] = cls.clock  # the plant clock's initial value
     J = sym("J_Delta2")
-    states.append(J)
-    update.append(Delta ** 2)
-    # Step 5: outputs: x̂, the polynomials and their derivatives, the coefficients
-    xhat = zeta[0]
-    for t in cls.terms:
-        for k in range(1, t.length + 1):
-            xhat = xhat - P[0][(t.name, k)] * xi[(t.name, k)]
-    if include_epsilon:
-        x0hat = sp.Matrix([xi[(f"{x}_0", 1)] for x in cls.states])
-        xhat = xhat + E1 * x0hat
-    outputs = [(f"{x}_hat", xhat[i]) for i, x in enumerate(cls.states)]
-    for t in cls.terms:
-        outputs.append((f"{t.name}_hat", xi[(t.name, 1)]))
-        for k in range(2, t.length + 1):
-            outputs.append((f"{t.name}_d{k - 1}_hat", xi[(t.name, k)]))
-    for t in cls.terms:
-        d = t.degree
-        for i, s, f in t.coefficients:
-            ci = sum(xi[(t.name, j + 1)] * (-clk) ** (j - i) / (math.factorial(i) * math.factorial(j - i))
-                     for j in range(i, d + 1))
-            outputs.append((f"{s}_hat", sp.expand(ci / f)))
-    if include_epsilon:
-        outputs += [(f"{x}_0_hat", xi[(f"{x}_0", 1)]) for x in cls.states]
-    outputs.append(("Delta", Delta))
-    outputs.append(("Delta2_integral", J))
-    if expose_regression:
-        outputs += [(f"Y{a + 1}", Yv[a]) for a in range(l)]
-        outputs += [(f"Phi{a + 1}_{c + 1}", Phi[a, c]) for a in range(l) for c in range(l)]
-    for s in states:
-        initial.setdefault(s, 0)
+    bank.add([J], [Delta ** 2])
+    outputs = _drem_outputs(cls, bank, xi, clk, Delta, J, include_epsilon,
+                            (Yv, Phi) if expose_regression else None)
+    for s in bank.states:
+        bank.initial.setdefault(s, 0)
     ob = Observer(
         name=name or f"{model.name}_drem", kind="drem", time="continuous",
-        states=tuple(states), signals=(y, u), parameters={gsym: gam},
-        update=tuple(update), outputs=tuple(outputs), initial=initial,
+        states=tuple(bank.states), signals=(cls.y, cls.input), parameters={gsym: gam},
+        update=tuple(bank.update), outputs=tuple(outputs), initial=bank.initial,
         conditions=tuple(conds),
         assumptions=("Δ(t) not square-integrable (excitation; checked after simulation by"
                      " excitation_report)",),
@@ -854,117 +574,3 @@ def drem_design(model: PlantModel, spec: DremSpec, *, poles=None, gains=None, ga
 def drem_observer(model: PlantModel, spec: DremSpec, **options) -> Observer:
     """The DREM observer (kind ``"drem"``); options as :func:`drem_design`."""
     return drem_design(model, spec, **options).observer
-
-
-# =============================================================== truth, excitation
-def true_unknowns(cls: DremClass, t: np.ndarray, *, x0=None) -> np.ndarray:
-    """ϑ(t) from the model's parameter values: rows in the order of the unknowns,
-    (derivatives of) each polynomial at the plant clock t (clock initial value 0)."""
-    t = np.asarray(t, dtype=float)
-    tau = sp.Symbol("_tau")
-    rows = []
-    for term in cls.terms:
-        e = term.poly.xreplace(dict(cls.truth)).xreplace({cls.clock: tau})
-        for k in range(term.length):
-            f = sp.lambdify(tau, sp.diff(e, tau, k), "numpy")
-            rows.append(np.broadcast_to(np.asarray(f(t), dtype=float), t.shape))
-    if x0 is not None:
-        rows += [np.full(t.shape, float(v)) for v in x0]
-    return np.array(rows)
-
-
-@dataclasses.dataclass(frozen=True)
-class ExcitationReport:
-    """Windowed excitation of Δ: the contraction exponent γ ∫Δ² dt per window."""
-
-    ok: bool
-    message: str
-    window: float
-    windows: tuple  # of (t0, t1, γ∫Δ² on the window, max|Δ| on the window)
-    cumulative: float  # γ ∫Δ² over the whole run
-    min_contraction: float
-    stiffness: float  # max γΔ² · dt (explicit RK4 needs < 2.78)
-
-    def to_json(self) -> dict:
-        return {"ok": self.ok, "message": self.message, "window": self.window,
-                "cumulative": self.cumulative, "min_contraction": self.min_contraction,
-                "stiffness": self.stiffness, "windows": [list(w) for w in self.windows]}
-
-
-def excitation_report(result, observer: Observer, *, window: float = 5.0,
-                      min_contraction: float = 1.0, t_from: float | None = None) -> ExcitationReport:
-    """Check Δ after a simulation (``result`` from :func:`observer_cad.simulation.simulate`).
-
-    The last chain error obeys ξ̃' = −γΔ²ξ̃: over a window it shrinks by
-    exp(−γ ∫Δ² dt). Windows of length ``window`` are laid from ``t_from`` (default: one
-    window after the start, past the filters' charging). Excitation is **insufficient**
-    when the last window's exponent is below ``min_contraction`` (default 1: less than
-    one e-fold per window), i.e. Δ has stayed near zero; the message then names the
-    window, max|Δ| on it and the cumulative exponent γ∫Δ² of the whole run (large: the
-    estimates converged earlier and now coast on the polynomial model uncorrected;
-    small: they never converged). ``stiffness`` = max γΔ²·dt (explicit RK4 with step dt
-    is unstable on the chain above ≈ 2.78; a warning is appended).
-    """
-    if observer.kind != "drem":
-        raise UsageError(f"excitation_report needs a DREM observer, got kind {observer.kind!r}")
-    t = np.asarray(result["t"], dtype=float)
-    D = np.asarray(result["Delta"], dtype=float)
-    if t.ndim != 1:
-        raise UsageError("excitation_report takes a single run")
-    gam = float(observer.parameters[sp.Symbol("gamma")])
-    t0 = t[0] + window if t_from is None else float(t_from)
-    wins = []
-    a = t0
-    while a + window <= t[-1] + 1e-9:
-        m = (t >= a - 1e-12) & (t <= a + window + 1e-12)
-        if m.sum() >= 2:
-            integ = gam * float(np.trapezoid(D[m] ** 2, t[m]))
-            wins.append((float(a), float(a + window), integ, float(np.max(np.abs(D[m])))))
-        a += window
-    if not wins:
-        raise UsageError(f"the simulation ({t[-1] - t[0]:g} s) is shorter than one window"
-                         f" ({window:g} s) after t = {t0:g}")
-    cumulative = gam * float(np.trapezoid(D ** 2, t))
-    dt = float(np.min(np.diff(t)))
-    stiff = gam * float(np.max(D ** 2)) * dt
-    good = sum(1 for w in wins if w[2] >= min_contraction)
-    last = wins[-1]
-    ok = last[2] >= min_contraction
-    if ok:
-        msg = (f"excitation sufficient: γ∫Δ² = {last[2]:.3g} ≥ {min_contraction:g} on"
-               f" [{last[0]:g}, {last[1]:g}] s ({good}/{len(wins)} windows; whole run"
-               f" {cumulative:.3g})")
-    else:
-        msg = (f"insufficient excitation: γ∫Δ² = {last[2]:.3g} < {min_contraction:g} on"
-               f" [{last[0]:g}, {last[1]:g}] s (max |Δ| = {last[3]:.3g}): Δ(t) is near zero and"
-               f" the DREM estimates are not being corrected (whole run γ∫Δ² = {cumulative:.3g}"
-               + ("; they never converged" if cumulative < 10 * min_contraction else
-                  "; they may have converged earlier") +
-               ") — use a richer input (several frequencies) or a larger gamma")
-    if stiff > 2.78:
-        msg += f"; warning: γΔ²·dt reaches {stiff:.3g} > 2.78 (RK4 unstable: smaller dt or gamma)"
-    return ExcitationReport(ok=ok, message=msg, window=float(window), windows=tuple(wins),
-                            cumulative=cumulative, min_contraction=float(min_contraction),
-                            stiffness=stiff)
-
-
-def suggest_gamma(result, *, safety: float = 0.5, t_from: float = 0.0) -> float:
-    """γ = safety · 2.78 / (dt · max Δ²) from a pilot run (Δ does not depend on γ: the
-    filters do not read the estimates), so that explicit RK4 with the run's step stays
-    stable on the chain (γΔ²·dt < 2.78) while converging as fast as it allows."""
-    t = np.asarray(result["t"], dtype=float)
-    D = np.asarray(result["Delta"], dtype=float)
-    m = t >= t_from
-    peak = float(np.max(D[m] ** 2)) if m.any() else 0.0
-    if not peak > 0:
-        raise ExcitationError("Δ is identically zero on the pilot run: no excitation, no gain helps")
-    dt = float(np.min(np.diff(t)))
-    return safety * 2.78 / (dt * peak)
-
-
-def check_excitation(result, observer: Observer, **options) -> ExcitationReport:
-    """:func:`excitation_report`, raising :class:`ExcitationError` when insufficient."""
-    rep = excitation_report(result, observer, **options)
-    if not rep.ok:
-        raise ExcitationError(rep.message)
-    return rep

@@ -47,10 +47,8 @@ every γ, M and α(M) / ρ(M). Both are listed as required conditions (METHOD §
 
 Outputs: z̲ = H_z⁺ x̲* − H_z⁻ x̄* + Q y − max(Q W w), z̄ likewise.
 
-:func:`full_state_intervals`: with H = (H0 0) up to a permutation of the states, the
-measured states come from y through H0⁻¹ (⁺/⁻ split of H0⁻¹ over the noise box — the
-split removes the assumption H0⁻¹ ≥ 0, which is reported), the others from an
-interval observer for z = (the unmeasured states).
+The γ-shift decomposition lives in :mod:`._interval_decomposition`; full-state intervals
+(measured states from y, the others from an interval observer) in :mod:`._full_state`.
 """
 from __future__ import annotations
 
@@ -59,23 +57,25 @@ import dataclasses
 import sympy as sp
 
 from ..synthesis import Condition, Design
-from ..errors import InfeasibleDesignError, ModelError, UsageError
+from ..errors import ModelError, UsageError
 from ..model import PlantModel
 from ._observer import Observer, output_symbols
-from ..numerics import box_max, box_min, comparison_stability, neg, pos, rationalize_floats
-from ..model import extract_structure
+from ..numerics import box_max, box_min, neg, pos, rationalize_floats
 from ..analysis import (Domain, RangeAnalyzer, argument_range, derivative_range, format_number,
                         interval_scale, lipschitz, nonlinear_conditions, range_sign,
                         reduced_nonlinearity)
+from ._interval_decomposition import decomposed_row, decomposition_conditions, interval_text
 
-__all__ = ["interval_observer_nonlinear", "full_state_intervals"]
+__all__ = ["interval_observer_nonlinear"]
 
 
 def _work(model: PlantModel) -> PlantModel:
     return model.substitute_parameters() if model.parameters else model
 
 
-def _box(model, syms, what):
+def bounds_box(model, syms, what):
+    """(lows, highs) of the declared bounds of ``syms``; a one-line ModelError naming the
+    first symbol without bounds."""
     lo, hi = [], []
     for s in syms:
         if s not in model.bounds:
@@ -85,10 +85,6 @@ def _box(model, syms, what):
         lo.append(a)
         hi.append(b)
     return sp.Matrix(lo), sp.Matrix(hi)
-
-
-def _fmt_iv(lo, hi):
-    return f"[{format_number(lo)}, {format_number(hi)}]"
 
 
 def _clip(arg, lo, hi):
@@ -112,6 +108,396 @@ def _output_names(model, M):
         else:
             names.append("z" if M.rows == 1 else f"z{i + 1}")
     return names
+
+
+@dataclasses.dataclass(frozen=True)
+class _Reduced:
+    """The reduced model an interval observer bounds (module docstring): its symbols
+    (x*, the measured y, the noise-free ỹ, u, the two copies x̲*, x̄*), matrices, the
+    unknown inputs' box through Φ [L D], the noise box of ỹ − y, and the nonlinear
+    terms on their clipped extension."""
+
+    time: str
+    k: int
+    l: int
+    Fs: sp.Matrix
+    Js: sp.Matrix
+    Gs: sp.Matrix
+    Phi: sp.Matrix
+    Hz: sp.Matrix
+    Q: sp.Matrix
+    H: sp.Matrix
+    W: sp.Matrix
+    xs: list
+    ys: list
+    yt: list
+    us: list
+    xl: list
+    xu: list
+    unk: list  # unknown inputs entering the reduced model
+    Bu: sp.Matrix  # Φ [L D] restricted to them
+    ulo: sp.Matrix | None
+    uhi: sp.Matrix | None
+    bmin: sp.Matrix  # min / max of Bu times the unknown inputs, per row
+    bmax: sp.Matrix
+    wlo: sp.Matrix  # the noise box
+    whi: sp.Matrix
+    off_lo: sp.Matrix  # ỹ − y = −W w ∈ [off_lo, off_hi]
+    off_hi: sp.Matrix
+    terms: list  # (j, C*_col, arg (in xs, yt), clipped arg, phi(s), s, φ' range (lo, hi, kind))
+    args_info: list  # (j, argument text, its range (lo, hi), φ' range (lo, hi, kind))
+
+    def f_row(self, i, xv, yv):
+        """f_i at states xv, outputs yv (lists of expressions)."""
+        k, l, us = self.k, self.l, self.us
+        sub = dict(zip(self.xs, xv))
+        sub.update(dict(zip(self.yt, yv)))
+        e = sum((self.Fs[i, j] * xv[j] for j in range(k)), sp.Integer(0))
+        e += sum((self.Js[i, m] * yv[m] for m in range(l)), sp.Integer(0))
+        e += sum((self.Gs[i, m] * us[m] for m in range(len(us))), sp.Integer(0))
+        for (_, ccol, _, carg, fn, s, _) in self.terms:
+            if ccol[i] != 0:
+                e += ccol[i] * fn.xreplace({s: carg.xreplace(sub)})
+        return e
+
+    def d_range(self, i, v, only=None):
+        """Range of ∂f_i/∂v (v a state or ỹ symbol) on the clipped extension."""
+        if v in self.xs:
+            lin = self.Fs[i, self.xs.index(v)]
+        else:
+            lin = self.Js[i, self.yt.index(v)]
+        lo = hi = sp.sympify(lin) if only is None else sp.Integer(0)
+        kinds = set()
+        for (j, ccol, arg, _, _, _, (plo, phi_, pkind)) in self.terms:
+            if only is not None and j != only:
+                continue
+            c = ccol[i] * sp.diff(arg, v)
+            if c == 0:
+                continue
+            a, b = interval_scale(c, (plo, phi_))
+            lo, hi = lo + a, hi + b
+            kinds.add(pkind)
+        return sp.sympify(lo), sp.sympify(hi), kinds
+
+
+@dataclasses.dataclass(frozen=True)
+class _Row:
+    """How row i is bounded: the lower and upper right-hand sides (before the unknown
+    inputs' box is added), the sign of ∂f_i/∂v per argument, how (``"joint"``,
+    ``"per-term"``, ``"decomposed"``), the noise margin's text, the conditions a user
+    margin adds, the γ-shifts, whether some sign is known from samples only."""
+
+    lower: sp.Expr
+    upper: sp.Expr
+    signs: dict
+    how: str
+    margin: str
+    notes: tuple = ()
+    shifts: tuple = ()
+    sampled: bool = False
+
+
+def _check_design(design: Design) -> None:
+    if design.matrices.Hz is None or design.matrices.Phi is None:
+        raise UsageError("interval_observer_nonlinear needs a design with z = H_z x* + Q y"
+                         " (design_jordan(..., observer='interval', estimate=...))")
+    if design.symbolic:
+        raise UsageError("interval_observer_nonlinear needs a numeric design (the signs of"
+                         " its matrices decide the bounds); design without --symbolic")
+    if design.matrices.K is not None:
+        raise UsageError("interval_observer_nonlinear takes the reduced model without output"
+                         " feedback (a Jordan design); this design has a gain K")
+
+
+def _unknown_inputs(work, st, Phi, k):
+    """The unknown inputs entering the reduced model through Φ L ρ + Φ D d, their box and
+    the per-row min / max of that term: (names, Φ [L D] on them, lo, hi, min, max)."""
+    unk = [s for s in work.disturbances] + [s for s in work.faults]
+    Bu = Phi * sp.Matrix.hstack(sp.Matrix(st.L), sp.Matrix(st.D)) if unk else sp.zeros(k, 0)
+    Bu = Bu.applyfunc(rationalize_floats)  # floats (float designs) only: exact stays exact
+    used = [j for j in range(Bu.cols) if any(Bu[i, j] != 0 for i in range(k))]
+    Bu = Bu.extract(list(range(k)), used) if used else sp.zeros(k, 0)
+    unk = [unk[j] for j in used]
+    ulo = uhi = None
+    if unk:
+        ulo, uhi = bounds_box(work, unk, "the unknown input")
+        bmin, bmax = box_min(Bu, ulo, uhi), box_max(Bu, ulo, uhi)
+    else:
+        bmin = bmax = sp.zeros(k, 1)
+    return unk, Bu, ulo, uhi, bmin, bmax
+
+
+def _noise_offsets(work, W, l):
+    """The noise box and the range of ỹ − y = −W w: (w lo, w hi, offset lo, offset hi)."""
+    if W.cols:
+        wlo, whi = bounds_box(work, work.noise, "noise")
+        return wlo, whi, -box_max(W, wlo, whi), -box_min(W, wlo, whi)
+    wlo = whi = sp.zeros(0, 1)
+    off_lo = off_hi = sp.zeros(l, 1)
+    return wlo, whi, off_lo, off_hi
+
+
+def _nonlinear_terms(work, d, st, xs, yt, dom):
+    """φ_j of every nonlinear term with its argument, the argument clipped to its range
+    over the domain and the range of φ_j' on the clipped extension: (terms, args_info)
+    as :class:`_Reduced` holds them."""
+    terms, args_info = [], []
+    if not d.nonlinear:
+        return terms, args_info
+    k, l = d.k, len(yt)
+    Cs = sp.Matrix(d.matrices.C_star)
+    in_ranges = {u: work.bounds[u] for u in work.inputs if u in work.bounds}
+    for ns in d.nonlinear:
+        t = st.terms[ns.index - 1]
+        A1, A2 = sp.Matrix(ns.A1), sp.Matrix(ns.A2)
+        arg = ((A1 * sp.Matrix(xs))[0, 0] if k else 0) + ((A2 * sp.Matrix(yt))[0, 0] if l else 0)
+        lo, hi = argument_range(work, t.row, dom)
+        plo, phi_, pkind = _derivative_range(t.function, t.argument, lo, hi, in_ranges)
+        if lo != -sp.oo or hi != sp.oo:  # clipped outside the range: derivative 0 there
+            plo, phi_ = sp.Min(plo, 0), sp.Max(phi_, 0)
+        terms.append((ns.index, Cs[:, ns.index - 1], sp.expand(arg), _clip(arg, lo, hi),
+                      t.function, t.argument, (plo, phi_, pkind)))
+        args_info.append((ns.index, str(sp.expand(arg)), (lo, hi), (plo, phi_, pkind)))
+    return terms, args_info
+
+
+def _reduced(work: PlantModel, d: Design, dom) -> _Reduced:
+    """The reduced model of a Jordan design as the interval observer needs it."""
+    st = d.structure  # extracted once, by the design (parameters substituted)
+    k, l = d.k, len(work.outputs)
+    m = d.matrices
+    Phi = sp.Matrix(m.Phi)
+    W = sp.Matrix(st.W)
+    xs = list(d.observer_states) or list(sp.symbols(f"xs1:{k + 1}"))
+    yt = list(sp.symbols(f"ytilde1:{l + 1}"))  # noise-free outputs H x
+    unk, Bu, ulo, uhi, bmin, bmax = _unknown_inputs(work, st, Phi, k)
+    wlo, whi, off_lo, off_hi = _noise_offsets(work, W, l)
+    terms, args_info = _nonlinear_terms(work, d, st, xs, yt, dom)
+    return _Reduced(
+        time=work.time, k=k, l=l, Fs=sp.Matrix(m.F_star), Js=sp.Matrix(m.J_star),
+        Gs=sp.Matrix(m.G_star), Phi=Phi, Hz=sp.Matrix(m.Hz), Q=sp.Matrix(m.Q),
+        H=sp.Matrix(st.H), W=W, xs=xs, ys=list(output_symbols(l)), yt=yt,
+        us=list(work.inputs), xl=list(sp.symbols(f"xl1:{k + 1}")),
+        xu=list(sp.symbols(f"xu1:{k + 1}")), unk=unk, Bu=Bu, ulo=ulo, uhi=uhi, bmin=bmin,
+        bmax=bmax, wlo=wlo, whi=whi, off_lo=off_lo, off_hi=off_hi, terms=terms,
+        args_info=args_info)
+
+
+def _margin_mode(margin, k):
+    """("exact" | "lipschitz" | "user", the user's margins per row or None)."""
+    if margin is None or margin == "exact":
+        return "exact", None
+    if margin == "lipschitz":
+        return "lipschitz", None
+    vals = list(margin) if isinstance(margin, (list, tuple)) else [margin] * k
+    if len(vals) != k:
+        raise UsageError(f"margin: give one value or {k} values")
+    return "user", [rationalize_floats(v) for v in vals]
+
+
+def _state_ends(red: _Reduced, i, sg):
+    """The copies' states row i is evaluated at for its lower and upper bound: x̲*_j where
+    ∂f_i/∂x*_j is not ≤ 0, x̄*_j where it is (x*_i itself stays on its own copy in
+    continuous time), and the reverse."""
+    k, time, xs, xl, xu = red.k, red.time, red.xs, red.xl, red.xu
+    lo_x = [xl[j] if (j == i and time == "continuous") or sg[xs[j]] != "-" else xu[j]
+            for j in range(k)]
+    hi_x = [xu[j] if (j == i and time == "continuous") or sg[xs[j]] != "-" else xl[j]
+            for j in range(k)]
+    return lo_x, hi_x
+
+
+def _joint_exact(red: _Reduced, i, sg) -> tuple:
+    """Row i sign-definite jointly: the exact worst case over the noise box (the ends of
+    ỹ by the signs of ∂f_i/∂ỹ). Returns (lower, upper)."""
+    lo_x, hi_x = _state_ends(red, i, sg)
+    ys, yt, off_lo, off_hi = red.ys, red.yt, red.off_lo, red.off_hi
+    lo_y = [ys[m] + (off_lo[m] if sg[yt[m]] != "-" else off_hi[m]) for m in range(red.l)]
+    hi_y = [ys[m] + (off_hi[m] if sg[yt[m]] != "-" else off_lo[m]) for m in range(red.l)]
+    return red.f_row(i, lo_x, lo_y), red.f_row(i, hi_x, hi_y)
+
+
+def _joint_lipschitz(red: _Reduced, i, sg, rng) -> tuple:
+    """Row i sign-definite in the states, the noise by f_i(x, y) ∓ Σ_k K_ik r_k with
+    K_ik = sup|∂f_i/∂ỹ_k|. Returns (lower, upper, margin text)."""
+    lo_x, hi_x = _state_ends(red, i, sg)
+    l, yt, ys = red.l, red.yt, red.ys
+    r = [sp.Max(abs(red.off_lo[m]), abs(red.off_hi[m])) for m in range(l)]
+    K = []
+    for m in range(l):
+        lo, hi = rng[yt[m]]
+        if lo == -sp.oo or hi == sp.oo:
+            raise UsageError(
+                f"margin='lipschitz': ∂f{i + 1}/∂y{m + 1} is unbounded on the clipped"
+                f" extension (range {interval_text(lo, hi)}): not Lipschitz in y; use the"
+                " exact worst case (margin=None)")
+        K.append(sp.Max(abs(lo), abs(hi)))
+    mg = sum((K[m] * r[m] for m in range(l)), sp.Integer(0))
+    text = f"Σ_k K_k r_k = {format_number(mg)} with K = {[format_number(v) for v in K]}"
+    return red.f_row(i, lo_x, ys) - mg, red.f_row(i, hi_x, ys) + mg, text
+
+
+def _joint_user(red: _Reduced, i, sg, mg) -> tuple:
+    """Row i sign-definite in the states, the noise by the user's k* w* for the nonlinear
+    part plus |J*| W w* for the linear one; a condition compares k* w* with the Lipschitz
+    bound when there is one. Returns (lower, upper, margin text, condition)."""
+    lo_x, hi_x = _state_ends(red, i, sg)
+    W, wlo, whi = red.W, red.wlo, red.whi
+    r = [sp.Max(abs(red.off_lo[m]), abs(red.off_hi[m])) for m in range(red.l)]
+    Jw = (-red.Js[i, :] * W) if W.cols else sp.zeros(1, 0)
+    jmin = box_min(Jw, wlo, whi)[0] if W.cols else 0
+    jmax = box_max(Jw, wlo, whi)[0] if W.cols else 0
+    # the Lipschitz bound of the nonlinear part in y, for comparison
+    bound = _nonlinear_y_bound(red, i, r)
+    name = f"row {i + 1}: the given margin k* w* = {mg} covers the noise through Ψ*"
+    if bound is None:
+        note = Condition(name, False, "not verifiable: C*Ψ* is not Lipschitz in y on the"
+                         " clipped extension (√ at 0); the inclusion is not guaranteed — use"
+                         " margin=None", "seed 002 §6", required=True)
+    else:
+        note = Condition(name, bool(mg >= bound), f"Lipschitz bound of the nonlinear part:"
+                         f" Σ_k k*_k r_k = {format_number(bound)}", "seed 002 §6", required=True)
+    return (red.f_row(i, lo_x, red.ys) + jmin - mg, red.f_row(i, hi_x, red.ys) + jmax + mg,
+            f"user k* w* = {mg} plus |J*| W w*", note)
+
+
+def _row(red: _Reduced, i, mode, user, decomposition) -> _Row:
+    """Row i bounded: jointly by the signs of ∂f_i/∂v when they are definite, else term
+    by term, else by the γ-shift decomposition (unless ``decomposition="none"``)."""
+    sg, rng, sampled = {}, {}, False
+    for v in red.xs + red.yt:
+        lo, hi, kinds = red.d_range(i, v)
+        rng[v] = (lo, hi)
+        sampled = sampled or "sampled" in kinds
+        sg[v] = range_sign(lo, hi)
+    signs = {str(v): sg[v] for v in red.xs + red.yt}
+    x_need = [v for j, v in enumerate(red.xs) if j != i or red.time == "discrete"]
+    joint_ok = all(sg[v] in ("+", "-", "0") for v in x_need)
+    y_ok = all(sg[v] in ("+", "-", "0") for v in red.yt)
+    if mode == "exact" and joint_ok and y_ok:
+        lo_e, hi_e = _joint_exact(red, i, sg)
+        return _Row(lo_e, hi_e, signs, "joint", "exact worst case over the noise box (corners"
+                    " by the signs of ∂f/∂ỹ)", sampled=sampled)
+    if mode == "lipschitz" and joint_ok:
+        lo_e, hi_e, text = _joint_lipschitz(red, i, sg, rng)
+        return _Row(lo_e, hi_e, signs, "joint", text, sampled=sampled)
+    if mode == "user" and joint_ok:
+        lo_e, hi_e, text, note = _joint_user(red, i, sg, user[i])
+        return _Row(lo_e, hi_e, signs, "joint", text, (note,), sampled=sampled)
+    # ---- per-term fallback, then the γ-shift decomposition
+    try:
+        lo_e, hi_e = _per_term(red, i)
+        return _Row(lo_e, hi_e, signs, "per-term", "exact worst case per term (each φ_j"
+                    " monotone in its argument)", sampled=sampled)
+    except _NotMonotone:
+        if decomposition == "none":
+            raise
+    lo_e, hi_e, row_shifts = decomposed_row(red, i)
+    return _Row(lo_e, hi_e, signs, "decomposed", "exact worst case over the noise box after"
+                " the γ-shift", shifts=tuple(row_shifts), sampled=sampled)
+
+
+def _bounded_outputs(work, red: _Reduced) -> tuple:
+    """z̲ = H_z⁺ x̲* − H_z⁻ x̄* + Q y − max(Q W w), z̄ likewise: (names, outputs)."""
+    Hz, Q = red.Hz, red.Q
+    M = (Hz * red.Phi + Q * red.H).applyfunc(rationalize_floats)
+    Hp, Hm = pos(Hz), neg(Hz)
+    QW = Q * red.W
+    if QW.cols:
+        qmin, qmax = box_min(QW, red.wlo, red.whi), box_max(QW, red.wlo, red.whi)
+    else:
+        qmin = qmax = sp.zeros(Hz.rows, 1)
+    xl, xu, ys = sp.Matrix(red.xl), sp.Matrix(red.xu), sp.Matrix(red.ys)
+    zl = Hp * xl - Hm * xu + Q * ys - qmax
+    zu = Hp * xu - Hm * xl + Q * ys - qmin
+    names = _output_names(work, M)
+    outputs = []
+    for nm, a, b in zip(names, zl, zu):
+        outputs += [(f"{nm}_lower", sp.expand(a)), (f"{nm}_upper", sp.expand(b))]
+    return names, outputs
+
+
+def _embedding_condition(red: _Reduced, rows, sampled_only) -> Condition:
+    """The sign-definite (mixed-monotone) embedding, or which rows the γ-shift bounds."""
+    time, xs = red.time, red.xs
+    sign_text = "; ".join(f"row {i + 1}: " + ", ".join(f"∂f/∂{v} {s}" for v, s in r.signs.items())
+                          for i, r in enumerate(rows))
+    if time == "continuous":
+        cname = "mixed-monotone embedding: ∂f_i/∂x*_j sign-definite for j ≠ i (cooperative when all ≥ 0)"
+    else:
+        cname = "monotone embedding: ∂f_i/∂x*_j sign-definite for all i, j (discrete time; F*⁺/F*⁻ split)"
+    coop = all(s != "-" for i, r in enumerate(rows) for j, v in enumerate(xs)
+               for s in [r.signs[str(v)]] if (j != i or time == "discrete"))
+    decomposed = [i for i, r in enumerate(rows) if r.how == "decomposed"]
+    if decomposed:
+        rows_txt = ", ".join(str(i + 1) for i in decomposed)
+        return Condition(cname, False, sign_text + f"; row(s) {rows_txt} not sign-definite"
+                         " (± above): bounded by the γ-shift decomposition below instead",
+                         "METHOD §3; seed 002 §4, §6", required=False)
+    return Condition(cname, True, sign_text + ("; cooperative (all ≥ 0)" if coop else
+                                               "; some ≤ 0: the bounds are mixed")
+                     + (" — some signs from samples only, not proven" if sampled_only else ""),
+                     "METHOD §3; seed 002 §4, §6")
+
+
+def _nonlinear_part_conditions(work, d, dom, decomposed) -> list:
+    """The METHOD §4 conditions of C*Ψ* (monotonicity noted as not needed when the
+    observer rests on its embedding) and k*, its Lipschitz constant in y."""
+    conds = []
+    expr, rx, ry, defs = reduced_nonlinearity(work, d)
+    for c in nonlinear_conditions(work, d, dom):
+        if c.name.startswith("C*Ψ* monotone") and not c.holds:
+            rests = ("the γ-shift decomposition and the stable comparison system above"
+                     if decomposed else "the sign-definite embedding above")
+            c = dataclasses.replace(c, detail=c.detail + f"; not needed here: the observer rests"
+                                    f" on {rests} (seed 002 §6 asks for it as a sufficient"
+                                    " condition)")
+        conds.append(c)
+    liy = lipschitz(list(expr), ry, dom, definitions=defs)
+    conds.append(Condition(
+        "k*: Lipschitz constant of C*Ψ* in y on the domain", bool(liy.lipschitz),
+        liy.evidence + ("" if liy.lipschitz else
+                        "; the ∓k* w* margin is therefore the exact worst case over the"
+                        " noise box, which needs only monotonicity in y"),
+        "seed 002 §6", required=False))
+    return conds
+
+
+def _conditions(work, d, red: _Reduced, rows, dom) -> list:
+    """What the observer rests on, after the design's own conditions: the embedding (or
+    the γ-shift decomposition and its stable comparison system), the clipped arguments,
+    the nonlinear part, the noise, the unknown inputs, H_z ≥ 0, the user margins."""
+    conds = list(d.conditions)
+    sampled_only = any(r.sampled for r in rows)
+    conds.append(_embedding_condition(red, rows, sampled_only))
+    how_rows = [r.how for r in rows]
+    decomposed = "decomposed" in how_rows
+    if decomposed:
+        shifts = [sh for r in rows for sh in r.shifts]
+        conds += decomposition_conditions(red, how_rows, shifts, dom, sampled_only)
+    for (j, arg, (lo, hi), (plo, phi_, pkind)) in red.args_info:
+        conds.append(Condition(
+            f"argument of Ψ*_{j} clipped to its domain range", True,
+            f"{arg} ∈ {interval_text(lo, hi)} on the domain {', '.join(map(str, dom)) or 'Rⁿ'};"
+            f" φ_{j}' on the clipped extension ∈ {interval_text(plo, phi_)} ({pkind})",
+            "METHOD §3"))
+    if d.nonlinear:
+        conds += _nonlinear_part_conditions(work, d, dom, decomposed)
+    conds.append(Condition(
+        "noise through y bounded", True,
+        "; ".join(f"row {i + 1} ({r.how}): {r.margin}" for i, r in enumerate(rows))
+        + f"; ỹ − y ∈ [{list(red.off_lo)}, {list(red.off_hi)}]", "METHOD §3; seed 002 §4, §6"))
+    if red.unk:
+        conds.append(Condition("unknown inputs bounded", True,
+                               f"Φ [L D] = {red.Bu.tolist()} over {[str(s) for s in red.unk]} ∈"
+                               f" [{list(red.ulo)}, {list(red.uhi)}]", "METHOD §3"))
+    if not any(c.name == "H_z ≥ 0" for c in conds):
+        nonneg = all(e >= 0 for e in red.Hz)
+        conds.append(Condition("H_z ≥ 0", nonneg, f"H_z = {red.Hz.tolist()}" +
+                               ("" if nonneg else "; the bounds use H_z⁺ x̲* − H_z⁻ x̄*"),
+                               "METHOD §3", required=False))
+    conds.extend(note for r in rows for note in r.notes)
+    return conds
 
 
 def interval_observer_nonlinear(model: PlantModel, design: Design, *, margin=None,
@@ -138,448 +524,39 @@ def interval_observer_nonlinear(model: PlantModel, design: Design, *, margin=Non
         comparison system checked (refused, naming γ and the spectral abscissa or
         radius, when it cannot be proven); ``"none"``: refuse, as before.
     """
-    if design.matrices.Hz is None or design.matrices.Phi is None:
-        raise UsageError("interval_observer_nonlinear needs a design with z = H_z x* + Q y"
-                         " (design_jordan(..., observer='interval', estimate=...))")
-    if design.symbolic:
-        raise UsageError("interval_observer_nonlinear needs a numeric design (the signs of"
-                         " its matrices decide the bounds); design without --symbolic")
-    if design.matrices.K is not None:
-        raise UsageError("interval_observer_nonlinear takes the reduced model without output"
-                         " feedback (a Jordan design); this design has a gain K")
+    _check_design(design)
     work = _work(model)
-    st = design.structure  # extracted once, by the design (parameters substituted)
-    time = work.time
     dom = tuple(work.domain if domain is None else domain)
     d = design
-    k, l = d.k, len(work.outputs)
-    m = d.matrices
-    Fs, Js, Gs = sp.Matrix(m.F_star), sp.Matrix(m.J_star), sp.Matrix(m.G_star)
-    Phi, Hz, Q = sp.Matrix(m.Phi), sp.Matrix(m.Hz), sp.Matrix(m.Q)
-    H, W = sp.Matrix(st.H), sp.Matrix(st.W)
-    xs = list(d.observer_states) or list(sp.symbols(f"xs1:{k + 1}"))
-    ys = list(output_symbols(l))
-    yt = list(sp.symbols(f"ytilde1:{l + 1}"))  # noise-free outputs H x
-    us = list(work.inputs)
-    xl = list(sp.symbols(f"xl1:{k + 1}"))
-    xu = list(sp.symbols(f"xu1:{k + 1}"))
-
-    # ---- unknown inputs entering the reduced model: Φ L ρ + Φ D d
-    unk = [s for s in work.disturbances] + [s for s in work.faults]
-    Bu = Phi * sp.Matrix.hstack(sp.Matrix(st.L), sp.Matrix(st.D)) if unk else sp.zeros(k, 0)
-    Bu = Bu.applyfunc(rationalize_floats)  # floats (float designs) only: exact stays exact
-    used = [j for j in range(Bu.cols) if any(Bu[i, j] != 0 for i in range(k))]
-    Bu = Bu.extract(list(range(k)), used) if used else sp.zeros(k, 0)
-    unk = [unk[j] for j in used]
-    if unk:
-        ulo, uhi = _box(work, unk, "the unknown input")
-        bmin, bmax = box_min(Bu, ulo, uhi), box_max(Bu, ulo, uhi)
-    else:
-        bmin = bmax = sp.zeros(k, 1)
-
-    # ---- noise box of ỹ − y = −W w
-    if W.cols:
-        wlo, whi = _box(work, work.noise, "noise")
-        off_lo = -box_max(W, wlo, whi)
-        off_hi = -box_min(W, wlo, whi)
-    else:
-        wlo = whi = sp.zeros(0, 1)
-        off_lo = off_hi = sp.zeros(l, 1)
-
-    # ---- nonlinear terms: φ_j, clipped argument, derivative range
-    terms = []  # (j, C*_col, arg (in xs, yt), clipped arg, phi(s), s, P range (lo, hi, kind))
-    args_info = []
-    if d.nonlinear:
-        Cs = sp.Matrix(d.matrices.C_star)
-        in_ranges = {u: work.bounds[u] for u in us if u in work.bounds}
-        for ns in d.nonlinear:
-            t = st.terms[ns.index - 1]
-            A1, A2 = sp.Matrix(ns.A1), sp.Matrix(ns.A2)
-            arg = ((A1 * sp.Matrix(xs))[0, 0] if k else 0) + ((A2 * sp.Matrix(yt))[0, 0] if l else 0)
-            lo, hi = argument_range(work, t.row, dom)
-            plo, phi_, pkind = _derivative_range(t.function, t.argument, lo, hi, in_ranges)
-            if lo != -sp.oo or hi != sp.oo:  # clipped outside the range: derivative 0 there
-                plo, phi_ = sp.Min(plo, 0), sp.Max(phi_, 0)
-            terms.append((ns.index, Cs[:, ns.index - 1], sp.expand(arg), _clip(arg, lo, hi),
-                          t.function, t.argument, (plo, phi_, pkind)))
-            args_info.append((ns.index, str(sp.expand(arg)), (lo, hi), (plo, phi_, pkind)))
-
-    def f_row(i, xv, yv):
-        """f_i at states xv, outputs yv (lists of expressions)."""
-        sub = dict(zip(xs, xv))
-        sub.update(dict(zip(yt, yv)))
-        e = sum((Fs[i, j] * xv[j] for j in range(k)), sp.Integer(0))
-        e += sum((Js[i, m] * yv[m] for m in range(l)), sp.Integer(0))
-        e += sum((Gs[i, m] * us[m] for m in range(len(us))), sp.Integer(0))
-        for (_, ccol, _, carg, fn, s, _) in terms:
-            if ccol[i] != 0:
-                e += ccol[i] * fn.xreplace({s: carg.xreplace(sub)})
-        return e
-
-    def d_range(i, v, only=None):
-        """Range of ∂f_i/∂v (v a state or ỹ symbol) on the clipped extension."""
-        if v in xs:
-            lin = Fs[i, xs.index(v)]
-        else:
-            lin = Js[i, yt.index(v)]
-        lo = hi = sp.sympify(lin) if only is None else sp.Integer(0)
-        kinds = set()
-        for (j, ccol, arg, _, _, _, (plo, phi_, pkind)) in terms:
-            if only is not None and j != only:
-                continue
-            c = ccol[i] * sp.diff(arg, v)
-            if c == 0:
-                continue
-            a, b = interval_scale(c, (plo, phi_))
-            lo, hi = lo + a, hi + b
-            kinds.add(pkind)
-        return sp.sympify(lo), sp.sympify(hi), kinds
-
-    def lin_only(i, v):
-        c = Fs[i, xs.index(v)] if v in xs else Js[i, yt.index(v)]
-        return sp.sympify(c)
-
-    # ---- margin option
-    if margin is None or margin == "exact":
-        mode = "exact"
-        user = None
-    elif margin == "lipschitz":
-        mode, user = "lipschitz", None
-    else:
-        mode = "user"
-        vals = list(margin) if isinstance(margin, (list, tuple)) else [margin] * k
-        if len(vals) != k:
-            raise UsageError(f"margin: give one value or {k} values")
-        user = [rationalize_floats(v) for v in vals]
-
+    red = _reduced(work, d, dom)
+    mode, user = _margin_mode(margin, red.k)
     if decomposition not in ("auto", "none"):
         raise UsageError(f"decomposition: expected 'auto' or 'none', got {decomposition!r}")
-    upd_l, upd_u, signs_all, how_rows, margins, notes = [], [], [], [], [], []
-    shifts = []  # _Shift of every γ-shifted (row, variable)
-    sampled_only = False
-    for i in range(k):
-        sg = {}
-        rng = {}
-        for v in xs + yt:
-            lo, hi, kinds = d_range(i, v)
-            rng[v] = (lo, hi)
-            s = range_sign(lo, hi)
-            if "sampled" in kinds:
-                sampled_only = True
-            sg[v] = s
-        signs_all.append({str(v): sg[v] for v in xs + yt})
-        x_need = [v for j, v in enumerate(xs) if j != i or time == "discrete"]
-        joint_ok = all(sg[v] in ("+", "-", "0") for v in x_need)
-        y_ok = all(sg[v] in ("+", "-", "0") for v in yt)
-        if mode == "exact" and joint_ok and y_ok:
-            lo_x = [xl[j] if (j == i and time == "continuous") or sg[xs[j]] != "-" else xu[j]
-                    for j in range(k)]
-            hi_x = [xu[j] if (j == i and time == "continuous") or sg[xs[j]] != "-" else xl[j]
-                    for j in range(k)]
-            lo_y = [ys[m] + (off_lo[m] if sg[yt[m]] != "-" else off_hi[m]) for m in range(l)]
-            hi_y = [ys[m] + (off_hi[m] if sg[yt[m]] != "-" else off_lo[m]) for m in range(l)]
-            upd_l.append(f_row(i, lo_x, lo_y) + bmin[i])
-            upd_u.append(f_row(i, hi_x, hi_y) + bmax[i])
-            how_rows.append("joint")
-            margins.append("exact worst case over the noise box (corners by the signs of ∂f/∂ỹ)")
-            continue
-        if mode in ("lipschitz", "user") and joint_ok:
-            lo_x = [xl[j] if (j == i and time == "continuous") or sg[xs[j]] != "-" else xu[j]
-                    for j in range(k)]
-            hi_x = [xu[j] if (j == i and time == "continuous") or sg[xs[j]] != "-" else xl[j]
-                    for j in range(k)]
-            r = [sp.Max(abs(off_lo[m]), abs(off_hi[m])) for m in range(l)]
-            if mode == "lipschitz":
-                K = []
-                for m in range(l):
-                    lo, hi = rng[yt[m]]
-                    if lo == -sp.oo or hi == sp.oo:
-                        raise UsageError(
-                            f"margin='lipschitz': ∂f{i + 1}/∂y{m + 1} is unbounded on the clipped"
-                            f" extension (range {_fmt_iv(lo, hi)}): not Lipschitz in y; use the"
-                            " exact worst case (margin=None)")
-                    K.append(sp.Max(abs(lo), abs(hi)))
-                mg = sum((K[m] * r[m] for m in range(l)), sp.Integer(0))
-                margins.append(f"Σ_k K_k r_k = {format_number(mg)} with K = {[format_number(v) for v in K]}")
-                upd_l.append(f_row(i, lo_x, ys) - mg + bmin[i])
-                upd_u.append(f_row(i, hi_x, ys) + mg + bmax[i])
-            else:
-                Jw = (-Js[i, :] * W) if W.cols else sp.zeros(1, 0)
-                jmin = box_min(Jw, wlo, whi)[0] if W.cols else 0
-                jmax = box_max(Jw, wlo, whi)[0] if W.cols else 0
-                mg = user[i]
-                # the Lipschitz bound of the nonlinear part in y, for comparison
-                bound = _nonlinear_y_bound(i, terms, yt, r, d_range)
-                if bound is None:
-                    notes.append(Condition(
-                        f"row {i + 1}: the given margin k* w* = {mg} covers the noise through Ψ*",
-                        False, "not verifiable: C*Ψ* is not Lipschitz in y on the clipped extension"
-                        " (√ at 0); the inclusion is not guaranteed — use margin=None",
-                        "seed 002 §6", required=True))
-                else:
-                    notes.append(Condition(
-                        f"row {i + 1}: the given margin k* w* = {mg} covers the noise through Ψ*",
-                        bool(mg >= bound), f"Lipschitz bound of the nonlinear part: Σ_k k*_k r_k ="
-                        f" {format_number(bound)}", "seed 002 §6", required=True))
-                margins.append(f"user k* w* = {mg} plus |J*| W w*")
-                upd_l.append(f_row(i, lo_x, ys) + jmin - mg + bmin[i])
-                upd_u.append(f_row(i, hi_x, ys) + jmax + mg + bmax[i])
-            how_rows.append("joint")
-            continue
-        # ---- per-term fallback, then the γ-shift decomposition
-        try:
-            lo_e, hi_e = _per_term(i, k, l, time, xs, yt, ys, xl, xu, us, Fs, Js, Gs, terms,
-                                   off_lo, off_hi, d_range)
-            how_rows.append("per-term")
-            margins.append("exact worst case per term (each φ_j monotone in its argument)")
-        except _NotMonotone:
-            if decomposition == "none":
-                raise
-            lo_e, hi_e, row_shifts = _decomposed_row(i, time, xs, yt, ys, xl, xu, off_lo,
-                                                     off_hi, f_row, d_range)
-            shifts.extend(row_shifts)
-            how_rows.append("decomposed")
-            margins.append("exact worst case over the noise box after the γ-shift")
-        upd_l.append(lo_e + bmin[i])
-        upd_u.append(hi_e + bmax[i])
-
-    # ---- outputs
-    M = (Hz * Phi + Q * H).applyfunc(rationalize_floats)
-    Hp, Hm = pos(Hz), neg(Hz)
-    QW = Q * W
-    if QW.cols:
-        qmin, qmax = box_min(QW, wlo, whi), box_max(QW, wlo, whi)
-    else:
-        qmin = qmax = sp.zeros(Hz.rows, 1)
-    zl = Hp * sp.Matrix(xl) - Hm * sp.Matrix(xu) + Q * sp.Matrix(ys) - qmax
-    zu = Hp * sp.Matrix(xu) - Hm * sp.Matrix(xl) + Q * sp.Matrix(ys) - qmin
-    names = _output_names(work, M)
-    outputs = []
-    for nm, a, b in zip(names, zl, zu):
-        outputs += [(f"{nm}_lower", sp.expand(a)), (f"{nm}_upper", sp.expand(b))]
-
-    # ---- conditions
-    conds = list(d.conditions)
-    sign_text = "; ".join(f"row {i + 1}: " + ", ".join(f"∂f/∂{v} {s}" for v, s in sg.items())
-                          for i, sg in enumerate(signs_all))
-    if time == "continuous":
-        cname = "mixed-monotone embedding: ∂f_i/∂x*_j sign-definite for j ≠ i (cooperative when all ≥ 0)"
-    else:
-        cname = "monotone embedding: ∂f_i/∂x*_j sign-definite for all i, j (discrete time; F*⁺/F*⁻ split)"
-    coop = all(s != "-" for i, sg in enumerate(signs_all) for j, v in enumerate(xs)
-               for s in [sg[str(v)]] if (j != i or time == "discrete"))
-    decomposed = [i for i, how in enumerate(how_rows) if how == "decomposed"]
-    if decomposed:
-        rows_txt = ", ".join(str(i + 1) for i in decomposed)
-        conds.append(Condition(cname, False, sign_text + f"; row(s) {rows_txt} not sign-definite"
-                               " (± above): bounded by the γ-shift decomposition below instead",
-                               "METHOD §3; seed 002 §4, §6", required=False))
-    else:
-        conds.append(Condition(cname, True, sign_text + ("; cooperative (all ≥ 0)" if coop else
-                                                         "; some ≤ 0: the bounds are mixed")
-                               + (" — some signs from samples only, not proven" if sampled_only else ""),
-                               "METHOD §3; seed 002 §4, §6"))
-    if decomposed:
-        conds += _decomposition_conditions(k, time, xs, how_rows, shifts, Fs, terms, d_range,
-                                           dom, args_info, sampled_only)
-    for (j, arg, (lo, hi), (plo, phi_, pkind)) in args_info:
-        conds.append(Condition(
-            f"argument of Ψ*_{j} clipped to its domain range", True,
-            f"{arg} ∈ {_fmt_iv(lo, hi)} on the domain {', '.join(map(str, dom)) or 'Rⁿ'};"
-            f" φ_{j}' on the clipped extension ∈ {_fmt_iv(plo, phi_)} ({pkind})",
-            "METHOD §3"))
-    if d.nonlinear:
-        expr, rx, ry, defs = reduced_nonlinearity(work, d)
-        for c in nonlinear_conditions(work, d, dom):
-            if c.name.startswith("C*Ψ* monotone") and not c.holds:
-                rests = ("the γ-shift decomposition and the stable comparison system above"
-                         if decomposed else "the sign-definite embedding above")
-                c = dataclasses.replace(c, detail=c.detail + f"; not needed here: the observer rests"
-                                        f" on {rests} (seed 002 §6 asks for it as a sufficient"
-                                        " condition)")
-            conds.append(c)
-        liy = lipschitz(list(expr), ry, dom, definitions=defs)
-        conds.append(Condition(
-            "k*: Lipschitz constant of C*Ψ* in y on the domain", bool(liy.lipschitz),
-            liy.evidence + ("" if liy.lipschitz else
-                            "; the ∓k* w* margin is therefore the exact worst case over the"
-                            " noise box, which needs only monotonicity in y"),
-            "seed 002 §6", required=False))
-    conds.append(Condition(
-        "noise through y bounded", True,
-        "; ".join(f"row {i + 1} ({how}): {mg}" for i, (how, mg) in enumerate(zip(how_rows, margins)))
-        + f"; ỹ − y ∈ [{list(off_lo)}, {list(off_hi)}]", "METHOD §3; seed 002 §4, §6"))
-    if unk:
-        conds.append(Condition("unknown inputs bounded", True,
-                               f"Φ [L D] = {Bu.tolist()} over {[str(s) for s in unk]} ∈"
-                               f" [{list(ulo)}, {list(uhi)}]", "METHOD §3"))
-    if not any(c.name == "H_z ≥ 0" for c in conds):
-        nonneg = all(e >= 0 for e in Hz)
-        conds.append(Condition("H_z ≥ 0", nonneg, f"H_z = {Hz.tolist()}" +
-                               ("" if nonneg else "; the bounds use H_z⁺ x̲* − H_z⁻ x̄*"),
-                               "METHOD §3", required=False))
-    conds.extend(notes)
+    rows = [_row(red, i, mode, user, decomposition) for i in range(red.k)]
+    upd_l = [r.lower + red.bmin[i] for i, r in enumerate(rows)]
+    upd_u = [r.upper + red.bmax[i] for i, r in enumerate(rows)]
+    names, outputs = _bounded_outputs(work, red)
+    conds = _conditions(work, d, red, rows, dom)
     assumptions = list(d.assumptions)
     assumptions.append("x̲*(0) ≤ Φ x(0) ≤ x̄*(0)")
-    if terms:
+    if red.terms:
         assumptions.append(f"the plant stays in its domain {', '.join(map(str, dom))}"
                            " (there the clipped arguments equal the true ones)")
     zdesc = ", ".join(names)
+    xl, xu = red.xl, red.xu
     return Observer(
-        name=name or f"{work.name}_interval", kind="interval", time=time,
-        states=tuple(xl) + tuple(xu), signals=tuple(ys) + tuple(us), parameters={},
+        name=name or f"{work.name}_interval", kind="interval", time=work.time,
+        states=tuple(xl) + tuple(xu), signals=tuple(red.ys) + tuple(red.us), parameters={},
         update=tuple(upd_l) + tuple(upd_u), outputs=tuple(outputs),
-        initial=_initial(work, Phi, xl, xu), conditions=tuple(conds),
+        initial=_initial(work, red.Phi, xl, xu), conditions=tuple(conds),
         assumptions=tuple(assumptions), design=d,
         description=f"interval observer for {zdesc} = {d.estimate}"
-                    + (" with nonlinear terms" if terms else ""))
+                    + (" with nonlinear terms" if red.terms else ""))
 
 
 class _NotMonotone(UsageError):
     """A row is monotone neither jointly nor term by term (the γ-shift decomposition
     takes over unless decomposition='none')."""
-
-
-@dataclasses.dataclass(frozen=True)
-class _Shift:
-    """One γ-shift: row i, variable v, ∂f_i/∂v ∈ [lo, hi] (proven), γ and its direction
-    ("+": f_i + γ v nondecreasing, "−": f_i − γ v nonincreasing)."""
-    row: int
-    var: sp.Symbol
-    lo: sp.Expr
-    hi: sp.Expr
-    gamma: sp.Expr
-    direction: str
-
-    def text(self) -> str:
-        g = "f + γ·v" if self.direction == "+" else "f − γ·v"
-        return (f"row {self.row + 1}, {self.var}: ∂f/∂{self.var} ∈ {_fmt_iv(self.lo, self.hi)},"
-                f" γ = {format_number(self.gamma)} ({g} monotone; Lipschitz bound"
-                f" {format_number(sp.Max(abs(self.lo), abs(self.hi)))})")
-
-
-def _decomposed_row(i, time, xs, yt, ys, xl, xu, off_lo, off_hi, f_row, d_range):
-    """Row i by the γ-shift (METHOD §3): for every argument v whose ∂f_i/∂v ∈ [a, b]
-    changes sign, f_i + γ v with γ = −a is nondecreasing in v (or f_i − γ v with γ = b
-    nonincreasing; the smaller γ is taken), so with v ∈ [v̲, v̄]
-
-        f_i ≥ (f_i + γ v)(v̲) − γ v̄ = f_i(v̲) − γ (v̄ − v̲),   f_i ≤ f_i(v̄) + γ (v̄ − v̲)
-
-    and the −γ v part joins the linear part. The other arguments take the end their
-    sign gives, as in the joint embedding. Returns (lower, upper, shifts)."""
-    out_shifts = []
-    lo_x, hi_x, lo_y, hi_y = [], [], [], []
-    pen = sp.Integer(0)
-    for v, lo_v, hi_v, width, lo_out, hi_out in (
-            [(xs[j], xl[j], xu[j], xu[j] - xl[j], lo_x, hi_x) for j in range(len(xs))]
-            + [(yt[m], ys[m] + off_lo[m], ys[m] + off_hi[m], off_hi[m] - off_lo[m], lo_y, hi_y)
-               for m in range(len(yt))]):
-        a, b, kinds = d_range(i, v)
-        sg = range_sign(a, b)
-        if (time == "continuous" and v == xs[i]) or sg in ("+", "0"):
-            lo_out.append(lo_v)
-            hi_out.append(hi_v)
-            continue
-        if sg == "-":
-            lo_out.append(hi_v)
-            hi_out.append(lo_v)
-            continue
-        if "sampled" in kinds:
-            raise InfeasibleDesignError(
-                f"interval observer: row {i + 1} is not monotone in {v} and ∂f{i + 1}/∂{v} ∈"
-                f" {_fmt_iv(a, b)} is known from samples only: no proven γ for the γ-shift")
-        if a == -sp.oo and b == sp.oo:
-            raise InfeasibleDesignError(
-                f"interval observer: row {i + 1} is not monotone in {v} and not Lipschitz in it"
-                f" (∂f{i + 1}/∂{v} ∈ {_fmt_iv(a, b)}): no finite γ for the γ-shift")
-        if bool(-a <= b):
-            gamma, direction = -a, "+"
-            lo_out.append(lo_v)
-            hi_out.append(hi_v)
-        else:
-            gamma, direction = b, "−"
-            lo_out.append(hi_v)
-            hi_out.append(lo_v)
-        pen += gamma * width
-        out_shifts.append(_Shift(i, v, a, b, gamma, direction))
-    return f_row(i, lo_x, lo_y) - pen, f_row(i, hi_x, hi_y) + pen, out_shifts
-
-
-def _width_matrix(k, time, xs, how_rows, shifts, Fs, terms, d_range):
-    """M of the comparison system for the width w = x̄* − x̲* ≥ 0: w' ≤ M w + c
-    (continuous, M Metzler) or w(t+1) ≤ M w(t) + c (discrete, M ≥ 0). By the mean value
-    theorem along the corners of each row, with [a, b] the proven range of ∂f_i/∂x*_j:
-    M_ii = b in continuous time (the comparison principle keeps x*_i on its face),
-    b for a nondecreasing argument, −a for a nonincreasing one, b − a + γ for a
-    γ-shifted one, and for a row bounded term by term the sum over its pieces."""
-    gam = {(sh.row, sh.var): sh.gamma for sh in shifts}
-    M = sp.zeros(k, k)
-    for i in range(k):
-        for j, v in enumerate(xs):
-            own = time == "continuous" and j == i
-            if how_rows[i] == "per-term":
-                pieces = [(Fs[i, j], Fs[i, j])] + [d_range(i, v, only=t[0])[:2] for t in terms]
-            else:
-                pieces = [d_range(i, v)[:2]]
-            tot = sp.Integer(0)
-            for a, b in pieces:
-                a, b = sp.sympify(a), sp.sympify(b)
-                if own:
-                    tot += b
-                elif (i, v) in gam:
-                    tot += b - a + gam[(i, v)]
-                else:
-                    tot += sp.Max(abs(a), abs(b))
-            M[i, j] = tot
-    return M
-
-
-def _comparison_stability(M, time):
-    """(stable, figure, text) of :func:`observer_cad.numerics.comparison_stability`."""
-    stable, fig, minors = comparison_stability(M, time)
-    if not minors and fig == float("inf"):
-        return False, fig, "M has unbounded entries (a derivative is unbounded)"
-    return stable, fig, "leading principal minors of " + ("−M" if time == "continuous" else "I − M") \
-        + f": {[format_number(m) for m in minors]}"
-
-
-def _decomposition_conditions(k, time, xs, how_rows, shifts, Fs, terms, d_range, dom,
-                              args_info, sampled_only):
-    """The two required conditions of a decomposed observer (the γ used, with the
-    derivative bounds and the domain they hold on; the comparison system's stability),
-    or a one-line refusal when the comparison system is not provably stable."""
-    M = _width_matrix(k, time, xs, how_rows, shifts, Fs, terms, d_range)
-    stable, fig, minors = _comparison_stability(M, time)
-    gam_txt = "; ".join(sh.text() for sh in shifts)
-    what = "spectral abscissa α(M)" if time == "continuous" else "spectral radius ρ(M)"
-    need = "< 0" if time == "continuous" else "< 1"
-    Mtxt = "[" + "; ".join(", ".join(format_number(e) for e in M[i, :]) for i in range(k)) + "]"
-    if not stable:
-        raise InfeasibleDesignError(
-            f"interval observer: the γ-shift decomposition gives an unstable comparison system"
-            f" for the interval width ({gam_txt}): M = {Mtxt}, {what} = {fig:.6g}, not {need};"
-            " the bounds would diverge — try another design (λ, rows) or a smaller nonlinear gain")
-    where = ("arguments clipped to their domain ranges: " + ", ".join(
-        f"Ψ*_{j}: {arg} ∈ {_fmt_iv(lo, hi)}" for (j, arg, (lo, hi), _) in args_info)) \
-        if any(lo != -sp.oo or hi != sp.oo for (_, _, (lo, hi), _) in args_info) else \
-        "no clipping (the arguments range over R)"
-    dom_txt = ", ".join(map(str, dom)) or "Rⁿ"
-    kind = "comparison principle, x*_i on its face" if time == "continuous" else "corners"
-    return [
-        Condition(
-            "γ-shift decomposition: f_i ± γ v monotone in every argument v where f_i is not",
-            True, f"{gam_txt}; the derivative ranges are proven (interval evaluation of"
-            f" ∂f/∂v, exact on each smooth piece) on the observer's whole state space"
-            f" (domain {dom_txt}; {where})"
-            + (" — some other signs from samples only, not proven" if sampled_only else ""),
-            "METHOD §3 (mixed-monotone decomposition)"),
-        Condition(
-            "comparison system of the interval width stable: w" + ("' ≤ M w + c, α(M) < 0"
-                                                                    if time == "continuous" else
-                                                                    "(t+1) ≤ M w(t) + c, ρ(M) < 1"),
-            True, f"w = x̄* − x̲*, M = {Mtxt} ({kind}), {what} = {fig:.6g} {need}; exact check:"
-            f" {minors} all > 0", "METHOD §3"),
-    ]
 
 
 def _derivative_range(fn, s, lo, hi, in_ranges):
@@ -595,12 +572,14 @@ def _derivative_range(fn, s, lo, hi, in_ranges):
     return en.lo, en.hi, en.kind
 
 
-def _nonlinear_y_bound(i, terms, yt, r, d_range):
+def _nonlinear_y_bound(red: _Reduced, i, r):
+    """Σ_k sup|∂(C*Ψ*)_i/∂ỹ_k| r_k, the Lipschitz bound of row i's nonlinear part in y
+    over the noise radii r; None when a derivative is unbounded."""
     tot = sp.Integer(0)
-    for m, v in enumerate(yt):
+    for m, v in enumerate(red.yt):
         acc_lo = acc_hi = sp.Integer(0)
-        for (j, *_rest) in terms:
-            lo, hi, _ = d_range(i, v, only=j)
+        for (j, *_rest) in red.terms:
+            lo, hi, _ = red.d_range(i, v, only=j)
             acc_lo, acc_hi = acc_lo + lo, acc_hi + hi
         if acc_lo == -sp.oo or acc_hi == sp.oo:
             return None
@@ -608,9 +587,12 @@ def _nonlinear_y_bound(i, terms, yt, r, d_range):
     return tot
 
 
-def _per_term(i, k, l, time, xs, yt, ys, xl, xu, us, Fs, Js, Gs, terms, off_lo, off_hi, d_range):
+def _per_term(red: _Reduced, i):
     """Row i bounded term by term: the linear part by the signs of its coefficients,
     each C*_ij φ_j(a_j) by the sign of its own derivative (φ_j monotone)."""
+    k, l, time, xs, yt, ys = red.k, red.l, red.time, red.xs, red.yt, red.ys
+    xl, xu, us, Fs, Js, Gs = red.xl, red.xu, red.us, red.Fs, red.Js, red.Gs
+    terms, off_lo, off_hi, d_range = red.terms, red.off_lo, red.off_hi, red.d_range
     lo_e = sum((Gs[i, m] * us[m] for m in range(len(us))), sp.Integer(0))
     hi_e = lo_e
     for j in range(k):
@@ -642,7 +624,7 @@ def _per_term(i, k, l, time, xs, yt, ys, xl, xu, us, Fs, Js, Gs, terms, off_lo, 
             else:
                 raise _NotMonotone(
                     f"interval observer: row {i + 1}, nonlinear term Ψ*_{j} = {fn} is not monotone in"
-                    f" {v} on the clipped extension (∂ ∈ {_fmt_iv(lo, hi)}): no sign-definite"
+                    f" {v} on the clipped extension (∂ ∈ {interval_text(lo, hi)}): no sign-definite"
                     " embedding; try another design (λ, rows), a domain bounded away from the"
                     " non-monotone region, or decomposition='auto' (the γ-shift)")
         for m, v in enumerate(yt):
@@ -656,7 +638,7 @@ def _per_term(i, k, l, time, xs, yt, ys, xl, xu, us, Fs, Js, Gs, terms, off_lo, 
             else:
                 raise _NotMonotone(
                     f"interval observer: row {i + 1}, nonlinear term Ψ*_{j} is not monotone in the"
-                    f" output {ys[m]} (∂ ∈ {_fmt_iv(lo, hi)}): the noise margin cannot be bounded"
+                    f" output {ys[m]} (∂ ∈ {interval_text(lo, hi)}): the noise margin cannot be bounded"
                     " by its corners")
         lo_e += ccol[i] * fn.xreplace({s: carg.xreplace(sub_l)})
         hi_e += ccol[i] * fn.xreplace({s: carg.xreplace(sub_u)})
@@ -671,92 +653,3 @@ def _initial(model, Phi, xl, xu, margin=1):
         init[xl[i]] = xs0[i] - margin
         init[xu[i]] = xs0[i] + margin
     return init
-
-
-# ================================================================== full-state intervals
-def full_state_intervals(model: PlantModel, *, lambdas=None, margin=None, domain=None) -> Observer:
-    """Intervals for every state (seed 002 §4): measured states from y, the others from
-    an interval observer. Outputs ``x1_lower``, ``x1_upper``, … in state order.
-
-    Needs H = (H0 0) up to a permutation of the states with H0 invertible (the
-    measured states are the columns where H is nonzero). The paper assumes H0⁻¹ ≥ 0;
-    here H0⁻¹ is split into ⁺/⁻ over the noise box, so the assumption is only reported.
-    """
-    from ..synthesis import design_jordan
-    work = _work(model)
-    st = extract_structure(work)
-    H, W = sp.Matrix(st.H), sp.Matrix(st.W)
-    n, l = len(work.states), H.rows
-    meas = [j for j in range(n) if any(H[i, j] != 0 for i in range(l))]
-    rest = [j for j in range(n) if j not in meas]
-    H0 = H.extract(list(range(l)), meas)
-    if H0.rows != H0.cols or H0.rank() < H0.rows:
-        raise UsageError(f"{work.where}: full-state intervals need H = (H0 0) with H0 square and"
-                         f" invertible; H has {l} rows and is nonzero in {len(meas)} state columns")
-    H0i = H0.inv()
-    ys = list(output_symbols(l))
-    if W.cols:
-        wlo, whi = _box(work, work.noise, "noise")
-        off_lo, off_hi = -box_max(W, wlo, whi), -box_min(W, wlo, whi)
-    else:
-        off_lo = off_hi = sp.zeros(l, 1)
-    ylo = sp.Matrix(ys) + off_lo
-    yhi = sp.Matrix(ys) + off_hi
-    x1lo, x1hi = box_min(H0i, ylo, yhi), box_max(H0i, ylo, yhi)
-    bounds = {}
-    for r, j in enumerate(meas):
-        bounds[j] = (sp.expand(x1lo[r]), sp.expand(x1hi[r]))
-    conds = [Condition("H = (H0 0) with H0 invertible", True,
-                       f"measured states {[str(work.states[j]) for j in meas]}, H0 = {H0.tolist()}",
-                       "seed 002 §4, eq. (4.6)"),
-             Condition("H0⁻¹ ≥ 0", all(e >= 0 for e in H0i), f"H0⁻¹ = {H0i.tolist()}"
-                       + ("" if all(e >= 0 for e in H0i) else
-                          "; the bounds use the ⁺/⁻ split of H0⁻¹ instead"), "seed 002 §4, Remark 5",
-                       required=False)]
-    update, initial, assumptions = [], {}, []
-    parts = []
-    if rest:
-        est = [str(work.states[j]) for j in rest]
-        try:
-            designs = [design_jordan(work, observer="interval", estimate=est, lambdas=lambdas)]
-            groups = [rest]
-        except InfeasibleDesignError:
-            designs = [design_jordan(work, observer="interval", estimate=str(work.states[j]),
-                                     lambdas=lambdas) for j in rest]
-            groups = [[j] for j in rest]
-        offset = 0
-        for dsg, grp in zip(designs, groups):
-            obs = interval_observer_nonlinear(work, dsg, margin=margin, domain=domain)
-            kk = dsg.k
-            ren = {}
-            for i in range(kk):
-                ren[sp.Symbol(f"xl{i + 1}")] = sp.Symbol(f"xl{offset + i + 1}")
-                ren[sp.Symbol(f"xu{i + 1}")] = sp.Symbol(f"xu{offset + i + 1}")
-            offset += kk
-            sl = [ren[s] for s in obs.states[:kk]]
-            su = [ren[s] for s in obs.states[kk:]]
-            update += [e.xreplace(ren) for e in obs.update[:kk]]
-            parts.append((sl, su, [e.xreplace(ren) for e in obs.update[kk:]]))
-            for s, v in obs.initial.items():
-                initial[ren[s]] = v
-            outs = dict(obs.outputs)
-            for j in grp:
-                nm = str(work.states[j])
-                bounds[j] = (outs[f"{nm}_lower"].xreplace(ren), outs[f"{nm}_upper"].xreplace(ren))
-            conds += [c for c in obs.conditions if c not in conds]
-            assumptions += [a for a in obs.assumptions if a not in assumptions]
-    # states: all lower copies first, then all upper copies
-    all_l = [s for p in parts for s in p[0]]
-    all_u = [s for p in parts for s in p[1]]
-    upd_u = [e for p in parts for e in p[2]]
-    outputs = []
-    for j in range(n):
-        nm = str(work.states[j])
-        outputs += [(f"{nm}_lower", bounds[j][0]), (f"{nm}_upper", bounds[j][1])]
-    return Observer(
-        name=f"{work.name}_full_state_interval", kind="interval", time=work.time,
-        states=tuple(all_l) + tuple(all_u), signals=tuple(ys) + tuple(work.inputs), parameters={},
-        update=tuple(update) + tuple(upd_u), outputs=tuple(outputs), initial=initial,
-        conditions=tuple(conds), assumptions=tuple(assumptions),
-        design=None, description="full-state intervals: measured states from y ∓ w*, the others"
-        " from an interval observer (seed 002 §4)")

@@ -154,7 +154,7 @@ def plot_residuals(result, path, *, decisions=None, time: str = "discrete", titl
 
 
 def plot_confusion(metrics, path, *, title: str = "") -> Path:
-    """The confusion matrix of :class:`observer_cad.simulation.Metrics` as an image with the
+    """The confusion matrix of :class:`observer_cad.residuals.Metrics` as an image with the
     counts written in the cells (rows: true label; columns: diagnosis at the end of the
     run; labels with no run are left out). Returns ``path``."""
     plt = _plt()

@@ -1,4 +1,4 @@
-"""Decisions on residuals (issue 13, item 3): alarms with persistence and isolation by
+"""Decisions on residuals: alarms with persistence and isolation by
 matching the alarm pattern against the structure matrix.
 
 A :class:`DecisionRule` names the residuals ``r_1 … r_m`` (the outputs of a residual

@@ -335,19 +335,9 @@ def _bound_terms(expr, gens, coeff_box, xbox, where):
     return (lo, hi)
 
 
-def guaranteed_threshold(model: PlantModel, observer: Observer, *, initial_error=0,
-                         margin: float = DEFAULT_MARGIN) -> Observer:
-    """The residual generator with guaranteed adaptive thresholds (module docstring).
-
-    Returns a new :class:`Observer` whose outputs add ``r_lower``/``r_upper`` (or
-    ``rI_lower``/``rI_upper`` for each residual of a bank), computed online from y and u by
-    extra states (the error bounds ``<ξ>_elo``, ``<ξ>_ehi``); its conditions list what the
-    band rests on, and ``observer.threshold`` is the :class:`Threshold`.
-
-    ``initial_error`` bounds |e_i(0)| (0: the observer starts at x*(0) = Φ x(0), as the
-    simulator does unless a scenario sets ``observer_initial``); ``margin`` is added to both
-    ends for floating-point roundoff.
-    """
+def _checked_options(model: PlantModel, observer: Observer, initial_error, margin) -> tuple:
+    """The residuals, |e(0)| and the margin, with one-line errors for what cannot have a
+    guaranteed threshold."""
     where = model.where
     residuals = residual_outputs(observer)
     if observer.time != model.time:
@@ -361,6 +351,13 @@ def guaranteed_threshold(model: PlantModel, observer: Observer, *, initial_error
         raise UsageError(f"{where}: initial_error and margin must be numbers") from None
     if E0 < 0 or not (margin >= 0):
         raise UsageError(f"{where}: initial_error and margin must be nonnegative")
+    return residuals, E0, margin
+
+
+def _linear_generator(observer: Observer, residuals, where: str) -> tuple:
+    """The observer's own equations with its parameters substituted, and the matrices of
+    ξ' = A ξ + …, r = −C ξ + … (refused unless linear in ξ): (ξ, updates, residual
+    expressions, A, C)."""
     xi = list(observer.states)
     missing = [s for s in xi if s not in observer.initial]
     if missing:
@@ -375,8 +372,12 @@ def guaranteed_threshold(model: PlantModel, observer: Observer, *, initial_error
     if A.free_symbols or C.free_symbols:
         raise UsageError(f"{where}: guaranteed thresholds need a residual generator linear in its"
                          " own states (this one is nonlinear in them)")
-    k = len(xi)
+    return xi, upd, g, A, C
 
+
+def _error_terms(model: PlantModel, observer: Observer, xi, upd, g, where: str) -> tuple:
+    """Δ = Φ f(x, u, ρ, 0; θ0 + δ) − f_obs(Φ x, h(x) + W w, u) and Γ = g_obs(…), from the
+    observer's equations and the plant: (Δ, Γ, Φ, dynamics, outputs, δ symbols, δ box)."""
     dyn, outs, deltas, dbox = _nominal_model(model)
     phi = [sp.expand(sp.sympify(observer.initial[s])) for s in xi]
     if any(e.free_symbols - set(model.states) for e in phi):
@@ -389,9 +390,13 @@ def guaranteed_threshold(model: PlantModel, observer: Observer, *, initial_error
     Fx = sp.Matrix([f.xreplace(nofault) for f in dyn])
     Delta = (Phi * Fx - sp.Matrix([e.xreplace(xsub).xreplace(ysub) for e in upd])).applyfunc(sp.expand)
     Gamma = sp.Matrix([e.xreplace(xsub).xreplace(ysub) for e in g]).applyfunc(sp.expand)
-    # the fault-free identity: zero at nominal parameters without noise (disturbances kept)
+    return Delta, Gamma, Phi, dyn, outs, deltas, dbox
+
+
+def _identity_condition(model: PlantModel, Delta, Gamma, deltas, where: str) -> Condition:
+    """The fault-free identity: Δ and Γ vanish at nominal parameters without noise (the
+    disturbances kept: an approximate decoupling leaves terms in ρ only)."""
     zero = {**{dl: 0 for dl in deltas.values()}, **{w: 0 for w in model.noise}}
-    conds = []
     left_d = Delta.applyfunc(lambda e: sp.expand(e.xreplace(zero)))
     left_g = Gamma.applyfunc(lambda e: sp.expand(e.xreplace(zero)))
     rho_only = all(not (e.free_symbols - set(model.disturbances)) for e in list(left_d) + list(left_g))
@@ -400,13 +405,19 @@ def guaranteed_threshold(model: PlantModel, observer: Observer, *, initial_error
         raise UsageError(f"{where}: the observer does not reproduce the plant (Φ f − f_obs(Φx, Hx, u)"
                          f" = {[e for e in left_d if e != 0][:1] or [e for e in left_g if e != 0][:1]});"
                          " the residual is not zero without faults, noise and uncertainty")
-    conds.append(Condition(
+    return Condition(
         "fault-free residual identity", True,
         "Φ f(x, u, ρ, 0) − f_obs(Φ x, H x, u) and g_obs(Φ x, H x, u) recomputed from the observer's"
         " equations: " + ("exactly zero" if ident else "zero up to the disturbance terms"
                           " (approximate decoupling: ρ is bounded instead)"),
-        _REF))
-    # bounds of every uncertain quantity
+        _REF)
+
+
+def _uncertainty_bounds(model: PlantModel, Delta, Gamma, outs, deltas, dbox, xi, residuals,
+                        where: str) -> tuple:
+    """[Δ̲, Δ̄] and [Γ̲, Γ̄] as expressions in y and u: the coefficients over the declared
+    boxes (δ, ρ, w), the states they multiply by the measurements or the domain. Returns
+    (Δ̲, Δ̄, Γ̲, Γ̄, the conditions "declared bounds" and "state bounds")."""
     cbox = dict(dbox)
     for s in tuple(model.disturbances) + tuple(model.noise):
         if s in model.bounds:
@@ -444,51 +455,69 @@ def guaranteed_threshold(model: PlantModel, observer: Observer, *, initial_error
               for s in tuple(model.disturbances) + tuple(model.noise) if s in used]
     bnames += [f"{p} ∈ [{format_number(model.uncertainty[p][0])}, {format_number(model.uncertainty[p][1])}]"
                f" (nominal {format_number(model.parameters[p])})" for p in deltas if deltas[p] in used]
-    conds.append(Condition(
+    conds = [Condition(
         "declared bounds", True,
         ("no false alarm while " + ", ".join(bnames) + " and the faults are zero") if bnames else
-        "no uncertainty reaches the residual: the fault-free residual is zero", _REF))
+        "no uncertainty reaches the residual: the fault-free residual is zero", _REF)]
     if xtexts:
         conds.append(Condition("state bounds", True,
                                "the uncertain terms multiply states bounded online: " + "; ".join(xtexts),
                                _REF))
-    # comparison system and its exact stability certificate
+    return Dl, Dh, Gl, Gh, conds
+
+
+def _comparison_system(A, time: str) -> tuple:
+    """The embedding of the error bounds (A_d the diagonal; A⁺, A⁻ of A, or of A − A_d in
+    continuous time) and its exact stability certificate: (A_d, A⁺, A⁻, condition)."""
+    k = A.shape[0]
     Ad = sp.diag(*[A[i, i] for i in range(k)]) if k else sp.zeros(0, 0)
-    if model.time == "discrete":
+    if time == "discrete":
         Ap, An = pos(A), neg(A)
         what = "ρ(|A|) < 1 (I − |A| a nonsingular M-matrix)"
     else:
         Ap, An = pos(A - Ad), neg(A - Ad)
         what = "A_d + |A_o| Hurwitz (−(A_d + |A_o|) a nonsingular M-matrix)"
     # the comparison matrix: |A| (discrete) or A_d + |A_o| (continuous)
-    stable, _, minors = comparison_stability((Ad if model.time == "continuous" else sp.zeros(k, k))
-                                             + Ap + An, model.time)
-    conds.append(Condition(
+    stable, _, minors = comparison_stability((Ad if time == "continuous" else sp.zeros(k, k))
+                                             + Ap + An, time)
+    cond = Condition(
         "comparison system stable", bool(stable),
         f"{what}: leading principal minors " + ", ".join(format_number(mn) for mn in minors),
-        _REF))
-    conds.append(Condition(
+        _REF)
+    return Ad, Ap, An, cond
+
+
+def _run_conditions(time: str, E0, margin: float) -> list:
+    """What the band assumes of the run: the initial error, the roundoff margin, the
+    integration (continuous time)."""
+    conds = [Condition(
         "initial error", True,
         "observer started at x*(0) = Φ x(0) (e(0) = 0)" if E0 == 0 else
-        f"|e_i(0)| ≤ {format_number(E0)} for every observer state", _REF))
+        f"|e_i(0)| ≤ {format_number(E0)} for every observer state", _REF)]
     if margin:
         conds.append(Condition("roundoff margin", True,
                                f"{margin:g} added to both ends of the band (floating-point roundoff"
                                " of the computed residual)", _REF, required=False))
-    if model.time == "continuous":
+    if time == "continuous":
         conds.append(Condition(
             "continuous-time integration", True,
             "the bounds hold for the exact solution; a simulation integrates plant, observer and"
             " bounds with the same fixed step (error O(dt⁴), covered by the margin only for"
             " small dt)", _REF, required=False))
-    # the augmented observer
+    return conds
+
+
+def _bound_equations(time: str, xi, C, Ad, Ap, An, bounds, where: str) -> tuple:
+    """The error-bound states and their updates, and the bands r̲ = N⁺ e̲ − N⁻ ē + Γ̲,
+    r̄ = N⁺ ē − N⁻ e̲ + Γ̄ (N = −C): (e̲ states, ē states, updates e̲, updates ē, r̲, r̄)."""
+    Dl, Dh, Gl, Gh = bounds
     elo = [sp.Symbol(f"{s}_elo") for s in xi]
     ehi = [sp.Symbol(f"{s}_ehi") for s in xi]
     clash = {str(s) for s in elo + ehi} & {str(s) for s in xi}
     if clash:
         raise UsageError(f"{where}: observer state names clash with the bound states ({sorted(clash)[0]})")
     L, U = sp.Matrix(elo), sp.Matrix(ehi)
-    if model.time == "discrete":
+    if time == "discrete":
         nl = Ap * L - An * U + sp.Matrix(Dl)
         nh = Ap * U - An * L + sp.Matrix(Dh)
     else:
@@ -497,6 +526,37 @@ def guaranteed_threshold(model: PlantModel, observer: Observer, *, initial_error
     Np, Nn = pos(-C), neg(-C)
     rl = Np * L - Nn * U + sp.Matrix(Gl)
     rh = Np * U - Nn * L + sp.Matrix(Gh)
+    return elo, ehi, nl, nh, rl, rh
+
+
+def guaranteed_threshold(model: PlantModel, observer: Observer, *, initial_error=0,
+                         margin: float = DEFAULT_MARGIN) -> Observer:
+    """The residual generator with guaranteed adaptive thresholds (module docstring).
+
+    Returns a new :class:`Observer` whose outputs add ``r_lower``/``r_upper`` (or
+    ``rI_lower``/``rI_upper`` for each residual of a bank), computed online from y and u by
+    extra states (the error bounds ``<ξ>_elo``, ``<ξ>_ehi``); its conditions list what the
+    band rests on, and ``observer.threshold`` is the :class:`Threshold`.
+
+    ``initial_error`` bounds |e_i(0)| (0: the observer starts at x*(0) = Φ x(0), as the
+    simulator does unless a scenario sets ``observer_initial``); ``margin`` is added to both
+    ends for floating-point roundoff.
+    """
+    where = model.where
+    residuals, E0, margin = _checked_options(model, observer, initial_error, margin)
+    xi, upd, g, A, C = _linear_generator(observer, residuals, where)
+    k = len(xi)
+    Delta, Gamma, Phi, dyn, outs, deltas, dbox = _error_terms(model, observer, xi, upd, g, where)
+    conds = [_identity_condition(model, Delta, Gamma, deltas, where)]
+    Dl, Dh, Gl, Gh, bound_conds = _uncertainty_bounds(model, Delta, Gamma, outs, deltas, dbox,
+                                                      xi, residuals, where)
+    conds += bound_conds
+    Ad, Ap, An, stability = _comparison_system(A, model.time)
+    conds.append(stability)
+    conds += _run_conditions(model.time, E0, margin)
+    # the augmented observer
+    elo, ehi, nl, nh, rl, rh = _bound_equations(model.time, xi, C, Ad, Ap, An,
+                                                (Dl, Dh, Gl, Gh), where)
     outputs = list(observer.outputs)
     for i, r in enumerate(residuals):
         outputs.append((f"{r}_lower", rl[i] - sp.Float(margin) if margin else rl[i]))

@@ -1,5 +1,5 @@
-"""Interval observers: inclusion lower ≤ z ≤ upper on simulated trajectories (issue 4
-acceptance), and companion tests showing that understated bounds do produce
+"""Interval observers: inclusion lower ≤ z ≤ upper on simulated trajectories (the
+acceptance test of the interval observer), and companion tests showing that understated bounds do produce
 violations, so the inclusion check is not vacuous.
 
 Tolerance for "≤": TOL = 1e-9 absolute. The inclusion is exact in real arithmetic;

@@ -1,4 +1,4 @@
-"""Interval observers for Lipschitz non-monotone terms (issue 14, item 7): the γ-shift
+"""Interval observers for Lipschitz non-monotone terms (METHOD §3): the γ-shift
 (mixed-monotone) decomposition and the stability of the interval-width comparison system.
 
 What is proven here, each by something that could fail:

@@ -2,7 +2,7 @@
 matching-condition example (models/sliding_example.py, scenario
 models/scenarios/sliding_example.json).
 
-Acceptance (issue 4): the fault estimate tracks d within TOL = 0.01 for every
+Acceptance: the fault estimate tracks d within TOL = 0.01 for every
 t ≥ t_r + 5 τ_L, where t_r is the reaching time measured on the simulation (|e| stays in
 the band |e| ≤ e_th = 3 ε b/(k1 − b) afterwards; measured t_r = 0.385 s, below its
 derived bound 1.05 s) and τ_L ≤ 7.5 ms the boundary layer's time constant. The measured

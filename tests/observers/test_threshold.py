@@ -1,4 +1,5 @@
-"""Guaranteed adaptive thresholds (issue 13 item 1): the band of the fault-free residual.
+"""Guaranteed adaptive thresholds (METHOD §3, residual evaluation): the band of the
+fault-free residual.
 
 Checked independently of the code that builds the band: by simulation (the residual of a
 plant with random noise, disturbances and parameters inside their declared boxes never

@@ -11,10 +11,10 @@ import numpy as np
 import pytest
 
 from observer_cad.errors import UsageError
-from observer_cad.residuals import NO_FAULT, DecisionRule, decide
+from observer_cad.residuals import NO_FAULT, DecisionRule, decide, evaluate_result
 from observer_cad.reporting import (plot_confusion, plot_residuals, plot_simulation,
                                     residual_names, with_decisions, write_signals_csv)
-from observer_cad.simulation import SimulationResult, evaluate_result
+from observer_cad.simulation import SimulationResult
 
 GOS = DecisionRule(residuals=("r1", "r2", "r3"), faults=("f1", "f2", "f3"),
                    structure=((0, 1, 1), (1, 0, 1), (1, 1, 0)), persistence=2)

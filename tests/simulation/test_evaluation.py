@@ -1,6 +1,7 @@
-"""Metrics of decisions (observer_cad.simulation.evaluate_result / evaluate_ensemble):
-onset, true label, detection delay, false alarms, missed detections, confusion matrix,
-on a crafted result checked by hand; the Monte-Carlo driver on the isolation bank."""
+"""Metrics of decisions (observer_cad.residuals.evaluate_result and
+observer_cad.simulation.evaluate_ensemble): onset, true label, detection delay, false
+alarms, missed detections, confusion matrix, on a crafted result checked by hand; the
+Monte-Carlo driver on the isolation bank."""
 from __future__ import annotations
 
 from pathlib import Path
@@ -10,11 +11,11 @@ import pytest
 
 from observer_cad.errors import UsageError
 from observer_cad.model import load_model
-from observer_cad.residuals import NO_FAULT, UNKNOWN_PATTERN, DecisionRule, decide, decision_rule
+from observer_cad.residuals import (NO_FAULT, UNKNOWN_PATTERN, DecisionRule, FaultCase, Metrics,
+                                    decide, decision_rule, evaluate_result, fault_onsets,
+                                    true_labels)
 from observer_cad.observers import build_observer
-from observer_cad.simulation import (FaultCase, Metrics, SimulationResult, evaluate_ensemble,
-                                     evaluate_result, fault_onsets, scenario_from_dict,
-                                     true_labels)
+from observer_cad.simulation import SimulationResult, evaluate_ensemble, scenario_from_dict
 
 ROOT = Path(__file__).resolve().parents[2]
 GOS = DecisionRule(residuals=("r1", "r2", "r3"), faults=("f1", "f2", "f3"),

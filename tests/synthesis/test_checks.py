@@ -118,7 +118,7 @@ def test_reduced_C_psi_lipschitz(tank):
 
 def test_abs_of_affine_argument_is_bounded_exactly():
     """|x3 − 1| has derivative sign(x3 − 1): the range analysis splits at x3 = 1 and
-    bounds each smooth piece exactly (issue 14 item 7), N = 1 rigorously."""
+    bounds each smooth piece exactly (not from samples), N = 1 rigorously."""
     res = lipschitz([sp.Abs(x3 - 1)], [x3], [x3 >= 0])
     assert res.kind == "symbolic" and res.lipschitz is True and res.constant == 1
 

@@ -1,4 +1,4 @@
-"""Isolating residual banks (issue 12, item 3): a bank of certified Jordan residual
+"""Isolating residual banks (structure matrices): a bank of certified Jordan residual
 generators realising a structure matrix; its rows checked against an independent oracle
 (fault columns read off the right-hand side, H*(sI − F*)⁻¹ Φ D_j in s), by simulation (a
 step in f2 moves exactly the residuals of f2's column), as one observer in standalone C,
