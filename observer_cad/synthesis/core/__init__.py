@@ -1,7 +1,8 @@
 """The design value, the reduced model's equations, the task and pole placement; the one
 preparation step and the exact / float arithmetic strategies every designer uses.
 """
-from ._design import (Condition, Design, DesignMatrices, DesignRequest, Form, Method, NonlinearSubstitution, SlidingGainInputs, MATRIX_ORDER)
+from ._values import (Condition, DesignMatrices, DesignRequest, Form, Method, NonlinearSubstitution, SlidingGainInputs, MATRIX_ORDER)
+from ._design import (Design)
 from ._expr import (parse_json_expression)
 from ._nonlinear import (substitute_arguments)
 from ._prepare import (Prepared, prepare, FLOAT_AUTO_N, METHODS)
