@@ -67,7 +67,7 @@ def _from_scratch(F, H, L, *, H0=None):
     import itertools
 
     from observer_cad.numerics import as_rational, left_null_echelon
-    from observer_cad.synthesis.canonical._canonical import _krylov_rational
+    from observer_cad.synthesis.canonical._krylov import _krylov_rational
 
     Fq, Hq, Lq = (as_rational(A) for A in (F, H, L))
     HF = [Hq]
@@ -82,10 +82,10 @@ def _child(n: int, scratch: bool = False) -> None:
 
     from observer_cad import design_canonical
     from observer_cad.numerics import RATIONAL_BACKEND
-    from observer_cad.synthesis import _canonical
+    from observer_cad.synthesis.canonical import _exact  # where the exact search looks it up
 
     if scratch:
-        _canonical.krylov_null_spaces = _from_scratch
+        _exact.krylov_null_spaces = _from_scratch
     model, st = _model(n)
     t, c = time.perf_counter(), time.process_time()
     d = design_canonical(model, unknown_input="d", symbolic=True, method="exact", structure=st)
@@ -127,7 +127,7 @@ def _per_k(n: int, k_max: int, runs: int) -> list:
 
     from observer_cad.numerics import (RATIONAL_BACKEND, GrowingLeftNull, as_rational,
                                        rational_left_null)
-    from observer_cad.synthesis.canonical._canonical import _krylov_rational
+    from observer_cad.synthesis.canonical._krylov import _krylov_rational
 
     _, st = _model(n)
     F, H, L = (as_rational(sp.Matrix(A)) for A in (st.F, st.H, st.unknown_input_columns(
@@ -168,7 +168,7 @@ def _eliminations(n: int, k: int) -> list:
 
     from observer_cad.numerics import as_rational
     from observer_cad.numerics._linalg import _gauss_jordan
-    from observer_cad.synthesis.canonical._canonical import _krylov_rational
+    from observer_cad.synthesis.canonical._krylov import _krylov_rational
 
     _, st = _model(n)
     F, H, L = (as_rational(sp.Matrix(A)) for A in (st.F, st.H, st.unknown_input_columns(

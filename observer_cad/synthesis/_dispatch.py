@@ -22,7 +22,7 @@ from typing import Sequence
 from ..errors import InfeasibleDesignError, UsageError
 from ..model import ObserverKind, PlantModel, Task, resolve_task
 from .canonical import design_canonical
-from .core import Design, DesignRequest
+from .core import Design, DesignRequest, prepare
 from .canonical import design_diagnostic_canonical
 from .jordan import design_jordan, design_jordan_unknown_input
 from .core import default_eigenvalues
@@ -81,8 +81,13 @@ def design(model: PlantModel, *, observer: str, faults: Sequence[str] = (),
     if kind == ObserverKind.DIAGNOSTIC and form == "canonical" and len(faults) > 1:
         raise UsageError("canonical-form diagnostic observers take one --fault; "
                          "use --form jordan for several (seed 002 Remark 1)")
-    work = model if symbolic else model.substitute_parameters()
-    task = resolve_task(work, observer=kind, faults=faults, disturbances=disturbances,
+    # the arithmetic asked for is checked here for the designers that take it; the others
+    # design in exact arithmetic whatever it says (the structure is left to the designer)
+    takes_method = (form == "canonical" and kind == ObserverKind.UNKNOWN_INPUT) or (
+        form == "jordan" and kind in (ObserverKind.DIAGNOSTIC, ObserverKind.VIRTUAL_SENSOR,
+                                      ObserverKind.INTERVAL))
+    problem = prepare(model, symbolic=symbolic, method=method if takes_method else "exact")
+    task = resolve_task(problem.work, observer=kind, faults=faults, disturbances=disturbances,
                         estimate=estimate)
     if kind == ObserverKind.DIAGNOSTIC and form == "canonical" and len(task.targets) > 1:
         raise UsageError("name the fault to detect with --fault NAME")
@@ -111,7 +116,7 @@ def design(model: PlantModel, *, observer: str, faults: Sequence[str] = (),
                      if form == "canonical" and d.matrices.K is not None else None),
         variant=variant, robust=robust, symbolic=symbolic,
         method=method if d.approximate else d.method.value, rtol=rtol)
-    # the full fault signature: every declared fault against the residual (issue 12)
+    # the full fault signature: every declared fault against the residual
     d = dataclasses.replace(d, request=request).with_signature()
     blind = [s for s in d.signature if s.role == "detected" and not s.sensitive]
     if blind:  # a residual generator must respond to what it is meant to detect

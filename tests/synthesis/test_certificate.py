@@ -2,7 +2,7 @@
 import pytest
 import sympy as sp
 
-import observer_cad.synthesis.canonical._canonical as canonical  # fault injection into the synthesis
+import observer_cad.synthesis.canonical._exact as canonical  # fault injection into the synthesis (its exact steps)
 from observer_cad import CertificateError, design_canonical, load_model
 from observer_cad.synthesis import certify_reduced_model
 from observer_cad.cli import main

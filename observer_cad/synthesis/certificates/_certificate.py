@@ -211,6 +211,59 @@ class _Arr:
         return _Arr(self.a - o.a)
 
 
+def _cols(A) -> int:
+    return A.a.shape[1] if isinstance(A, _Arr) else A.q.shape[1] if isinstance(A, _Q) else A.cols
+
+
+class _ExactProducts:
+    """Exact arithmetic of a certificate: products in FLINT when every matrix is rational
+    (:class:`_Q`), else sympy; an identity holds when its residual is exactly zero."""
+
+    exact = True
+
+    def __init__(self, mats):
+        self.wrap = _exact_wrapper(mats)
+
+    @staticmethod
+    def identity(name: str, residual, scale=None) -> Identity:
+        return _exact_identity(name, residual)
+
+    @staticmethod
+    def certificate(ids) -> "Certificate":
+        return Certificate(tuple(ids), True, None)
+
+
+class _FloatProducts:
+    """Float arithmetic of a certificate: products in numpy (sympy Float products cost
+    minutes at n = 300); an identity holds when its residual's norm — absolute, or relative
+    to ``scale`` when given — is at most ``tolerance``."""
+
+    exact = False
+
+    def __init__(self, tolerance: float):
+        self.tolerance = tolerance
+
+    @staticmethod
+    def wrap(v) -> _Arr:
+        return _Arr(_floats(v))
+
+    def identity(self, name: str, residual, scale=None) -> Identity:
+        r = residual.a
+        if scale is None:
+            rel = float(np.linalg.norm(r if r.size else np.zeros(1)))
+            return Identity(name, rel <= self.tolerance, f"{rel:.2e}")
+        rel = float(np.linalg.norm(r)) / scale if r.size else 0.0
+        return Identity(name, rel <= self.tolerance, f"{rel:.2e} (relative)")
+
+    def certificate(self, ids) -> "Certificate":
+        return Certificate(tuple(ids), False, self.tolerance)
+
+
+def _products(exact: bool, mats, tolerance: float):
+    """The certificate's arithmetic, chosen once: exact over ``mats`` or float."""
+    return _ExactProducts(mats) if exact else _FloatProducts(tolerance)
+
+
 def certify_design(plant: dict, mats: dict, *, M=None, substitutions=(), decoupled: bool = True,
                    exact: bool = True, tolerance: float = 1e-9,
                    raise_on_failure: bool = True) -> Certificate:
@@ -226,48 +279,32 @@ def certify_design(plant: dict, mats: dict, *, M=None, substitutions=(), decoupl
     - ``M − H_z Φ − Q H`` for an estimated z = M x;
     - ``A_j − A*_1j Φ − A*_2j H`` for each argument substitution (A_j, A*_1j, A*_2j).
     """
-    if exact:
-        mat = _exact_wrapper(list(plant.values()) + list(mats.values()) + (
-            [M] if M is not None else []) + [A for _, *As in substitutions for A in As])
-        P = {k: mat(v) for k, v in plant.items()}
-        X = {k: mat(v) for k, v in mats.items()}
-    else:  # float designs: the products in numpy (sympy Float products cost minutes at n = 300)
-        P = {k: _Arr(_floats(v)) for k, v in plant.items()}
-        X = {k: _Arr(_floats(v)) for k, v in mats.items() if v is not None}
-        mat = lambda v: _Arr(_floats(v))  # noqa: E731
+    pr = _products(exact, list(plant.values()) + list(mats.values()) + (
+        [M] if M is not None else []) + [A for _, *As in substitutions for A in As], tolerance)
+    P = {k: pr.wrap(v) for k, v in plant.items()}
+    X = {k: pr.wrap(v) for k, v in mats.items() if v is not None or pr.exact}
+    mat = pr.wrap
     Phi = X["Phi"]
-    cols = lambda A: (A.a.shape[1] if isinstance(A, _Arr) else A.q.shape[1]  # noqa: E731
-                      if isinstance(A, _Q) else A.cols)
     checks = [("Phi F - F* Phi - J* H", Phi * P["F"] - X["F_star"] * Phi - X["J_star"] * P["H"])]
     if "R_star" in X and "H_star" in X:
         checks.append(("H* Phi - R* H", X["H_star"] * Phi - X["R_star"] * P["H"]))
-    if "G_star" in X and cols(P["G"]):
+    if "G_star" in X and _cols(P["G"]):
         checks.append(("Phi G - G*", Phi * P["G"] - X["G_star"]))
-    if "D_star" in X and cols(P["D"]):
+    if "D_star" in X and _cols(P["D"]):
         checks.append(("Phi D - D*", Phi * P["D"] - X["D_star"]))
-    if cols(P["L"]):
+    if _cols(P["L"]):
         if decoupled:
             checks.append(("Phi L", Phi * P["L"]))
         elif "L_star" in X:
             checks.append(("Phi L - L*", Phi * P["L"] - X["L_star"]))
-    if "C_star" in X and cols(P["C"]):
+    if "C_star" in X and _cols(P["C"]):
         checks.append(("Phi C - C*", Phi * P["C"] - X["C_star"]))
     if M is not None:
         checks.append(("M - Hz Phi - Q H", mat(M) - X["Hz"] * Phi - X["Q"] * P["H"]))
     for j, A, A1, A2 in substitutions:
         checks.append((f"A_{j} - A*_1,{j} Phi - A*_2,{j} H",
                        mat(A) - mat(A1) * Phi - mat(A2) * P["H"]))
-    ids = []
-    if exact:
-        for name, res in checks:
-            ids.append(_exact_identity(name, res))
-        cert = Certificate(tuple(ids), True, None)
-    else:
-        for name, res in checks:
-            r = res.a if res.a.size else np.zeros(1)
-            rel = float(np.linalg.norm(r))
-            ids.append(Identity(name, rel <= tolerance, f"{rel:.2e}"))
-        cert = Certificate(tuple(ids), False, tolerance)
+    cert = pr.certificate(pr.identity(name, res) for name, res in checks)
     if raise_on_failure and not cert.passed:
         raise CertificateError(f"design failed its certificate: {cert.summary()}")
     return cert
@@ -322,9 +359,35 @@ def certify_against_model(model, mats, task, *, nonlinear=(), observer_states=()
     with :data:`MODEL_PREFIX`); the caller decides what a failure means.
     """
     m = dict(mats)
-    Phi = sp.Matrix(m["Phi"])
-    k = Phi.rows
     jac, outs = _model_jacobians(model)
+    targets, bounded, zero = _roles(model, m, task, approximate)
+    if jac is not None and not nonlinear:
+        blocks, plant, m = _linear_blocks(model, jac, m, task, targets, bounded, zero)
+        return _linear_identities(blocks, plant, m, exact, tolerance)
+    checks = _equation_checks(model, m, task, outs, targets, bounded, zero, nonlinear,
+                              observer_states)
+    out = []
+    for name, terms in checks:
+        total = terms[0]
+        for t in terms[1:]:
+            total = total - t
+        bad, how = None, "0"
+        for e, parts in zip(total, zip(*[list(t) for t in terms])):
+            test = is_identically_zero(e, scale=parts, rtol=None if exact else tolerance)
+            if not test.holds:
+                bad = e
+                break
+            if not test.exact:
+                how = test.how
+        residual = how if bad is None else readable(sp.simplify(bad) if exact else bad)
+        out.append(Identity(MODEL_PREFIX + name, bad is None, residual))
+    return tuple(out)
+
+
+def _roles(model, m, task, approximate):
+    """The inputs D* is for (``targets``), those L* bounds (interval observers), and those
+    set to zero: the faults the task assumes zero, the targets of a design without D*,
+    and the decoupled ones of an approximate design (its ‖Φ L‖ is reported apart)."""
     by_name = {s.name: s for s in model.faults + model.disturbances}
     targets = [by_name[t] for t in task.targets] if m.get("D_star") is not None else []
     bounded = [by_name[t] for t in task.bounded] if m.get("L_star") is not None else []
@@ -333,43 +396,49 @@ def certify_against_model(model, mats, task, *, nonlinear=(), observer_states=()
         zero += [by_name[t] for t in task.targets]
     if approximate:
         zero += [by_name[t] for t in task.decoupled]
-    zero = set(zero)
+    return targets, bounded, set(zero)
 
-    def cols(key, keep):  # Jacobian columns of the inputs kept, in the given order
-        syms = {"d": model.faults, "rho": model.disturbances}[key]
-        return sp.Matrix.hstack(*[jac[key][:, syms.index(s)] for s in keep]) if keep \
-            else sp.zeros(len(model.dynamics), 0)
 
-    checks = []  # (name, [A, B, …]): the identity A − B − … = 0
-    if jac is not None and not nonlinear:
-        d_rest = [s for s in model.faults if s not in zero and s not in targets]
-        r_rest = [s for s in model.disturbances if s not in zero and s not in targets
-                  and s not in bounded]
+def _linear_blocks(model, jac, m, task, targets, bounded, zero):
+    """The block identities of a linear model (see :func:`_linear_identities`), the
+    Jacobian blocks they read and the design's matrices (with M when z = M x is
+    estimated): ``(blocks, plant, matrices)``."""
+    d_rest = [s for s in model.faults if s not in zero and s not in targets]
+    r_rest = [s for s in model.disturbances if s not in zero and s not in targets
+              and s not in bounded]
 
-        def column(s):
-            return jac["d"][:, model.faults.index(s)] if s in model.faults else \
-                jac["rho"][:, model.disturbances.index(s)]
-        blocks = [("Phi df/dx - F* Phi - J* dh/dx",
-                   [("Phi", "x"), ("F_star", "Phi"), ("J_star", "h")])]
-        plant = {"x": jac["x"], "h": jac["h"]}
-        if model.inputs:
-            blocks.append(("Phi df/du - G*", [("Phi", "u"), ("G_star", None)]))
-            plant["u"] = jac["u"]
-        if targets:
-            blocks.append(("Phi df/dd - D*", [("Phi", "T"), ("D_star", None)]))
-            plant["T"] = sp.Matrix.hstack(*[column(s) for s in targets])
-        if bounded:
-            blocks.append(("Phi df/drho - L*", [("Phi", "B"), ("L_star", None)]))
-            plant["B"] = sp.Matrix.hstack(*[column(s) for s in bounded])
-        if d_rest or r_rest:
-            blocks.append(("Phi df/d(decoupled)", [("Phi", "R")]))
-            plant["R"] = sp.Matrix.hstack(*[column(s) for s in d_rest + r_rest])
-        if m.get("R_star") is not None and m.get("H_star") is not None:
-            blocks.append(("R* dh/dx - H* Phi", [("R_star", "h"), ("H_star", "Phi")]))
-        if task.M is not None and m.get("Hz") is not None:
-            blocks.append(("M - Hz Phi - Q dh/dx", [("M", None), ("Hz", "Phi"), ("Q", "h")]))
-            m = dict(m, M=task.M)
-        return _linear_identities(blocks, plant, m, exact, tolerance)
+    def column(s):
+        return jac["d"][:, model.faults.index(s)] if s in model.faults else \
+            jac["rho"][:, model.disturbances.index(s)]
+    blocks = [("Phi df/dx - F* Phi - J* dh/dx",
+               [("Phi", "x"), ("F_star", "Phi"), ("J_star", "h")])]
+    plant = {"x": jac["x"], "h": jac["h"]}
+    if model.inputs:
+        blocks.append(("Phi df/du - G*", [("Phi", "u"), ("G_star", None)]))
+        plant["u"] = jac["u"]
+    if targets:
+        blocks.append(("Phi df/dd - D*", [("Phi", "T"), ("D_star", None)]))
+        plant["T"] = sp.Matrix.hstack(*[column(s) for s in targets])
+    if bounded:
+        blocks.append(("Phi df/drho - L*", [("Phi", "B"), ("L_star", None)]))
+        plant["B"] = sp.Matrix.hstack(*[column(s) for s in bounded])
+    if d_rest or r_rest:
+        blocks.append(("Phi df/d(decoupled)", [("Phi", "R")]))
+        plant["R"] = sp.Matrix.hstack(*[column(s) for s in d_rest + r_rest])
+    if m.get("R_star") is not None and m.get("H_star") is not None:
+        blocks.append(("R* dh/dx - H* Phi", [("R_star", "h"), ("H_star", "Phi")]))
+    if task.M is not None and m.get("Hz") is not None:
+        blocks.append(("M - Hz Phi - Q dh/dx", [("M", None), ("Hz", "Phi"), ("Q", "h")]))
+        m = dict(m, M=task.M)
+    return blocks, plant, m
+
+
+def _equation_checks(model, m, task, outs, targets, bounded, zero, nonlinear,
+                     observer_states) -> list:
+    """The identities on the model's own equations (nonlinear or affine models):
+    ``(name, [A, B, …])`` for A − B − … ≡ 0, with Ψ* the design's substitutions."""
+    Phi = sp.Matrix(m["Phi"])
+    k = Phi.rows
     x = sp.Matrix(model.states)
     xs = list(observer_states) if observer_states else list(sp.symbols(f"xs1:{k + 1}"))
     ys = sp.symbols(f"y1:{len(outs) + 1}")
@@ -389,7 +458,7 @@ def certify_against_model(model, mats, task, *, nonlinear=(), observer_states=()
         Cs = sp.Matrix(m["C_star"])
         psi = {ns.index: ns.function.xreplace(z) for ns in nonlinear}
         terms += [Cs[:, j] * psi[j + 1] for j in range(Cs.cols) if j + 1 in psi]
-    checks.append(("Phi f - F* Phi x - J* h - G* u - C* Psi* - D* d", terms))
+    checks = [("Phi f - F* Phi x - J* h - G* u - C* Psi* - D* d", terms)]
     if m.get("R_star") is not None and m.get("H_star") is not None:
         checks.append(("R* h - H* Phi x", [sp.Matrix(m["R_star"]) * h,
                                             sp.Matrix(m["H_star"]) * Phi * x]))
@@ -397,22 +466,7 @@ def certify_against_model(model, mats, task, *, nonlinear=(), observer_states=()
         checks.append(("M x - Hz Phi x - Q h", [sp.Matrix(task.M) * x,
                                                  sp.Matrix(m["Hz"]) * Phi * x,
                                                  sp.Matrix(m["Q"]) * h]))
-    out = []
-    for name, terms in checks:
-        total = terms[0]
-        for t in terms[1:]:
-            total = total - t
-        bad, how = None, "0"
-        for e, parts in zip(total, zip(*[list(t) for t in terms])):
-            test = is_identically_zero(e, scale=parts, rtol=None if exact else tolerance)
-            if not test.holds:
-                bad = e
-                break
-            if not test.exact:
-                how = test.how
-        residual = how if bad is None else readable(sp.simplify(bad) if exact else bad)
-        out.append(Identity(MODEL_PREFIX + name, bad is None, residual))
-    return tuple(out)
+    return checks
 
 
 def _linear_identities(blocks, plant: dict, mats: dict, exact: bool, tolerance: float) -> tuple:
@@ -422,12 +476,10 @@ def _linear_identities(blocks, plant: dict, mats: dict, exact: bool, tolerance: 
     plant key: the design's Φ on the right). Exact rational matrices multiply in FLINT,
     symbolic ones in sympy (each entry decided by ``is_identically_zero``), float designs
     in numpy (relative norm below ``tolerance``)."""
-    if exact:
-        wrap = _exact_wrapper(list(plant.values()) + [mats[a] for _, ps in blocks for a, _ in ps])
-    else:
-        wrap = lambda v: _Arr(_floats(v))  # noqa: E731
-    P = {key: wrap(v) for key, v in plant.items()}
-    X = {key: wrap(v) for key, v in mats.items() if v is not None}
+    pr = _products(exact, list(plant.values()) + [mats[a] for _, ps in blocks for a, _ in ps],
+                   tolerance)
+    P = {key: pr.wrap(v) for key, v in plant.items()}
+    X = {key: pr.wrap(v) for key, v in mats.items() if v is not None}
     P["Phi"] = X["Phi"]
     out = []
     for name, pairs in blocks:
@@ -435,12 +487,9 @@ def _linear_identities(blocks, plant: dict, mats: dict, exact: bool, tolerance: 
         total = terms[0]
         for t in terms[1:]:
             total = total - t
-        if not exact:  # relative to the size of the products without cancellation
-            r = total.a
+        scale = None
+        if not pr.exact:  # relative to the size of the products without cancellation
             scale = max([1.0] + [float(np.linalg.norm(X[a].a)) * (
                 float(np.linalg.norm(P[b].a)) if b is not None else 1.0) for a, b in pairs])
-            rel = float(np.linalg.norm(r)) / scale if r.size else 0.0
-            out.append(Identity(MODEL_PREFIX + name, rel <= tolerance, f"{rel:.2e} (relative)"))
-        else:
-            out.append(_exact_identity(MODEL_PREFIX + name, total))
+        out.append(pr.identity(MODEL_PREFIX + name, total, scale))
     return tuple(out)

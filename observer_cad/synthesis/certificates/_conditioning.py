@@ -1,5 +1,5 @@
 """Conditioning of a design: how large Φ is against the measured rows, and how strongly
-measurement noise on y reaches the design's output (issue 11 item 8).
+measurement noise on y reaches the design's output.
 
 An exact design can be numerically useless: with k4 = 1e−12 the electric drive's ρ
 estimator has Φ entries of 3.6e9 and amplifies the noise on y by ~1e12, yet every

@@ -1,4 +1,4 @@
-"""The full fault signature of a residual: which declared faults move r (issue 12).
+"""The full fault signature of a residual: which declared faults move r.
 
 A design with a residual r = R* y − H* x* (diagnostic observers, unknown-input models)
 was chosen for its *targets*; every other declared fault may still reach it. With the

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import sympy as sp
 
-from ._design import NonlinearSubstitution
+from ._values import NonlinearSubstitution
 from ...model import Structure
 from ...numerics import exact_rank, solve_left
 

@@ -27,16 +27,34 @@ FLOAT_AUTO_N = 20
 METHODS = ("auto", "exact", "float")
 
 
-@dataclasses.dataclass(frozen=True)
+@dataclasses.dataclass(frozen=True, init=False)
 class Prepared:
     """What a design starts from: ``model`` as given, ``work`` (its parameters substituted
     by their defaults unless kept symbolic), the ``structure`` extracted from ``work`` (with
-    its model certificate), and the arithmetic ``method`` chosen ("exact" or "float")."""
+    its model certificate), and the arithmetic ``method`` chosen ("exact" or "float").
+
+    The structure is extracted when it is first asked for (``Prepared(model, work, None,
+    method)``), once: :func:`~observer_cad.synthesis.design` prepares a request only to
+    resolve its task on ``work`` and leaves the extraction to the designer it calls.
+    """
 
     model: PlantModel
     work: PlantModel
-    structure: Structure
     method: str
+
+    def __init__(self, model: PlantModel, work: PlantModel, structure: Structure | None = None,
+                 method: str = "exact"):
+        object.__setattr__(self, "model", model)
+        object.__setattr__(self, "work", work)
+        object.__setattr__(self, "method", method)
+        object.__setattr__(self, "_structure", structure)
+
+    @property
+    def structure(self) -> Structure:
+        """The structure of ``work`` (extracted on first use)."""
+        if self._structure is None:
+            object.__setattr__(self, "_structure", extract_structure(self.work))
+        return self._structure
 
     @property
     def symbolic(self) -> bool:
@@ -51,8 +69,9 @@ class Prepared:
 def prepare(model: PlantModel, *, symbolic: bool = False, method: str = "auto",
             structure: Structure | None = None,
             float_takes: Callable[[Structure], bool] | None = None) -> Prepared:
-    """Substitute the parameters (unless ``symbolic``), extract the structure (unless a
-    ``structure`` of that same work model is given) and choose the arithmetic.
+    """Substitute the parameters (unless ``symbolic``), choose the arithmetic, and have the
+    structure extracted (unless a ``structure`` of that same work model is given) when it
+    is first used.
 
     Parameters
     ----------
@@ -75,10 +94,11 @@ def prepare(model: PlantModel, *, symbolic: bool = False, method: str = "auto",
     if method not in METHODS:
         raise UsageError(f"method must be 'auto', 'exact' or 'float', got {method!r}")
     work = model if symbolic else model.substitute_parameters()
-    st = structure if structure is not None else extract_structure(work)
     if method == "float" and work.parameters:
         raise UsageError("the float path needs numeric parameters: design without --symbolic")
     if method == "auto":
-        big = not work.parameters and st.n > FLOAT_AUTO_N
-        method = "float" if big and (float_takes is None or float_takes(st)) else "exact"
-    return Prepared(model, work, st, method)
+        big = not work.parameters and len(work.states) > FLOAT_AUTO_N
+        if big and float_takes is not None and structure is None:
+            structure = extract_structure(work)  # the caller's float path must see it
+        method = "float" if big and (float_takes is None or float_takes(structure)) else "exact"
+    return Prepared(model, work, structure, method)

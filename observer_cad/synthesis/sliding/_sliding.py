@@ -96,17 +96,15 @@ import math
 import numpy as np
 import sympy as sp
 
-from ..certificates import certify_design
 from ..core import Condition, Design, SlidingGainInputs
 from ...errors import InfeasibleDesignError, ModelError, UsageError
 from ..jordan import Admissible
 from ..core import (EPS, INJECTIONS, K1, TAU, is_stable, observer_symbols, output_symbols,
                     sliding_equations)
-from ..core import task_for
+from ..core import arithmetic_for, prepare, task_for
 from ...model import PlantModel, Task
 from ..core import substitute_arguments
-from ...model import extract_structure
-from ...numerics import echelon_rows, exact_rank, left_null_space
+from ...numerics import echelon_rows, exact_rank
 from ...numerics import rationalize_floats
 
 __all__ = ["K1", "EPS", "TAU", "design_sliding", "sliding_pencil", "admissible_sliding_lambdas",
@@ -262,8 +260,8 @@ def _abs_bound(model: PlantModel, sym, what: str) -> float:
 def gain_bound(model: PlantModel, design: Design, *, delta: float = 1.0,
                lipschitz: float | None = None) -> GainBound:
     """Evaluate the gain bound's terms for a sliding-mode design (see the module doc)."""
-    work = model.substitute_parameters() if model.parameters else model
-    st = extract_structure(work)
+    problem = prepare(model, method="exact")
+    work, st = problem.work, problem.structure
     mats = design.matrices
     lam = float(sp.Matrix(mats.F_star)[0, 0])
     Ds = float(sp.Matrix(mats.D_star)[0, 0])
@@ -342,7 +340,8 @@ def design_sliding(model: PlantModel, *, fault: str | None = None, lam=None, k1=
     """
     if injection not in INJECTIONS:
         raise UsageError(f"injection must be 'regularised' or 'sign', not {injection!r}")
-    work = model.substitute_parameters() if model.parameters else model
+    problem = prepare(model, method="exact")  # parameters substituted; exact arithmetic only
+    work, ar = problem.work, arithmetic_for(problem)
     where = model.where
     if work.time != "continuous":
         raise UsageError(f"{where}: the sliding-mode observer is continuous-time (seed 002 §5);"
@@ -352,67 +351,17 @@ def design_sliding(model: PlantModel, *, fault: str | None = None, lam=None, k1=
     fsym = work.symbol(task.targets[0])
     if not eps > 0 or not delta > 0 or not tau > 0:
         raise UsageError("eps, delta and tau must be positive")
-    st = extract_structure(work)
+    st = problem.structure
     F, G, H, C = (sp.Matrix(M) for M in (st.F, st.G, st.H, st.C))
-    n, l = st.n, st.l
     D = sp.Matrix(st.unknown_input_columns([fsym]))
     dec = [work.symbol(nm) for nm in task.decoupled]
-    L = sp.Matrix(st.unknown_input_columns(dec)) if dec else sp.zeros(n, 0)
-
-    # matching condition (necessary)
-    rHD, rD = exact_rank(H * D).rank, exact_rank(D).rank
-    if rD == 0:
-        raise InfeasibleDesignError(f"{where}: fault '{fsym}' does not enter the dynamics (D = 0)")
-    if rHD != rD:
-        raise InfeasibleDesignError(
-            f"{where}: matching condition rank(HD) = rank(D) fails for fault '{fsym}'"
-            f" (rank HD = {rHD}, rank D = {rD}): it does not enter a measured direction,"
-            " no sliding-mode observer on a measured row exists")
-    conds = [Condition("matching condition rank(HD) = rank(D)", True,
-                       f"rank HD = {rHD} = rank D (H D = {list(H * D)})", "seed 002 §5; METHOD §4")]
-
+    L = sp.Matrix(st.unknown_input_columns(dec)) if dec else sp.zeros(st.n, 0)
+    conds = [_matching(ar, H, D, where, fsym)]
     adm = admissible_sliding_lambdas(F, H, L)
     conds.append(Condition("admissible λ (Q(λ) = [H(F − λI), HL; H, 0] loses row rank)",
                            adm.generic or bool(adm.values), f"{adm.describe()}; {adm.evidence}",
                            "derived from seed 002 eq. (2.5) with Φ_1 = R* H"))
-    if lam is not None:
-        lv = rationalize_floats(sp.sympify(lam)) if not isinstance(lam, sp.Basic) else lam
-        if not adm.contains(lv):
-            raise InfeasibleDesignError(f"{where}: λ = {lv} is not admissible for a measured"
-                                        f" sliding row (admissible: {adm.describe()})")
-        if is_stable(lv, "continuous") is not True:
-            raise InfeasibleDesignError(f"{where}: λ = {lv} is not stable (needs λ < 0)")
-        candidates = [lv]
-    elif adm.generic:
-        candidates = [sp.Integer(-1)]
-    else:
-        candidates = [v for v in adm.values if is_stable(v, "continuous") is True
-                      and not v.has(sp.CRootOf)]
-        candidates.sort(key=lambda v: (-float(v)))
-        if not candidates:
-            raise InfeasibleDesignError(f"{where}: no stable admissible λ for a measured sliding"
-                                        f" row: {adm.describe()} ({adm.evidence})")
-
-    chosen, tried = None, []
-    for lv in candidates:
-        basis, _ = left_null_space(sliding_pencil(F, H, L, lv))
-        for v in echelon_rows(basis):
-            Rs, Js = v[:, :l], -v[:, l:]
-            Phi = (Rs * H).applyfunc(sp.cancel)
-            Ds = (Phi * D).applyfunc(sp.cancel)
-            if Ds[0, 0] != 0:
-                chosen = (lv, Rs, Js, Phi)
-                break
-            tried.append(f"λ = {lv}: member Φ_1 = {list(Phi)} has Φ_1 D = 0")
-        if chosen:
-            break
-        if not basis:
-            tried.append(f"λ = {lv}: Q(λ) has full row rank")
-    if chosen is None:
-        raise InfeasibleDesignError(
-            f"{where}: no measured row Φ_1 = R* H with Φ_1 D ≠ 0 and Φ_1 L = 0: "
-            + "; ".join(tried), tuple(tried))
-    lv, Rs, Js, Phi = chosen
+    lv, Rs, Js, Phi, tried = _sliding_row(ar, F, H, D, L, _lambdas(adm, lam, where), where)
     # normalise D* = 1 (any nonzero multiple of the row is a solution)
     scale = sp.cancel(1 / (Phi * D)[0, 0])
     Rs, Js, Phi = (M.applyfunc(lambda e: sp.cancel(e * scale)) for M in (Rs, Js, Phi))
@@ -421,7 +370,7 @@ def design_sliding(model: PlantModel, *, fault: str | None = None, lam=None, k1=
             "D_star": (Phi * D).applyfunc(sp.cancel)}
     if L.cols:
         mats["L_star"] = (Phi * L).applyfunc(sp.cancel)
-    xs, ys = observer_symbols(1), output_symbols(l)
+    xs, ys = observer_symbols(1), output_symbols(st.l)
     subs_ids, nonlinear = [], []
     if C.cols:
         mats["C_star"] = (Phi * C).applyfunc(sp.cancel)
@@ -429,22 +378,10 @@ def design_sliding(model: PlantModel, *, fault: str | None = None, lam=None, k1=
         if not ok:
             raise InfeasibleDesignError(f"{where}: sliding row Φ_1 = {list(Phi)}: {why}")
     plant = dict(F=F, G=G, H=H, C=C, D=D, L=L)
-    cert = certify_design(plant, mats, substitutions=subs_ids, decoupled=True)
-
-    conds.append(Condition(f"λ = {lv} stable", True, "λ < 0 (continuous time)", "METHOD §2b"))
-    conds.append(Condition("measured row Φ_1 = R* H", True,
-                           f"Φ_1 = {list(Phi)} = R* H with R* = {list(Rs)}: y* = R* y", "seed 002 §5"))
-    conds.append(Condition(f"fault sensitivity Φ_1 D ≠ 0 ({fsym})", True,
-                           f"D* = Φ_1 D = {mats['D_star'][0, 0]}", "seed 002 §5"))
-    conds.append(Condition("decoupling Φ_1 L = 0", True,
-                           f"from {', '.join(s.name for s in dec)}" if dec else "nothing to decouple",
-                           "METHOD §2"))
-    conds.append(Condition("certificate", cert.passed, cert.summary(), "METHOD §2"))
-
-    # equations
+    cert = ar.certify(plant, mats, substitutions=subs_ids, decoupled=True)
+    conds += _row_conditions(lv, Phi, Rs, mats, fsym, dec, cert)
     states, update, outputs = sliding_equations(mats, work.inputs, xs, ys, fsym.name, injection,
                                                 nonlinear=nonlinear, q=C.cols)
-
     design0 = Design(
         model_name=work.name, form="jordan", k=1, matrices=mats, conditions=tuple(conds),
         assumptions=(), certificate=cert, task=task, structure=st, symbolic=False,
@@ -455,6 +392,98 @@ def design_sliding(model: PlantModel, *, fault: str | None = None, lam=None, k1=
     k1v = float(k1) if k1 is not None else gain_margin * gb.bound
     if not k1v > 0:
         raise UsageError(f"k1 must be positive, got {k1v}")
+    choice = (f"λ = {lv}, Φ_1 = R* H with R* = {list(Rs)} (normalised to D* = 1); k1 = {k1v:.6g}"
+              + (" (given)" if k1 is not None else f" = {gain_margin:g} × bound {gb.bound:.6g}")
+              + f", ε = {eps:g}, δ = {delta:g}, injection {injection}")
+    params = {K1: sp.Float(k1v), EPS: sp.Float(eps)}
+    if injection == "sign":
+        params = {K1: sp.Float(k1v), TAU: sp.Float(tau)}
+    return dataclasses.replace(design0, conditions=tuple(conds) + _gain_conditions(
+                                   gb, k1v, eps, tau, injection), choice=choice,
+                               parameters=params,
+                               sliding_inputs=SlidingGainInputs(
+                                   float(delta), None if lipschitz is None else float(lipschitz)))
+
+
+def _matching(ar, H, D, where, fsym) -> Condition:
+    """The matching condition rank(H D) = rank(D), necessary: refused when it fails."""
+    rHD, rD = ar.rank(H * D), ar.rank(D)
+    if rD == 0:
+        raise InfeasibleDesignError(f"{where}: fault '{fsym}' does not enter the dynamics (D = 0)")
+    if rHD != rD:
+        raise InfeasibleDesignError(
+            f"{where}: matching condition rank(HD) = rank(D) fails for fault '{fsym}'"
+            f" (rank HD = {rHD}, rank D = {rD}): it does not enter a measured direction,"
+            " no sliding-mode observer on a measured row exists")
+    return Condition("matching condition rank(HD) = rank(D)", True,
+                     f"rank HD = {rHD} = rank D (H D = {list(H * D)})", "seed 002 §5; METHOD §4")
+
+
+def _lambdas(adm, lam, where) -> list:
+    """The λ to try: the requested one (admissible and stable), −1 when every λ is
+    admissible, else the admissible stable values in increasing |λ|."""
+    if lam is not None:
+        lv = rationalize_floats(sp.sympify(lam)) if not isinstance(lam, sp.Basic) else lam
+        if not adm.contains(lv):
+            raise InfeasibleDesignError(f"{where}: λ = {lv} is not admissible for a measured"
+                                        f" sliding row (admissible: {adm.describe()})")
+        if is_stable(lv, "continuous") is not True:
+            raise InfeasibleDesignError(f"{where}: λ = {lv} is not stable (needs λ < 0)")
+        return [lv]
+    if adm.generic:
+        return [sp.Integer(-1)]
+    candidates = [v for v in adm.values if is_stable(v, "continuous") is True
+                  and not v.has(sp.CRootOf)]
+    candidates.sort(key=lambda v: (-float(v)))
+    if not candidates:
+        raise InfeasibleDesignError(f"{where}: no stable admissible λ for a measured sliding"
+                                    f" row: {adm.describe()} ({adm.evidence})")
+    return candidates
+
+
+def _sliding_row(ar, F, H, D, L, candidates, where):
+    """The first λ and member (R*, −J*) of the left null space of Q(λ) whose measured row
+    Φ_1 = R* H has Φ_1 D ≠ 0: ``(λ, R*, J*, Φ_1, the members rejected)``."""
+    l = H.rows  # noqa: E741
+    chosen, tried = None, []
+    for lv in candidates:
+        basis = ar.left_null_space(sliding_pencil(F, H, L, lv))
+        for v in echelon_rows([basis[i, :] for i in range(basis.rows)]):
+            Rs, Js = v[:, :l], -v[:, l:]
+            Phi = (Rs * H).applyfunc(sp.cancel)
+            Ds = (Phi * D).applyfunc(sp.cancel)
+            if Ds[0, 0] != 0:
+                chosen = (lv, Rs, Js, Phi)
+                break
+            tried.append(f"λ = {lv}: member Φ_1 = {list(Phi)} has Φ_1 D = 0")
+        if chosen:
+            break
+        if not basis.rows:
+            tried.append(f"λ = {lv}: Q(λ) has full row rank")
+    if chosen is None:
+        raise InfeasibleDesignError(
+            f"{where}: no measured row Φ_1 = R* H with Φ_1 D ≠ 0 and Φ_1 L = 0: "
+            + "; ".join(tried), tuple(tried))
+    return (*chosen, tried)
+
+
+def _row_conditions(lv, Phi, Rs, mats, fsym, dec, cert) -> list:
+    """λ stable, the measured row, its fault sensitivity, the decoupling, the certificate."""
+    return [
+        Condition(f"λ = {lv} stable", True, "λ < 0 (continuous time)", "METHOD §2b"),
+        Condition("measured row Φ_1 = R* H", True,
+                  f"Φ_1 = {list(Phi)} = R* H with R* = {list(Rs)}: y* = R* y", "seed 002 §5"),
+        Condition(f"fault sensitivity Φ_1 D ≠ 0 ({fsym})", True,
+                  f"D* = Φ_1 D = {mats['D_star'][0, 0]}", "seed 002 §5"),
+        Condition("decoupling Φ_1 L = 0", True,
+                  f"from {', '.join(s.name for s in dec)}" if dec else "nothing to decouple",
+                  "METHOD §2"),
+        Condition("certificate", cert.passed, cert.summary(), "METHOD §2"),
+    ]
+
+
+def _gain_conditions(gb, k1v, eps, tau, injection) -> tuple:
+    """The gain bound's terms and verdict, and the injection's step-size note."""
     gconds = gb.conditions(k1v, eps if injection == "regularised" else None)
     if injection == "regularised":
         gconds.append(Condition("RK4 step for the regularised injection", True,
@@ -466,16 +495,7 @@ def design_sliding(model: PlantModel, *, fault: str | None = None, lam=None, k1=
                                 f"sign(e) chatters with amplitude ≈ k1·dt = {k1v:.3g}·dt under a"
                                 f" fixed step; v_eq is its low-pass average (τ = {tau:g}): lag"
                                 " ≈ τ·|ḋ|, ripple ≈ dt/τ", "", required=False))
-    choice = (f"λ = {lv}, Φ_1 = R* H with R* = {list(Rs)} (normalised to D* = 1); k1 = {k1v:.6g}"
-              + (" (given)" if k1 is not None else f" = {gain_margin:g} × bound {gb.bound:.6g}")
-              + f", ε = {eps:g}, δ = {delta:g}, injection {injection}")
-    params = {K1: sp.Float(k1v), EPS: sp.Float(eps)}
-    if injection == "sign":
-        params = {K1: sp.Float(k1v), TAU: sp.Float(tau)}
-    return dataclasses.replace(design0, conditions=tuple(conds) + tuple(gconds), choice=choice,
-                               parameters=params,
-                               sliding_inputs=SlidingGainInputs(
-                                   float(delta), None if lipschitz is None else float(lipschitz)))
+    return tuple(gconds)
 
 
 def reaching_time(t, r, threshold: float):
