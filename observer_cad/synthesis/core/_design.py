@@ -194,11 +194,16 @@ class SlidingGainInputs:
         return cls(data["delta"], data.get("lipschitz"))
 
 
+#: the default time budget (seconds) of the Jordan minimality proof (METHOD §2b)
+PROOF_SECONDS = 2.0
+
+
 @dataclasses.dataclass(frozen=True)
 class DesignRequest:
     """The options of :func:`observer_cad.synthesis` that reproduce a design, with every
     choice the synthesis made filled in (the λ and closed-loop eigenvalues it used, the
-    method it took)."""
+    method it took). ``proof_seconds``: the time budget of the Jordan minimality proof
+    (None: exhaustive); left out of the JSON when it is the default."""
 
     observer: str
     faults: tuple = ()
@@ -212,6 +217,7 @@ class DesignRequest:
     symbolic: bool = False
     method: str = "auto"
     rtol: float | None = None
+    proof_seconds: float | None = PROOF_SECONDS
 
     def options(self) -> dict:
         """Keyword arguments for :func:`observer_cad.synthesis`."""
@@ -225,6 +231,8 @@ class DesignRequest:
 
     def to_json(self) -> dict:
         out = self.options()
+        if out["proof_seconds"] == PROOF_SECONDS:
+            del out["proof_seconds"]
         for key in ("lambdas", "eigenvalues"):
             if out[key] is not None:
                 out[key] = [str(v) for v in out[key]]
@@ -256,6 +264,9 @@ class DesignRequest:
                 raise UsageError(f"request.{key} must be a {typ.__name__}")
         if kw.get("rtol") is not None and not isinstance(kw["rtol"], (int, float)):
             raise UsageError("request.rtol must be a number")
+        if kw.get("proof_seconds") is not None and (isinstance(kw["proof_seconds"], bool) or not
+                                                    isinstance(kw["proof_seconds"], (int, float))):
+            raise UsageError("request.proof_seconds must be a number of seconds or null")
         return cls(**kw)
 
 
