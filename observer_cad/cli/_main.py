@@ -403,6 +403,10 @@ def _add_design_options(p) -> None:
                         "above 20 states for numeric models)")
     p.add_argument("--rtol", type=float, default=None,
                    help="relative rank tolerance of the float path (default 1e3·eps·size)")
+    p.add_argument("--proof-seconds", metavar="S", default=None,
+                   help="Jordan form: time budget of the proof that k is minimal (default 2; "
+                        "'exhaustive' runs it to the end; when it runs out the condition gives "
+                        "the range the least order lies in)")
 
 
 def _cmd_show(args) -> int:
@@ -484,7 +488,8 @@ def _design_from_args(args):
                     disturbances=args.disturbance, estimate=args.estimate, form=args.form,
                     lambdas=args.lambdas, eigenvalues=args.eigenvalues, variant=args.variant,
                     robust=args.robust, symbolic=args.symbolic, method=args.method,
-                    rtol=args.rtol)
+                    rtol=args.rtol, **({} if args.proof_seconds is None
+                                       else {"proof_seconds": args.proof_seconds}))
     _warn_conditioning(result)
     report(f"design done (k = {getattr(result, 'k', '?')})", stage=True)
     return model, result
