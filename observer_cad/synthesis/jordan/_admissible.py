@@ -50,6 +50,7 @@ class Admissible:
 
 
 def pencil(F, H, L0, lam):
+    """P(λ) = [L0 (F − λI); H] (its left null space gives the rows of λ)."""
     n = F.rows
     return sp.Matrix.vstack(L0 * (F - lam * sp.eye(n)), H)
 
@@ -124,6 +125,7 @@ def admissible_lambdas(F, H, L0) -> Admissible:
 
 
 def rank_of(M) -> int:
+    """The exact rank of M (0 for an empty matrix)."""
     M = sp.Matrix(M)
     if M.rows == 0 or M.cols == 0:
         return 0

@@ -68,7 +68,7 @@ class LambdaChoice:
         return self.values + self.whole_sets
 
     def condition(self) -> Condition:
-        """"admissible λ", as reported."""
+        """The condition "admissible λ", as reported."""
         adm = self.admissible
         return Condition("admissible λ", adm.generic or bool(adm.values),
                          f"{adm.describe()}; {adm.evidence}"

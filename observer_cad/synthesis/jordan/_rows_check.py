@@ -29,6 +29,7 @@ def residual_pair(Phi, H, pivots: set | None = None):
 
 
 def _task_holds(observer, Phi, H, D, M, st, names=()):
+    """(True, "") when the rows Φ do the task, else (False, why not)."""
     PH = sp.Matrix.vstack(Phi, H)
     rPH = rank_of(PH)
     if observer == "diagnostic":

@@ -186,13 +186,14 @@ def prove_minimal(problem: MinimalityProblem, chosen: ChosenRows) -> tuple:
     clock = ProofClock.start(problem.seconds)
     rows, tried, stopped = chosen.rows, list(chosen.tried), []
     verdicts = {}
-    for name, applies, decide, k_of in _STAGES:
-        if not applies(problem, rows, verdicts):
+    for stage in _STAGES:
+        name = stage.name
+        if not stage.applies(problem, rows, verdicts):
             continue
         try:
-            verdict = decide(problem, clock)
+            verdict = stage.decide(problem, clock)
         except ProofStopped:
-            k_stage = k_of(problem, rows)
+            k_stage = stage.rows_asked(problem, rows)
             verdict = RowsVerdict(False, False, (), "not decided: the proof's time budget"
                                   f" of {clock.describe()} ran out", k_stage)
             stopped.append(f"whether {k_stage} rows are possible")
@@ -252,19 +253,31 @@ def _plane_applies(problem, rows, verdicts) -> bool:
 
 
 def _decoupled(problem):
+    """(F, H, L, M): the arguments of the row-count decisions."""
     return problem.F, problem.H, problem.L, problem.M
 
 
+@dataclasses.dataclass(frozen=True)
+class _Stage:
+    """One stage of the proof: its name, when it applies (problem, rows so far, verdicts so
+    far), the decision (problem, clock) and the number of rows it asks about."""
+
+    name: str
+    applies: object
+    decide: object
+    rows_asked: object
+
+
 _STAGES = (
-    ("one row short", lambda p, rows, v: _basis(p, rows),
-     lambda p, clock: basis_minus_one_rows_possible(*_decoupled(p), LAMBDA, p.time, clock),
-     lambda p, rows: len(rows) - 1),
-    ("three more rows", _solid_applies,
-     lambda p, clock: q_plus_three_rows_possible(*_decoupled(p), LAMBDA, p.time, clock),
-     lambda p, rows: p.span.q + 3),
-    ("two more rows", _plane_applies,
-     lambda p, clock: q_plus_two_rows_possible(*_decoupled(p), LAMBDA, p.time, clock),
-     lambda p, rows: p.span.q + 2),
+    _Stage("one row short", lambda p, rows, v: _basis(p, rows),
+           lambda p, clock: basis_minus_one_rows_possible(*_decoupled(p), LAMBDA, p.time, clock),
+           lambda p, rows: len(rows) - 1),
+    _Stage("three more rows", _solid_applies,
+           lambda p, clock: q_plus_three_rows_possible(*_decoupled(p), LAMBDA, p.time, clock),
+           lambda p, rows: p.span.q + 3),
+    _Stage("two more rows", _plane_applies,
+           lambda p, clock: q_plus_two_rows_possible(*_decoupled(p), LAMBDA, p.time, clock),
+           lambda p, rows: p.span.q + 2),
 )
 
 
