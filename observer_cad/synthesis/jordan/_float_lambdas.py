@@ -1,7 +1,6 @@
-"""Jordan-form synthesis in floating point (METHOD §2b), for large numeric linear models.
+"""The admissible λ of the float Jordan path (METHOD §2b), for large numeric linear models.
 
-The float counterpart of :mod:`observer_cad.synthesis`. The admissible λ are those where the
-pencil
+The admissible λ are those where the pencil
 
     P(λ) = A − λ B,    A = [L0 F; H],  B = [L0; 0]    (r × n)
 
@@ -20,11 +19,7 @@ not negligible) is refined by the two-sided Rayleigh step λ ← λ + σ/(uᵀ B
 singular vectors of σ_min(P(λ))) and kept only when σ_min(P(λ)) / σ_1(P(λ)) is below the
 tolerance; the evidence gives that ratio and the gap to the next singular value.
 
-The rows then come from the numerical left null space of P(λ) for each chosen λ, the task
-conditions (z = M x reachable; a residual seeing every fault) are decided by least
-squares / SVD with stated tolerances, and the design is certified on the original
-(exact) plant matrices with :func:`~observer_cad.synthesis.certify_design` in float
-mode, with a tolerance scaled to the sizes of the products it compares.
+References: seed 002 eq. (2.5); METHOD §2b.
 """
 from __future__ import annotations
 
