@@ -15,7 +15,8 @@ an exact decision that may also find fewer rows:
 The stages and the cells of their covers check a :class:`ProofClock`; when the budget
 (``seconds``, default :data:`~observer_cad.synthesis.core.PROOF_SECONDS`) is spent the
 stage is reported as not decided, and the condition gives the range the least order lies
-in and says that the budget stopped it. ``seconds=None`` is the exhaustive proof.
+in and says that the budget stopped it. ``seconds=None`` is the exhaustive proof. The
+lower bound over every F* always runs (the range needs it; it is a few exact ranks).
 
 References: METHOD §2b; seed 002 §2.
 """
