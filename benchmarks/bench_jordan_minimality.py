@@ -1,6 +1,7 @@
 #!/usr/bin/env python3
-"""Jordan minimality benchmark (issue 14 item 6): the fewest rows over all admissible
-real λ, against the default λ lists, side by side in one run.
+"""Jordan minimality benchmark: the fewest rows over all admissible real λ, against the
+default λ lists, side by side in one run; and the cost of the default time budget of the
+minimality proof.
 
     python3 benchmarks/bench_jordan_minimality.py            # measure, print the table
     python3 benchmarks/bench_jordan_minimality.py --write    # ... and update README.md
@@ -11,20 +12,24 @@ continuous; 1/3, discrete), an unmeasured block with modes −2 ± √2 (k = 2 w
 λ), an unmeasured companion block with an irreducible cubic (three CRootOf λ, k = 3),
 random plants (one with a decoupled disturbance, one with seven states), a plant with
 symbolic parameters whose λ are −a and −b (designed with the parameters kept symbolic),
-and z with two components (test_span_rows.py): two rows that need λ = −5/2, three
+and z with two components (test_fewest_rows_for_several_components.py): two rows that need λ = −5/2, three
 rows where two are impossible for every λ (the defaults gave four before), and two plants
 with a decoupled disturbance where one row fewer than a basis modulo the outputs is
-decided exactly and impossible (test_signs_and_boxes.py), a nine-state plant with a
+decided exactly and impossible (test_orders_ruled_out_exactly.py), a nine-state plant with a
 decoupled disturbance where three rows are impossible (lines of P³), a nine-state
 plant reaching q + c − f rows where four are impossible (planes of R⁵), and a ten-state
 plant whose search ranks many matrices of algebraic numbers and whose four rows come from
 the 3-space decision (two quadratic-surd λ).
-For each: ``design_jordan`` with the default λ list requested (what the search did before:
-−1, −2, … / 1/2, 1/4, …) and with the new search (defaults plus the exact special λ). Reported: k (or "none" when the defaults give
-no design), the λ found, median wall and CPU time of ``--runs`` calls. Target: the new
-search reaches the minimal k (known by construction or proven) and proves it — met/MISSED;
-a plant whose least order were not known would have the k reached, certified, as its target
-(marked ≤ k), with the minimality condition reporting the range.
+For each: ``design_jordan`` with the default λ list requested (the λ lists alone:
+−1, −2, … / 1/2, 1/4, …) and with the search over λ and the exhaustive proof
+(``proof_seconds=None``). Reported: k (or "none" when the defaults give no design), the λ
+found, median wall and CPU time of ``--runs`` calls. A second table (``--budget-only``
+measures it alone) gives the search with the default proof budget (``PROOF_SECONDS``,
+2 s): k, wall and CPU time, and whether the proof was completed (else the range it
+reported). Target: the
+exhaustive search reaches the minimal k (known by construction or proven) and proves it —
+met/MISSED; a plant whose least order were not known would have the k reached, certified,
+as its target (marked ≤ k), with the minimality condition reporting the range.
 """
 from __future__ import annotations
 
@@ -42,11 +47,15 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "tests" / "synth
 from observer_cad import InfeasibleDesignError, PlantModel  # noqa: E402
 from observer_cad.model import random_model  # noqa: E402
 from observer_cad.synthesis import default_eigenvalues, design_jordan  # noqa: E402
+from observer_cad.synthesis.core import PROOF_SECONDS  # noqa: E402
 from common import load as _load, machine as _machine, publish  # noqa: E402
 
 README = Path(__file__).resolve().parent / "README.md"
 BEGIN = "<!-- BEGIN JORDAN MINIMALITY RESULTS (bench_jordan_minimality.py --write) -->"
 END = "<!-- END JORDAN MINIMALITY RESULTS -->"
+BEGIN_BUDGET = ("<!-- BEGIN JORDAN MINIMALITY DEFAULT BUDGET (bench_jordan_minimality.py"
+                " --write) -->")
+END_BUDGET = "<!-- END JORDAN MINIMALITY DEFAULT BUDGET -->"
 
 x1, x2, x3, x4, u = sp.symbols("x1 x2 x3 x4 u")
 
@@ -103,7 +112,7 @@ def cases(slow: bool):
         name="special_span", time="continuous", states=[x1, x2, x3, x4, x5], inputs=[u],
         outputs=[x3, x4], dynamics=[x3, -sp.Rational(5, 2) * x2 + u, x1 + x4, -x4 + x5 + x1,
                                     -2 * x5 + x2]), sp.eye(5)[:2, :], 2))
-    out.append(_z12(6, 0, 0, "continuous", " (4 rows before span_rows)", 3))
+    out.append(_z12(6, 0, 0, "continuous", " (4 rows before q_rows_possible)", 3))
     # two rows impossible, no extra row of a listed λ gives three: a pair of λ fixes the
     # line the three rows share modulo [M; H], the third λ is an exact root for the pair
     out.append(_z12(7, 0, 0, "continuous", " (4 rows before the pair search)", 3))
@@ -116,10 +125,11 @@ def cases(slow: bool):
     out.append(_z12(8, 0, 2, "continuous", " (5 rows before the pencil points)", 4))
     out.append(_z12(8, 0, 2, "discrete", " (5 rows before the spread grid)", 4))
     # four rows (the subspace bound) impossible: no plane of R⁴ meets the rows' images at
-    # four stable λ (two_more_rows: a quadratic form < 0 on the root box), five minimal
+    # four stable λ (q_plus_two_rows_possible: a quadratic form < 0 on the root box), five
+    # minimal
     out.append(_z12(8, 0, 8, "discrete", " (4 rows impossible)", 5))
     # a basis modulo the outputs (six rows), each λ with one row: one row fewer decided
-    # exactly (one_row_short) and impossible, so six rows are minimal (before: [5, 6])
+    # exactly (basis_minus_one_rows_possible) and impossible, so six rows are minimal
     for time_ in ("continuous", "discrete"):
         out.append(_z12(8, 1, 0, time_, ", disturbance decoupled (5 rows impossible)", 6))
     # nine states, three outputs, a decoupled disturbance: three rows impossible (three
@@ -161,20 +171,20 @@ def _z12(n, p, seed, time, note, k):
             random_model(n, 2, p, seed=seed, time=time), sp.eye(n)[:2, :], k)
 
 
-def _timed(model, z, lambdas):
+def _timed(model, z, lambdas, proof_seconds):
     t, c = time.perf_counter(), time.process_time()
     try:
         d = design_jordan(model, observer="virtual-sensor", estimate=z, lambdas=lambdas,
-                          symbolic=bool(model.parameters))
+                          symbolic=bool(model.parameters), proof_seconds=proof_seconds)
     except InfeasibleDesignError:
         d = None
     return time.perf_counter() - t, time.process_time() - c, d
 
 
-def measure(model, z, lambdas, runs):
+def measure(model, z, lambdas, runs, proof_seconds=None):
     walls, cpus, d = [], [], None
     for _ in range(runs):
-        w, c, d = _timed(model, z, lambdas)
+        w, c, d = _timed(model, z, lambdas, proof_seconds)
         walls.append(w)
         cpus.append(c)
     return statistics.median(walls), statistics.median(cpus), d
@@ -202,12 +212,31 @@ def _lams(d):
     return "—" if d is None else ", ".join(_lam(v) for v in d.lambdas)
 
 
+def _minimal(d):
+    return None if d is None else next(c for c in d.conditions if c.name == "k is minimal over λ")
+
+
+def _budget_cell(d, wall, cpu) -> str:
+    """k, wall / CPU time and the proof's verdict under the default budget."""
+    if d is None:
+        return f"none ({_fmt(wall)} / {_fmt(cpu)})"
+    cond = _minimal(d)
+    if cond.holds:
+        verdict = "proven"
+    else:
+        lo_hi = cond.detail.rsplit("lies in [", 1)
+        verdict = ("range [" + lo_hi[1].split("]", 1)[0] + "]" if len(lo_hi) == 2 else "not proven")
+        if "time budget" in cond.detail:
+            verdict += ", budget stopped it"
+    return f"{d.k} ({_fmt(wall)} / {_fmt(cpu)}; {verdict})"
+
+
 def run(runs: int, slow: bool) -> str:
     info = _machine()
     lines = [f"Machine: {info['nproc']} CPU(s), {info['cpu']}; Python {info['python']}, sympy"
              f" {info['sympy']}; load average before: {_load()}. Medians of {runs} run(s).", "",
-             "| plant | minimal k | defaults only: k (time) | new search: k, λ (time wall / CPU) |"
-             " minimality proven | target |",
+             "| plant | minimal k | defaults only: k (time) | search, exhaustive proof: k, λ (time"
+             " wall / CPU) | minimality proven | target |",
              "|---|---|---|---|---|---|"]
     for label, model, z, kmin, *need in cases(slow):
         need_proof = need[0] if need else True  # False: the least order is not known
@@ -215,8 +244,7 @@ def run(runs: int, slow: bool) -> str:
         w0, c0, d0 = measure(model, z, defaults, runs)
         w1, c1, d1 = measure(model, z, None, runs)
         ok = d1 is not None and d1.k == kmin and d1.certificate.passed
-        proven = d1 is not None and next(c for c in d1.conditions
-                                         if c.name == "k is minimal over λ").holds
+        proven = d1 is not None and _minimal(d1).holds
         target = f"k = {kmin} certified" + (" and proven" if need_proof else "")
         met = ok and (proven or not need_proof)
         lines.append(f"| {label} | {kmin if need_proof else f'≤ {kmin}'} | {_k(d0)} ({_fmt(w0)})"
@@ -228,11 +256,31 @@ def run(runs: int, slow: bool) -> str:
     return "\n".join(lines)
 
 
+def run_budget(runs: int, slow: bool) -> str:
+    """The second table: each plant designed with the default proof budget."""
+    info = _machine()
+    lines = [f"Machine: {info['nproc']} CPU(s), {info['cpu']}; Python {info['python']}, sympy"
+             f" {info['sympy']}; load average before: {_load()}. Medians of {runs} run(s).", "",
+             f"| plant | k with the default proof budget ({PROOF_SECONDS:g} s) (time wall / CPU;"
+             " proof) | minimal k |", "|---|---|---|"]
+    for label, model, z, kmin, *need in cases(slow):
+        w, c, d = measure(model, z, None, runs, PROOF_SECONDS)
+        lines.append(f"| {label} | {_budget_cell(d, w, c)} |"
+                     f" {kmin if (need[0] if need else True) else f'≤ {kmin}'} |")
+        print(lines[-1], flush=True)
+    lines += ["", f"Load average after: {_load()}. Reproduce: `python3 benchmarks/bench_jordan_minimality.py"
+              f" --runs {runs}{' --slow' if slow else ''} --budget-only --write`."]
+    return "\n".join(lines)
+
+
 if __name__ == "__main__":
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--runs", type=int, default=3)
     ap.add_argument("--slow", action="store_true", help="include the cubic (three CRootOf λ) plant")
+    ap.add_argument("--budget-only", action="store_true",
+                    help="measure (and write) only the table of the default proof budget")
     ap.add_argument("--write", action="store_true")
     a = ap.parse_args()
-    table = run(a.runs, a.slow)
-    publish(table, README, BEGIN, END, write=a.write)
+    if not a.budget_only:
+        publish(run(a.runs, a.slow), README, BEGIN, END, write=a.write)
+    publish(run_budget(a.runs, a.slow), README, BEGIN_BUDGET, END_BUDGET, write=a.write)

@@ -31,7 +31,8 @@ def design_from_args(args):
                     disturbances=args.disturbance, estimate=args.estimate, form=args.form,
                     lambdas=args.lambdas, eigenvalues=args.eigenvalues, variant=args.variant,
                     robust=args.robust, symbolic=args.symbolic, method=args.method,
-                    rtol=args.rtol)
+                    rtol=args.rtol, **({} if args.proof_seconds is None
+                                       else {"proof_seconds": args.proof_seconds}))
     _warn_conditioning(result)
     report(f"design done (k = {getattr(result, 'k', '?')})", stage=True)
     return model, result

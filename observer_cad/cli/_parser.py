@@ -275,6 +275,10 @@ def _add_design_options(p) -> None:
                         "above 20 states for numeric models)")
     p.add_argument("--rtol", type=float, default=None,
                    help="relative rank tolerance of the float path (default 1e3·eps·size)")
+    p.add_argument("--proof-seconds", metavar="S", default=None,
+                   help="Jordan form: time budget of the proof that k is minimal (default 2; "
+                        "'exhaustive' runs it to the end; when it runs out the condition gives "
+                        "the range the least order lies in)")
 
 
 def _add_threshold_options(p, *, quantile: bool) -> None:

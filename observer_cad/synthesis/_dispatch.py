@@ -22,9 +22,9 @@ from typing import Sequence
 from ..errors import InfeasibleDesignError, UsageError
 from ..model import ObserverKind, PlantModel, Task, resolve_task
 from .canonical import design_canonical
-from .core import Design, DesignRequest, prepare
+from .core import PROOF_SECONDS, Design, DesignRequest, prepare
 from .canonical import design_diagnostic_canonical
-from .jordan import design_jordan, design_jordan_unknown_input
+from .jordan import design_jordan, design_jordan_unknown_input, proof_seconds_value
 from .core import default_eigenvalues
 from .robust import design_robust_canonical, design_robust_jordan
 from .sliding import design_sliding
@@ -39,7 +39,8 @@ OBSERVERS = ("unknown-input", "diagnostic", "virtual-sensor", "interval", "slidi
 def design(model: PlantModel, *, observer: str, faults: Sequence[str] = (),
            disturbances: Sequence[str] = (), estimate=None, form: str | None = None,
            lambdas=None, eigenvalues=None, variant: str = "plain", robust: bool = False,
-           symbolic: bool = False, method: str = "auto", rtol: float | None = None) -> Design:
+           symbolic: bool = False, method: str = "auto", rtol: float | None = None,
+           proof_seconds: float | None = PROOF_SECONDS) -> Design:
     """Design an observer of the given kind; see the module table for the methods.
 
     Parameters
@@ -55,6 +56,8 @@ def design(model: PlantModel, *, observer: str, faults: Sequence[str] = (),
     robust : fall back to the approximate design (METHOD §2d) when exact decoupling fails.
     symbolic : keep the model's parameters as symbols.
     method, rtol : ``"auto"``, ``"exact"`` or ``"float"``; the float path's rank tolerance.
+    proof_seconds : the time budget of the Jordan proof that k is minimal (default 2 s;
+        None or ``"exhaustive"``: no limit); see :func:`design_jordan`.
 
     Returns
     -------
@@ -62,6 +65,7 @@ def design(model: PlantModel, *, observer: str, faults: Sequence[str] = (),
         Certified; ``design.request`` reproduces it: ``design(model, **d.request.options())``.
     """
     kind = ObserverKind.parse(observer)
+    proof_seconds = proof_seconds_value(proof_seconds)
     if kind.value not in OBSERVERS:
         raise UsageError(f"unknown observer kind {observer!r}; choose from {', '.join(OBSERVERS)}")
     faults = [faults] if isinstance(faults, str) else list(faults or [])
@@ -93,7 +97,7 @@ def design(model: PlantModel, *, observer: str, faults: Sequence[str] = (),
         raise UsageError("name the fault to detect with --fault NAME")
     try:
         d = _exact(model, task, faults, disturbances, estimate, form, lambdas, eigenvalues,
-                   variant, symbolic, method, rtol)
+                   variant, symbolic, method, rtol, proof_seconds)
     except InfeasibleDesignError as exc:
         if not robust:
             raise
@@ -115,7 +119,8 @@ def design(model: PlantModel, *, observer: str, faults: Sequence[str] = (),
         eigenvalues=(tuple(d.closed_loop_eigenvalues)
                      if form == "canonical" and d.matrices.K is not None else None),
         variant=variant, robust=robust, symbolic=symbolic,
-        method=method if d.approximate else d.method.value, rtol=rtol)
+        method=method if d.approximate else d.method.value, rtol=rtol,
+        proof_seconds=proof_seconds)
     # the full fault signature: every declared fault against the residual
     d = dataclasses.replace(d, request=request).with_signature()
     blind = [s for s in d.signature if s.role == "detected" and not s.sensitive]
@@ -128,7 +133,7 @@ def design(model: PlantModel, *, observer: str, faults: Sequence[str] = (),
 
 
 def _exact(model: PlantModel, task: Task, faults, disturbances, estimate, form, lambdas,
-           eigenvalues, variant, symbolic, method, rtol) -> Design:
+           eigenvalues, variant, symbolic, method, rtol, proof_seconds) -> Design:
     kind = task.observer
     if kind == ObserverKind.UNKNOWN_INPUT:
         if form == "jordan":  # seed 000 §8: a one-dimensional λ-model
@@ -150,7 +155,7 @@ def _exact(model: PlantModel, task: Task, faults, disturbances, estimate, form, 
                                                eigenvalues=eigenvalues, symbolic=symbolic,
                                                task=task)
         return design_jordan(model, observer="diagnostic", lambdas=lambdas, symbolic=symbolic,
-                             method=method, rtol=rtol, task=task)
+                             method=method, rtol=rtol, task=task, proof_seconds=proof_seconds)
     # virtual-sensor / interval
     if form == "canonical":
         # an interval observer's canonical model is the decoupled virtual sensor's
@@ -166,4 +171,4 @@ def _exact(model: PlantModel, task: Task, faults, disturbances, estimate, form, 
             d = d.with_task(observer=ObserverKind.INTERVAL)
         return d
     return design_jordan(model, observer=kind.value, lambdas=lambdas, symbolic=symbolic,
-                         method=method, rtol=rtol, task=task)
+                         method=method, rtol=rtol, task=task, proof_seconds=proof_seconds)

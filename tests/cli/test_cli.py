@@ -233,7 +233,8 @@ def test_help_design_mentions_every_option(capsys):
     expected = {"--observer", "--fault", "--disturbance", "--form", "--symbolic", "--method",
                 "--rtol", "--json", "--help", "--estimate", "--lambda", "--eigenvalues",
                 "--variant", "--robust", "--bound", "--gain", "--gamma", "--poles",
-                "--include-epsilon", "--isolate", "--structure", "--threshold", "--initial-error"}
+                "--include-epsilon", "--isolate", "--structure", "--threshold", "--initial-error",
+                "--proof-seconds"}
     subparsers = next(a for a in build_parser()._actions if a.choices and "design" in a.choices)
     assert _options(subparsers.choices["design"]) - {"-h"} == expected
     for opt in expected | {"MODEL", "unknown-input", "diagnostic", "virtual-sensor", "interval",

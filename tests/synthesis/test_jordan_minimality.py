@@ -1,4 +1,4 @@
-"""Jordan minimality (METHOD §2b, issue 14 item 6): when every λ is admissible, the fewest
+"""Jordan minimality (METHOD §2b): when every λ is admissible, the fewest
 rows may need a particular λ — a rational one outside the default lists, or an irrational
 one (a fixed mode of the reduced model). Constructed plants whose minimal design needs
 such a λ; each design is checked for its k, its λ, its certificate and the reason why
@@ -49,7 +49,7 @@ def _check_rows(d, F, H):
                                      ("discrete", sp.Rational(1, 3))])
 def test_rational_lambda_outside_the_defaults(time, mu):
     m, F, H, M, z = _rational_plant(mu, time)
-    d = design_jordan(m, observer="virtual-sensor", estimate=z)
+    d = design_jordan(m, observer="virtual-sensor", estimate=z, proof_seconds=None)
     assert d.k == 1 and d.lambdas == (mu,)
     assert d.certificate.passed
     _check_rows(d, F, H)
@@ -79,7 +79,7 @@ def test_one_row_polynomial_is_exact():
 def test_why_fewer_rows_impossible_unstable_root():
     """The only one-row λ is unstable: k = 2, and the report says k = 1 needs that root."""
     m, F, H, M, z = _rational_plant(sp.Rational(3, 2))
-    d = design_jordan(m, observer="virtual-sensor", estimate=z)
+    d = design_jordan(m, observer="virtual-sensor", estimate=z, proof_seconds=None)
     assert d.k == 2 and d.certificate.passed
     cond = _minimal(d)
     assert cond.holds  # k = 1 impossible for every real λ, so k = 2 is minimal
@@ -103,7 +103,7 @@ def _unobservable_block_plant():
 
 def test_irrational_lambda_quadratic():
     m = _unobservable_block_plant()
-    d = design_jordan(m, observer="virtual-sensor", estimate="x1")
+    d = design_jordan(m, observer="virtual-sensor", estimate="x1", proof_seconds=None)
     assert d.k == 2
     assert set(d.lambdas) == {-2 - sp.sqrt(2), -2 + sp.sqrt(2)}
     assert d.certificate.passed
@@ -134,7 +134,7 @@ def test_irrational_lambda_cubic_crootof():
     # stable real roots, Galois group S3
     m = PlantModel(name="cubic", time="continuous", states=[x1, x2, x3, x4], inputs=[u],
                    outputs=[x4], dynamics=[x2, x3, -x1 - 8 * x2 - 6 * x3 + u, -x4 + u])
-    d = design_jordan(m, observer="virtual-sensor", estimate="x1")
+    d = design_jordan(m, observer="virtual-sensor", estimate="x1", proof_seconds=None)
     assert d.k == 3
     assert all(isinstance(v, sp.CRootOf) for v in d.lambdas)
     assert sorted(v.index for v in d.lambdas) == [0, 1, 2]
@@ -222,7 +222,7 @@ def test_directed_rows_for_a_vector_z_give_one_row_per_component(models_dir):
     from observer_cad import load_model
     from observer_cad.synthesis import design_jordan
     m = load_model(models_dir / "nonmonotone_chain.py")
-    d = design_jordan(m, observer="interval", estimate=["x1", "x2"])
+    d = design_jordan(m, observer="interval", estimate=["x1", "x2"], proof_seconds=None)
     Phi, F = sp.Matrix(d.matrices.Phi), sp.Matrix(d.matrices.F_star)
     assert Phi.rows == F.rows == d.k and Phi.rank() == d.k
     assert d.certificate.passed

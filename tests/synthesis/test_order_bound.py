@@ -1,5 +1,5 @@
-"""Lower bounds on the order of every reduced model and the chain polynomials (issue 14
-item 6, METHOD §2b): the proof that a Jordan design with k ≥ 3 rows is minimal, and the
+"""Lower bounds on the order of every reduced model and the chain polynomials
+(METHOD §2b): the proof that a Jordan design with k ≥ 3 rows is minimal, and the
 special λ that the chain polynomials give. Each claim is checked against something the
 bound's code does not compute: the designs found, float ranks, sampled roots."""
 import numpy as np
@@ -10,8 +10,8 @@ from observer_cad import PlantModel
 from observer_cad.model import extract_structure, random_model
 from observer_cad.synthesis import design_jordan
 from observer_cad.numerics import solve_left
-from observer_cad.synthesis.jordan.minimality._order_bound import (chain_order, chain_system,
-                                                                   one_more_row,
+from observer_cad.synthesis.jordan.minimality import (chain_order, chain_system,
+                                                                   q_plus_one_rows_possible,
                                                                    estimation_order_bound,
                                                                    hyperplane_corners,
                                                                    hyperplane_member, plane_order,
@@ -37,7 +37,7 @@ def _companion_plant():
 
 
 def test_three_rows_proven_minimal_by_the_bound():
-    d = design_jordan(_companion_plant(), observer="virtual-sensor", estimate="x1")
+    d = design_jordan(_companion_plant(), observer="virtual-sensor", estimate="x1", proof_seconds=None)
     assert d.k == 3 and d.certificate.passed
     assert set(d.lambdas) == {sp.Rational(-1, 2), sp.Rational(-3, 2), sp.Rational(-5, 2)}
     cond = _minimal(d)
@@ -55,7 +55,7 @@ def test_decoupled_three_rows_proven():
     m = PlantModel(name="companion_d", time="continuous", states=[x1, x2, x3, x4, x5],
                    inputs=[u], outputs=[x4, x5], disturbances=[rho],
                    dynamics=list(_companion_plant().dynamics) + [-x5 + x4 + rho])
-    d = design_jordan(m, observer="virtual-sensor", estimate="x1")
+    d = design_jordan(m, observer="virtual-sensor", estimate="x1", proof_seconds=None)
     assert d.k == 3 and d.certificate.passed
     cond = _minimal(d)
     assert cond.holds and "no Jordan model of fewer rows" in cond.detail
@@ -73,7 +73,7 @@ def test_diagnostic_bound_agrees_with_float_ranks():
     """k = 3 residual generators of random plants: the bound says no canonical member sees
     the fault at k = 2; independently, (W⁽²⁾) has full row rank in floating point."""
     m = random_model(6, 2, 0, seed=0, time="continuous")
-    d = design_jordan(m, observer="diagnostic")
+    d = design_jordan(m, observer="diagnostic", proof_seconds=None)
     assert d.k == 3 and d.certificate.passed
     cond = _minimal(d)
     assert cond.holds and "k = 3 is a lower bound" in cond.detail
@@ -93,7 +93,7 @@ def test_chain_polynomial_lambdas_give_fewer_rows(seed, density):
     """The roots of the unique chain polynomial (irrational here) give a design of the
     bound's order; before, only the default and rank-drop λ were tried."""
     m = random_model(6, 1, 0, seed=seed, time="continuous", density=density)
-    d = design_jordan(m, observer="interval", estimate="x1")
+    d = design_jordan(m, observer="interval", estimate="x1", proof_seconds=None)
     assert d.certificate.passed
     F, H, _ = _matrices(m)
     M = sp.Matrix([[1, 0, 0, 0, 0, 0]])
@@ -131,7 +131,7 @@ def test_bound_never_exceeds_a_design_found():
         for obs, kw in [("interval", {"estimate": "x1"}), ("virtual-sensor", {"estimate": "x1"}),
                         ("diagnostic", {})]:
             try:
-                d = design_jordan(m, observer=obs, **kw)
+                d = design_jordan(m, observer=obs, **kw, proof_seconds=None)
             except Exception:  # noqa: BLE001 - infeasible tasks are not the point here
                 continue
             if obs == "diagnostic":
@@ -186,7 +186,7 @@ def test_one_parameter_family_found_in_a_narrow_window():
     assert c.verdict == "line" and len(c.lambdas) == 2
     assert all(v < 0 for v in c.lambdas) and c.lambdas[0] != c.lambdas[1]
     assert sp.expand(c.polynomial.subs(LAM, c.lambdas[0])) == 0
-    d = design_jordan(m, observer="interval", estimate="x1")
+    d = design_jordan(m, observer="interval", estimate="x1", proof_seconds=None)
     assert d.k == 2 and d.certificate.passed and _minimal(d).holds
 
 
@@ -197,7 +197,7 @@ def test_lower_orders_ruled_out_exactly(seed, k, why):
     one-parameter family decided on its critical t, or a one-signed hyperplane (which also
     rules out the orders below it: members nest)."""
     m = random_model(6, 1, 1, seed=seed, time="continuous")
-    d = design_jordan(m, observer="interval", estimate="x1")
+    d = design_jordan(m, observer="interval", estimate="x1", proof_seconds=None)
     assert d.k == k and d.certificate.passed
     cond = _minimal(d)
     assert cond.holds and "no Jordan model of fewer rows" in cond.detail and why in cond.detail
@@ -212,7 +212,7 @@ def test_vector_z_proven_by_the_subspace_bound():
     m = PlantModel(name="vector_z", time="continuous", states=[x1, x2, x3, x4], inputs=[u],
                    outputs=[x4], dynamics=[-x1 + x2, -2 * x2 + x3, -3 * x3 + u, -x4 + u])
     M = sp.Matrix([[1, 0, 0, 0], [0, 1, 0, 0]])
-    d = design_jordan(m, observer="interval", estimate=M)
+    d = design_jordan(m, observer="interval", estimate=M, proof_seconds=None)
     assert d.k == 3 and d.certificate.passed
     assert _minimal(d).holds  # (the joint chain polynomials of both rows also rule out 2)
     F, H, _ = _matrices(m)
@@ -264,7 +264,7 @@ def test_decoupled_chain_finds_fewer_rows(seed, density, k_before):
     previous result), proven minimal. Checked independently in floating point: Φ L = 0,
     Φ_i (F − λ_i I) ∈ rowspace H, M ∈ rowspace [Φ; H]."""
     m = random_model(5, 2, 1, seed=seed, time="continuous", density=density)
-    d = design_jordan(m, observer="virtual-sensor", estimate="x1")
+    d = design_jordan(m, observer="virtual-sensor", estimate="x1", proof_seconds=None)
     assert d.certificate.passed and d.k == k_before - 1 == 2
     assert any(v not in default_eigenvalues("continuous", 5) for v in d.lambdas)
     assert _minimal(d).holds  # k = 1 ruled out exactly for every λ
@@ -353,12 +353,12 @@ def test_symbolic_parameters_give_parameter_lambdas():
     m = PlantModel(name="modes", time="continuous", states=[x1, x2, x3], inputs=[u],
                    outputs=[x3], parameters={a: 2, b: 3},
                    dynamics=[-a * x1 + x2, -b * x2 + u, -x3 + u])
-    d = design_jordan(m, observer="virtual-sensor", estimate="x1", symbolic=True)
+    d = design_jordan(m, observer="virtual-sensor", estimate="x1", symbolic=True, proof_seconds=None)
     assert d.certificate.passed and d.k == 2
     assert set(d.lambdas) == {-a, -b}
     assert sp.Ne(a - b, 0) in d.assumptions
     assert _minimal(d).holds
-    num = design_jordan(m, observer="virtual-sensor", estimate="x1")
+    num = design_jordan(m, observer="virtual-sensor", estimate="x1", proof_seconds=None)
     assert num.k == 2 and set(num.lambdas) == {-2, -3}
     # independent: at random parameter values the symbolic Φ is a reduced model for z
     F = sp.Matrix([[-a, 1, 0], [0, -b, 0], [0, 0, -1]])
@@ -440,7 +440,7 @@ def test_seven_states_proven_by_the_plane(seed, density):
     independently, 40,000 sampled points of that plane give no real, distinct, negative
     roots."""
     m = random_model(7, 1, 0, seed=seed, time="continuous", density=density)
-    d = design_jordan(m, observer="virtual-sensor", estimate="x1")
+    d = design_jordan(m, observer="virtual-sensor", estimate="x1", proof_seconds=None)
     assert d.k == 5 and d.certificate.passed
     cond = _minimal(d)
     assert cond.holds and "plane" in cond.detail and "no Jordan model of fewer rows" in cond.detail
@@ -465,15 +465,15 @@ def test_vector_z_joint_chain_proves_minimal():
     λ the rows and H never span both components of z."""
     m = random_model(5, 1, 0, seed=0, time="continuous")
     M = sp.Matrix([[1, 0, 0, 0, 0], [0, 1, 0, 0, 0]])
-    d = design_jordan(m, observer="interval", estimate=M)
+    d = design_jordan(m, observer="interval", estimate=M, proof_seconds=None)
     assert d.k == 4 and d.certificate.passed
     cond = _minimal(d)
     # two proofs, both asserted: the joint chain polynomials of order 3, and three rows
-    # impossible by one_more_row (a line of monic cubics; the one the design reports)
+    # impossible by q_plus_one_rows_possible (a line of monic cubics; the one the design reports)
     assert cond.holds and "3 rows are impossible too" in cond.detail
     F, H, _ = _matrices(m)
     assert chain_order(F, H, M, 3, LAM, "continuous", [sp.Integer(-1)]).impossible
-    more = one_more_row(F, H, sp.zeros(5, 0), M, LAM, "continuous")
+    more = q_plus_one_rows_possible(F, H, sp.zeros(5, 0), M, LAM, "continuous")
     assert more.analysed and not more.possible
     assert estimation_order_bound(F, H, M).k < 4
     Fn, Hn, Mn = (np.array(X.tolist(), dtype=float) for X in (F, H, M))

@@ -15,7 +15,7 @@ from ...errors import UsageError
 from ._expr import parse_json_expression
 
 __all__ = ["Condition", "DesignMatrices", "DesignRequest", "Form", "Method",
-           "NonlinearSubstitution", "SlidingGainInputs", "MATRIX_ORDER"]
+           "NonlinearSubstitution", "SlidingGainInputs", "MATRIX_ORDER", "PROOF_SECONDS"]
 
 #: Order in which a design's matrices are printed and serialised.
 MATRIX_ORDER = ("Phi", "F_star", "J_star", "R_star", "H_star", "G_star", "D_star", "L_star",
@@ -174,11 +174,16 @@ class SlidingGainInputs:
         return cls(data["delta"], data.get("lipschitz"))
 
 
+#: the default time budget (seconds) of the Jordan minimality proof (METHOD §2b)
+PROOF_SECONDS = 2.0
+
+
 @dataclasses.dataclass(frozen=True)
 class DesignRequest:
     """The options of :func:`observer_cad.synthesis` that reproduce a design, with every
     choice the synthesis made filled in (the λ and closed-loop eigenvalues it used, the
-    method it took)."""
+    method it took). ``proof_seconds``: the time budget of the Jordan minimality proof
+    (None: exhaustive); left out of the JSON when it is the default."""
 
     observer: str
     faults: tuple = ()
@@ -192,6 +197,7 @@ class DesignRequest:
     symbolic: bool = False
     method: str = "auto"
     rtol: float | None = None
+    proof_seconds: float | None = PROOF_SECONDS
 
     def options(self) -> dict:
         """Keyword arguments for :func:`observer_cad.synthesis`."""
@@ -205,6 +211,8 @@ class DesignRequest:
 
     def to_json(self) -> dict:
         out = self.options()
+        if out["proof_seconds"] == PROOF_SECONDS:
+            del out["proof_seconds"]
         for key in ("lambdas", "eigenvalues"):
             if out[key] is not None:
                 out[key] = [str(v) for v in out[key]]
@@ -236,4 +244,7 @@ class DesignRequest:
                 raise UsageError(f"request.{key} must be a {typ.__name__}")
         if kw.get("rtol") is not None and not isinstance(kw["rtol"], (int, float)):
             raise UsageError("request.rtol must be a number")
+        if kw.get("proof_seconds") is not None and (isinstance(kw["proof_seconds"], bool) or not
+                                                    isinstance(kw["proof_seconds"], (int, float))):
+            raise UsageError("request.proof_seconds must be a number of seconds or null")
         return cls(**kw)

@@ -42,8 +42,8 @@ from sympy.polys.matrices import DomainMatrix
 from ...numerics import exact_rank_value, left_null_space, solve_left
 from ..core import is_stable
 
-__all__ = ["SpecialLambdas", "SpanRows", "one_row_lambdas", "family_jump_lambdas",
-           "rank_drop_lambdas", "span_rows", "span_pencil", "exact_real_roots",
+__all__ = ["SpecialLambdas", "QRowsVerdict", "one_row_lambdas", "family_jump_lambdas",
+           "rank_drop_lambdas", "q_rows_possible", "span_pencil", "exact_real_roots",
            "polynomial_row", "coefficient_rows"]
 
 
@@ -206,7 +206,7 @@ def rank_drop_lambdas(P, lam, time: str, name: str, meaning: str) -> tuple:
 
 
 @dataclasses.dataclass(frozen=True)
-class SpanRows:
+class QRowsVerdict:
     """Can q = rank [M; H] − rank H rows — the fewest any model of z = M x has — do it?
 
     Such rows span z modulo the outputs with nothing to spare, so each lies in
@@ -257,7 +257,7 @@ def span_pencil(F, H, L, M, lam):
                             sp.Matrix.hstack(-H, sp.zeros(H.rows, L.cols)))
 
 
-def span_rows(F, H, L, M, lam, time: str) -> SpanRows:
+def q_rows_possible(F, H, L, M, lam, time: str) -> QRowsVerdict:
     """Decide exactly whether q = rank [M; H] − rank H rows give z = M x for some real stable λ.
 
     For λ a free symbol, A(λ) is the a-part of the left null space of E(λ)
@@ -269,7 +269,7 @@ def span_rows(F, H, L, M, lam, time: str) -> SpanRows:
     """
     F, H, L, M = (sp.Matrix(X) for X in (F, H, L, M))
     if set().union(*(X.free_symbols for X in (F, H, L, M))):
-        return SpanRows(False, False, 0, (), "not analysed: symbolic parameters")
+        return QRowsVerdict(False, False, 0, (), "not analysed: symbolic parameters")
     mrows = M.rows
     rH = exact_rank_value(H) if H.rows else 0
     q = exact_rank_value(sp.Matrix.vstack(M, H)) - rH
@@ -283,12 +283,12 @@ def span_rows(F, H, L, M, lam, time: str) -> SpanRows:
            " [M; H]: Φ = a M + b H with Φ (F − λI) ∈ rowspace H" + (" and Φ L = 0" if L.cols else "")
            + f"; the a of such rows for λ generic span a space of dimension {gen} of {mrows}")
     if gen == mrows:
-        return SpanRows(True, True, q, (), f"{how}: {q} rows exist for all but finitely many"
+        return QRowsVerdict(True, True, q, (), f"{how}: {q} rows exist for all but finitely many"
                                            " choices of λ")
     _, drop = rank_drop_lambdas(E, lam, time, "E(λ) = [M (F − λI), M L; H F, H L; −H, 0]",
                                 "more rows inside rowspace [M; H]")
     if not drop.analysed:  # pragma: no cover - singular compressions (probability 0)
-        return SpanRows(False, False, q, (), f"{how}; the special λ: {drop.evidence}")
+        return QRowsVerdict(False, False, q, (), f"{how}; the special λ: {drop.evidence}")
     adds, total = [], list(coef)
     for v in drop.stable:
         Ev = E.subs(lam, v)
@@ -301,9 +301,9 @@ def span_rows(F, H, L, M, lam, time: str) -> SpanRows:
     txt = (f"{how}; {drop.evidence}" + (f"; at λ = {', '.join(map(str, adds))} the space grows"
                                           if adds else "") + f"; with every real stable λ: {got}")
     if got == mrows:
-        return SpanRows(True, True, q, tuple(adds), f"{txt}, so {q} rows exist only with"
+        return QRowsVerdict(True, True, q, tuple(adds), f"{txt}, so {q} rows exist only with"
                         f" λ = {', '.join(map(str, adds))} among them")
-    return SpanRows(True, False, q, (), f"{txt} < {mrows}, so no choice of real stable λ gives"
+    return QRowsVerdict(True, False, q, (), f"{txt} < {mrows}, so no choice of real stable λ gives"
                     f" {q} rows")
 
 

@@ -29,6 +29,7 @@ import math
 import sympy as sp
 
 from ....numerics import positive_combination
+from ._clock import UNLIMITED
 
 __all__ = ["BoxCover", "box_cover", "quadric_cover", "BOX_CELLS", "BOX_DEPTH", "PROBES"]
 
@@ -112,13 +113,14 @@ def _halves(lo, hi, m) -> list:
 
 
 def _cover(m: int, top: int, excluded, proven: str, probe, probe_from: int, max_cells: int,
-           max_depth: int) -> BoxCover:
+           max_depth: int, clock=UNLIMITED) -> BoxCover:
     """The cover loop shared by :func:`box_cover` and :func:`quadric_cover`: cells of the
     ordered chamber (integer corners u ∈ [0, top]) are examined with ``excluded(lo, hi)``,
     the ones left are halved, at most ``max_cells`` cells and ``max_depth`` halvings.
     From depth ``probe_from`` on, ``probe(lo, hi)`` is called on up to :data:`PROBES` cells
     left (spread over them); a (evidence, found) pair it returns ends the cover.
-    ``proven``: the evidence after "covered by … cells" when every cell is excluded."""
+    ``proven``: the evidence after "covered by … cells" when every cell is excluded.
+    ``clock`` (:class:`ProofClock`) is checked before each cell."""
     step = top // _START
     cells = [(tuple(i * step for i in ix), tuple((i + 1) * step for i in ix))
              for ix in itertools.combinations_with_replacement(range(_START), m)]
@@ -126,6 +128,7 @@ def _cover(m: int, top: int, excluded, proven: str, probe, probe_from: int, max_
     for depth in range(max_depth + 1):
         left = []
         for lo, hi in cells:
+            clock.check()
             examined += 1
             if examined > max_cells:
                 return BoxCover(False, examined - 1, depth,
@@ -153,7 +156,7 @@ def _cover(m: int, top: int, excluded, proven: str, probe, probe_from: int, max_
 
 
 def quadric_cover(m: int, S, time: str, *, equality: bool, max_cells: int = BOX_CELLS,
-                  max_depth: int = BOX_DEPTH) -> BoxCover:
+                  max_depth: int = BOX_DEPTH, clock=UNLIMITED) -> BoxCover:
     """Try to prove that no p = Π (λ − λ_i) with m real stable roots (repeated or not)
     has q(p) ≥ 0 — or q(p) = 0 when ``equality`` — for the quadratic form
     q(p) = aᵀ S a of its coefficient vector a (λ⁰ … λᵐ; S rational symmetric).
@@ -218,11 +221,11 @@ def quadric_cover(m: int, S, time: str, *, equality: bool, max_cells: int = BOX_
     return _cover(m, top, bernstein_signs,
                   "on each, every Bernstein coefficient of the quadratic form is"
                   f" {'of one strict sign' if equality else '< 0'}, so no root set, real and"
-                  f" stable, has it {what}", probe, 0, max_cells, max_depth)
+                  f" stable, has it {what}", probe, 0, max_cells, max_depth, clock)
 
 
 def box_cover(m: int, functionals, time: str, *, max_cells: int = BOX_CELLS,
-              max_depth: int = BOX_DEPTH, probe=None) -> BoxCover:
+              max_depth: int = BOX_DEPTH, probe=None, clock=UNLIMITED) -> BoxCover:
     """Try to prove that no monic p of degree m with ℓ_k(p) = 0 for every row ℓ_k of
     ``functionals`` (rational, m + 1 entries: the weights of the coefficients of λ⁰ … λᵐ)
     has m real stable roots (module docstring).
@@ -257,7 +260,8 @@ def box_cover(m: int, functionals, time: str, *, max_cells: int = BOX_CELLS,
     return _cover(m, top, lambda lo, hi: excluded(lo, hi) is not None,
                   f"on each, a combination of the {r} conditions is of one sign at every vertex,"
                   " hence on the whole cell (multi-affine), so no member has its roots real and"
-                  " stable", member if probe is not None else None, 1, max_cells, max_depth)
+                  " stable", member if probe is not None else None, 1, max_cells, max_depth,
+                  clock)
 
 
 #: halvings of the parameter interval at most (:func:`pencil_cover`)
@@ -268,7 +272,7 @@ _PENCIL_MU_DEPTH = 3
 
 
 def pencil_cover(m: int, charts, time: str, *, max_cells: int = 40 * BOX_CELLS,
-                 t_depth: int = PENCIL_DEPTH) -> BoxCover:
+                 t_depth: int = PENCIL_DEPTH, clock=UNLIMITED) -> BoxCover:
     """Try to prove that for no parameter value a monic p of degree m with ℓ_k(p) = 0 for
     every k has m real stable roots: :func:`box_cover` for a family that moves with a
     parameter. ``charts``: pairs (name, functionals), the parameter of each running over
@@ -318,6 +322,7 @@ def pencil_cover(m: int, charts, time: str, *, max_cells: int = 40 * BOX_CELLS,
         combination = _hinted_combination(linprog)
 
         def excluded(lo, hi):
+            clock.check()
             examined[0] += 1
             V = {x for v in set(itertools.product(*zip(lo, hi))) for x in vertex_rows(v)}
             return combination([_scaled(x) for x in V]) is not None

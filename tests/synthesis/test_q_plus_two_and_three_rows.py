@@ -16,9 +16,11 @@ from scipy.optimize import linprog
 from observer_cad.model import extract_structure, random_model
 from observer_cad.synthesis import design_jordan
 from observer_cad.synthesis.jordan.minimality._box_cover import box_cover, pencil_cover
-from observer_cad.synthesis.jordan.minimality._order_bound import (_half_plane, _perm_sign,
-                                                                   one_row_short, three_more_rows,
-                                                                   two_more_rows)
+from observer_cad.synthesis.jordan.minimality import (basis_minus_one_rows_possible,
+                                                     q_plus_three_rows_possible,
+                                                     q_plus_two_rows_possible)
+from observer_cad.synthesis.jordan.minimality._exterior import perm_sign
+from observer_cad.synthesis.jordan.minimality._rows_in_six_dimensions import _half_plane
 
 LAM = sp.Symbol("lam")
 
@@ -62,7 +64,7 @@ def test_five_rows_minimal_for_ten_states(seed, time):
     m = random_model(10, 2, 0, seed=seed, time=time)
     st_ = extract_structure(m)
     F, H, M = sp.Matrix(st_.F), sp.Matrix(st_.H), _first_rows(10, 2)
-    d = design_jordan(m, observer="virtual-sensor", estimate=M)
+    d = design_jordan(m, observer="virtual-sensor", estimate=M, proof_seconds=None)
     assert d.k == 5 and d.certificate.passed
     why = _minimal(d)
     assert why.holds and "exactly 4 are impossible" in why.detail
@@ -108,7 +110,7 @@ def test_four_rows_in_six_dimensions_impossible(time):
     λ (the designs' test above checks the five-row side in floats)."""
     st_ = extract_structure(random_model(10, 2, 0, seed=0, time=time))
     F, H, M = sp.Matrix(st_.F), sp.Matrix(st_.H), _first_rows(10, 2)
-    r = two_more_rows(F, H, sp.zeros(10, 0), M, LAM, time)
+    r = q_plus_two_rows_possible(F, H, sp.zeros(10, 0), M, LAM, time)
     assert r.analysed and not r.possible and r.k == 4
     assert "ℓ is unique up to scale and fixes U = Y" in r.evidence
     assert "0 of them real and stable" in r.evidence
@@ -117,7 +119,7 @@ def test_four_rows_in_six_dimensions_impossible(time):
 def test_three_more_rows_not_analysed_outside_its_case():
     """c = 5 (random_model(9, 2, 0)): not planes of six dimensions, so not analysed."""
     st_ = extract_structure(random_model(9, 2, 0, seed=0, time="continuous"))
-    r = three_more_rows(sp.Matrix(st_.F), sp.Matrix(st_.H), sp.zeros(9, 0), _first_rows(9, 2),
+    r = q_plus_three_rows_possible(sp.Matrix(st_.F), sp.Matrix(st_.H), sp.zeros(9, 0), _first_rows(9, 2),
                         LAM, "continuous")
     assert not r.analysed and "not planes of 6 dimensions" in r.evidence
 
@@ -184,8 +186,8 @@ def test_half_plane_agrees_with_a_linear_programme(vecs):
 
 
 def test_perm_sign_is_the_sign_of_sorting():
-    assert _perm_sign((0, 1, 2)) == 1 and _perm_sign((1, 0, 2)) == -1
-    assert _perm_sign((2, 0, 1)) == 1 and _perm_sign((5, 0, 1, 2, 3, 4)) == -1
+    assert perm_sign((0, 1, 2)) == 1 and perm_sign((1, 0, 2)) == -1
+    assert perm_sign((2, 0, 1)) == 1 and perm_sign((5, 0, 1, 2, 3, 4)) == -1
 
 
 def test_other_decisions_with_six_dimensions_unchanged():
@@ -193,7 +195,7 @@ def test_other_decisions_with_six_dimensions_unchanged():
     before (the six-dimensional plane decisions are for planes only; a dispatch on c alone
     once sent it there and failed)."""
     st_ = extract_structure(random_model(10, 2, 1, seed=0, time="continuous"))
-    r = one_row_short(sp.Matrix(st_.F), sp.Matrix(st_.H), sp.Matrix(st_.L), _first_rows(10, 2),
+    r = basis_minus_one_rows_possible(sp.Matrix(st_.F), sp.Matrix(st_.H), sp.Matrix(st_.L), _first_rows(10, 2),
                       LAM, "continuous")
     assert r.analysed and not r.possible and r.k == 7
 
@@ -211,7 +213,7 @@ def test_six_rows_impossible_through_one_pencil():
     slicing; found by a review, which also sampled 200,000 pinned members of this family in
     floats and found none with six real stable roots.)"""
     F, H, M = _single_pencil_family()
-    r = three_more_rows(F, H, sp.zeros(11, 0), M, LAM, "continuous")
+    r = q_plus_three_rows_possible(F, H, sp.zeros(11, 0), M, LAM, "continuous")
     assert r.analysed and not r.possible and r.k == 6
     assert "1 independent pencil:" in r.evidence and "covered by" in r.evidence
 
@@ -222,7 +224,7 @@ def test_seven_rows_minimal_through_one_pencil():
     for every real stable λ (and fewer extend to six)."""
     F, H, M = _single_pencil_family()
     d = design_jordan(random_model(11, 2, 0, seed=0, time="continuous"),
-                      observer="virtual-sensor", estimate=M)
+                      observer="virtual-sensor", estimate=M, proof_seconds=None)
     assert d.k == 7 and d.certificate.passed
     why = _minimal(d)
     assert why.holds and "exactly 6 rows are impossible" in why.detail

@@ -1,4 +1,4 @@
-"""Exact exclusions for families of polynomials (issue 14 item 6, METHOD §2b): Gordan's
+"""Exact exclusions for families of polynomials (METHOD §2b): Gordan's
 alternative, the sign test and the box cover for chain families of dimension 3 … m − 2,
 and "one row short" (k = n − rank H − 1 rows when each λ has one row). Each verdict is
 checked against something its code does not compute: the certificate re-multiplied,
@@ -14,9 +14,11 @@ from observer_cad.model import extract_structure, random_model
 from observer_cad.numerics import gordan_alternative, left_null_space
 from observer_cad.synthesis import design_jordan
 from observer_cad.synthesis.jordan.minimality._box_cover import box_cover, quadric_cover
-from observer_cad.synthesis.jordan._jordan import _rows_at
-from observer_cad.synthesis.jordan.minimality._order_bound import (_cell_points, chain_order,
-                                                                   family_order, one_row_short)
+from observer_cad.synthesis.jordan._admissible import rows_for_lambda
+from observer_cad.synthesis.jordan._rows_check import rows_satisfy_task
+from observer_cad.synthesis.jordan.minimality import (basis_minus_one_rows_possible, chain_order,
+                                                     family_order)
+from observer_cad.synthesis.jordan.minimality._roots import cell_points
 
 LAM = sp.Symbol("lambda")
 
@@ -45,7 +47,7 @@ def test_cell_points_separate_every_real_root(roots, shift, data):
         if data.draw(st.booleans()):
             f *= x ** 2 + 1
         polys.append(sp.Poly(sp.expand(f), x))
-    pts = _cell_points(polys)
+    pts = cell_points(polys)
     distinct = sorted(set().union(*[set(p.real_roots()) for p in polys]))
     assert len(pts) == len(distinct) + 1 and pts == sorted(pts)
     for i, v in enumerate(pts):
@@ -186,7 +188,7 @@ def _sampled_max_stable(F, H, M, m, time, rng, samples=2000):
     """The most real stable roots any sampled member of the order-m chain family has
     (float sampling of the family's parameters; an independent look at the claim)."""
     from observer_cad.numerics import solve_left
-    from observer_cad.synthesis.jordan.minimality._order_bound import chain_system
+    from observer_cad.synthesis.jordan.minimality import chain_system
     A, B = chain_system(F, H, M, m)
     X0 = solve_left(A, B)
     basis, _ = left_null_space(A)
@@ -221,7 +223,7 @@ def test_one_output_design_proven_minimal(n, seed, time, k):
     """Designs whose least order was only known to lie in [k − 1, k]: order k − 1 is now
     ruled out (signs or box cover), so the k rows found are minimal; certified."""
     d = design_jordan(random_model(n, 1, 0, seed=seed, time=time), observer="virtual-sensor",
-                      estimate="x1")
+                      estimate="x1", proof_seconds=None)
     assert d.k == k and d.certificate.passed and _minimal(d).holds
     assert "no Jordan model of fewer rows" in _minimal(d).detail
 
@@ -271,7 +273,7 @@ def test_one_row_short_impossible():
     """random_model(8, 2, 1, seed=0), discrete, z = (x1, x2), decoupled: each λ has one
     row; 5 = n − rank H − 1 rows are impossible (before: least order in [5, 6])."""
     _, F, H, L, M = _two_components(8, 0, "discrete")
-    r = one_row_short(F, H, L, M, LAM, "discrete")
+    r = basis_minus_one_rows_possible(F, H, L, M, LAM, "discrete")
     assert r.analysed and not r.possible and r.k == 5
     assert _gamma_max_stable(F, H, L, M, "discrete", np.random.default_rng(0)) < 5
 
@@ -281,7 +283,7 @@ def test_one_row_short_impossible():
 def test_basis_design_proven_minimal(time):
     st_, F, H, L, M = _two_components(8, 0, time)
     d = design_jordan(random_model(8, 2, 1, seed=0, time=time), observer="virtual-sensor",
-                      estimate=M)
+                      estimate=M, proof_seconds=None)
     assert d.k == 6 and d.certificate.passed and _minimal(d).holds
     assert "5 rows are impossible for every real stable λ" in _minimal(d).detail
 
@@ -295,11 +297,16 @@ def test_one_row_short_possible_gives_rows_at_its_lambdas(n, seed):
     are checked here independently; the design's own search finds the same number of rows
     (the two agree), proven minimal."""
     st_, F, H, L, M = _two_components(n, seed, "continuous")
-    r = one_row_short(F, H, L, M, LAM, "continuous")
+    r = basis_minus_one_rows_possible(F, H, L, M, LAM, "continuous")
     assert r.analysed and r.possible and len(r.lambdas) == r.k == n - H.rank() - 1
     assert any(not v.is_rational for v in r.lambdas)
     L0 = sp.Matrix.vstack(*left_null_space(L)[0])
-    rows = _rows_at(F, H, L0, r.lambdas, "virtual-sensor", sp.Matrix(st_.D), M, st_, [])
+    rows = []
+    for lam in r.lambdas:  # one row each, as the proof takes them
+        phis, js, _ = rows_for_lambda(F, H, L0, lam)
+        assert len(phis) == 1
+        rows.append((lam, phis[0], js[0]))
+    assert rows_satisfy_task(rows, len(rows), "virtual-sensor", H, sp.Matrix(st_.D), M, st_, [])
     assert rows is not None and len(rows) == r.k
     Phi = sp.Matrix.vstack(*[row[1] for row in rows])
     for (lam, phi, _), v in zip(rows, r.lambdas):  # Φ_i (F − λ_i I) ∈ rowspace H, Φ_i L = 0
@@ -311,16 +318,16 @@ def test_one_row_short_possible_gives_rows_at_its_lambdas(n, seed):
     assert PH.rank(simplify=True) == r.k + H.rank()
     assert sp.Matrix.vstack(PH, M).rank(simplify=True) == PH.rank(simplify=True)
     d = design_jordan(random_model(n, 2, 1, seed=seed, time="continuous"),
-                      observer="virtual-sensor", estimate=M)
+                      observer="virtual-sensor", estimate=M, proof_seconds=None)
     assert d.k == r.k and d.certificate.passed and _minimal(d).holds
 
 
 def test_one_row_short_not_analysed_outside_its_case():
-    """Two rows per λ (no decoupled input): one_row_short says so and claims nothing."""
+    """Two rows per λ (no decoupled input): basis_minus_one_rows_possible says so and claims nothing."""
     st_ = extract_structure(random_model(7, 2, 0, seed=0, time="continuous"))
     M = sp.zeros(2, 7)
     M[0, 0] = M[1, 1] = 1
-    r = one_row_short(sp.Matrix(st_.F), sp.Matrix(st_.H), sp.zeros(7, 0), M, LAM, "continuous")
+    r = basis_minus_one_rows_possible(sp.Matrix(st_.F), sp.Matrix(st_.H), sp.zeros(7, 0), M, LAM, "continuous")
     assert not r.analysed and not r.possible and "each λ has 2 rows" in r.evidence
 
 

@@ -1,5 +1,5 @@
-"""z with several components (issue 14 item 6, METHOD §2b): q = rank [M; H] − rank H rows,
-the fewest any model of z has, decided exactly over every real stable λ (``span_rows``),
+"""z with several components (METHOD §2b): q = rank [M; H] − rank H rows,
+the fewest any model of z has, decided exactly over every real stable λ (``q_rows_possible``),
 and designs with rows inside rowspace [M; H] (plus one extra direction). Each claim is
 checked by something the design code does not compute: exact identities on the rows
 found, float ranks over sampled λ."""
@@ -12,9 +12,11 @@ import sympy as sp
 from observer_cad import PlantModel
 from observer_cad.model import extract_structure, random_model
 from observer_cad.synthesis import design_jordan
-from observer_cad.synthesis.jordan._lambda_search import span_rows
-from observer_cad.synthesis.jordan.minimality._order_bound import (OneMoreRow, _space_rows,
-                                                                   one_more_row, two_more_rows)
+from observer_cad.synthesis.jordan._lambda_search import q_rows_possible
+from observer_cad.synthesis.jordan.minimality import (RowsVerdict, q_plus_one_rows_possible,
+                                                     q_plus_two_rows_possible)
+from observer_cad.synthesis.jordan.minimality._q_plus_two_rows import (
+    q_plus_two_rows_in_five_dimensions)
 
 LAM = sp.Symbol("lambda")
 XS = sp.Symbol("x")  # the second λ of a pair (partner correspondences)
@@ -71,9 +73,9 @@ def test_two_rows_inside_the_span(seed):
     m = random_model(5, 2, 0, seed=seed, time="continuous")
     st = extract_structure(m)
     F, H, M = sp.Matrix(st.F), sp.Matrix(st.H), _first_rows(5, 2)
-    sr = span_rows(F, H, sp.zeros(5, 0), M, LAM, "continuous")
+    sr = q_rows_possible(F, H, sp.zeros(5, 0), M, LAM, "continuous")
     assert sr.analysed and sr.possible and sr.q == 2
-    d = design_jordan(m, observer="interval", estimate=M)
+    d = design_jordan(m, observer="interval", estimate=M, proof_seconds=None)
     assert d.k == 2 and d.certificate.passed and _minimal(d).holds
     _rows_ok(d, F, H, M)
     for i in range(2):  # each row inside rowspace [M; H]
@@ -91,10 +93,10 @@ def test_one_more_row_proven_when_q_rows_are_impossible(n, l, q, seed, k_before)
     m = random_model(n, l, 0, seed=seed, time="continuous")
     st = extract_structure(m)
     F, H, M = sp.Matrix(st.F), sp.Matrix(st.H), _first_rows(n, q)
-    sr = span_rows(F, H, sp.zeros(n, 0), M, LAM, "continuous")
+    sr = q_rows_possible(F, H, sp.zeros(n, 0), M, LAM, "continuous")
     assert sr.analysed and not sr.possible and sr.q == q
     assert _sampled_span_dim(F, H, M, np.random.default_rng(seed)) < q
-    d = design_jordan(m, observer="interval", estimate=M)
+    d = design_jordan(m, observer="interval", estimate=M, proof_seconds=None)
     assert d.k == q + 1 < k_before and d.certificate.passed
     assert _minimal(d).holds and "impossible for every real stable λ" in _minimal(d).detail
     _rows_ok(d, F, H, M)
@@ -106,7 +108,7 @@ def _checked_z12_design(n, seed, time, k):
     m = random_model(n, 2, 0, seed=seed, time=time)
     st = extract_structure(m)
     F, H, M = sp.Matrix(st.F), sp.Matrix(st.H), _first_rows(n, 2)
-    d = design_jordan(m, observer="virtual-sensor", estimate=M)
+    d = design_jordan(m, observer="virtual-sensor", estimate=M, proof_seconds=None)
     assert d.k == k and d.certificate.passed and _minimal(d).holds
     _rows_ok(d, F, H, M)
     return d, F, H, M
@@ -156,7 +158,7 @@ def test_q_plus_c_minus_f_rows_through_a_spread_set(n, seed, time, k):
     e = c − f: e + 1 rational λ with rows Σ Φ_i Q = 0 fix U, the last λ is an exact root.
     Before (e ≤ 2 only) the design had n − 3 rows (one fewer than a basis modulo the
     outputs, which any λ gives); now q + c − f, proven minimal (four rows are impossible,
-    :func:`two_more_rows` for planes of R⁵). (Ten states, c = 6: this search gives six
+    :func:`q_plus_two_rows_possible` for planes of R⁵). (Ten states, c = 6: this search gives six
     rows, and the six-dimensional decisions then five — tests/synthesis/
     test_six_dimensions.py.) Checked independently of the design code: the row
     identities, the rows span z with H, and modulo [M; H] the k images span exactly
@@ -164,7 +166,7 @@ def test_q_plus_c_minus_f_rows_through_a_spread_set(n, seed, time, k):
     m = random_model(n, 2, 0, seed=seed, time=time)
     st = extract_structure(m)
     F, H, M = sp.Matrix(st.F), sp.Matrix(st.H), _first_rows(n, 2)
-    d = design_jordan(m, observer="virtual-sensor", estimate=M)
+    d = design_jordan(m, observer="virtual-sensor", estimate=M, proof_seconds=None)
     assert d.k == k == n - 4 and d.certificate.passed
     _rows_ok(d, F, H, M)
     assert len(set(d.lambdas)) == k
@@ -229,7 +231,7 @@ def test_q_plus_one_rows_proven_impossible(seed, time):
     rows are minimal (before: least order in [3, 4]). Confirmed in floating point: no
     pair (λ₁, λ₂) of a grid has a third stable λ."""
     d, F, H, M = _checked_z12_design(7, seed, time, 4)
-    more = one_more_row(F, H, sp.zeros(7, 0), M, LAM, time)
+    more = q_plus_one_rows_possible(F, H, sp.zeros(7, 0), M, LAM, time)
     assert more.analysed and not more.possible and "one sign" in more.evidence
     assert "3 rows are impossible too" in _minimal(d).detail
     assert _third_stable_roots(F, H, M, time) == 0
@@ -240,14 +242,14 @@ def test_one_more_row_possible_where_the_pair_design_exists(seed):
     m = random_model(7, 2, 0, seed=seed, time="continuous")
     st = extract_structure(m)
     F, H, M = sp.Matrix(st.F), sp.Matrix(st.H), _first_rows(7, 2)
-    more = one_more_row(F, H, sp.zeros(7, 0), M, LAM, "continuous")
+    more = q_plus_one_rows_possible(F, H, sp.zeros(7, 0), M, LAM, "continuous")
     assert more.analysed and more.possible and len(more.lambdas) == 3
     assert all(v < 0 for v in more.lambdas)
     assert _third_stable_roots(F, H, M, "continuous") >= 1
 
 
 def test_one_more_row_not_analysed_outside_its_case():
-    """Outside its case one_more_row says so and claims nothing: rowspace [M; H] of
+    """Outside its case q_plus_one_rows_possible says so and claims nothing: rowspace [M; H] of
     codimension 1 (five states), rows inside rowspace [M; H] for λ generic (seven states,
     three outputs), symbolic parameters."""
     def parts(n, l, seed):  # noqa: E741
@@ -255,13 +257,13 @@ def test_one_more_row_not_analysed_outside_its_case():
         return sp.Matrix(st.F), sp.Matrix(st.H)
 
     F, H = parts(5, 2, 0)
-    more = one_more_row(F, H, sp.zeros(5, 0), _first_rows(5, 2), LAM, "continuous")
+    more = q_plus_one_rows_possible(F, H, sp.zeros(5, 0), _first_rows(5, 2), LAM, "continuous")
     assert not more.analysed and not more.possible and "codimension 1" in more.evidence
     F, H = parts(7, 3, 0)
-    more = one_more_row(F, H, sp.zeros(7, 0), _first_rows(7, 2), LAM, "continuous")
+    more = q_plus_one_rows_possible(F, H, sp.zeros(7, 0), _first_rows(7, 2), LAM, "continuous")
     assert not more.analysed and "rows inside rowspace [M; H] exist" in more.evidence
     F, H = parts(7, 2, 0)
-    more = one_more_row(F + sp.diag(sp.Symbol("a"), *([0] * 6)), H, sp.zeros(7, 0),
+    more = q_plus_one_rows_possible(F + sp.diag(sp.Symbol("a"), *([0] * 6)), H, sp.zeros(7, 0),
                         _first_rows(7, 2), LAM, "continuous")
     assert not more.analysed and "symbolic" in more.evidence
 
@@ -272,8 +274,8 @@ def test_one_more_row_reduces_dependent_rows_of_z():
     st = extract_structure(random_model(7, 2, 0, seed=1, time="continuous"))
     F, H = sp.Matrix(st.F), sp.Matrix(st.H)
     M = sp.Matrix.vstack(_first_rows(7, 1), _first_rows(7, 1) + H[0, :], _first_rows(7, 2)[1, :])
-    more = one_more_row(F, H, sp.zeros(7, 0), M, LAM, "continuous")
-    plain = one_more_row(F, H, sp.zeros(7, 0), _first_rows(7, 2), LAM, "continuous")
+    more = q_plus_one_rows_possible(F, H, sp.zeros(7, 0), M, LAM, "continuous")
+    plain = q_plus_one_rows_possible(F, H, sp.zeros(7, 0), _first_rows(7, 2), LAM, "continuous")
     assert more.analysed and not more.possible and more.evidence == plain.evidence
 
 
@@ -294,11 +296,11 @@ def test_two_rows_need_a_special_lambda(observer):
     m = _special_plant()
     st = extract_structure(m)
     F, H, M = sp.Matrix(st.F), sp.Matrix(st.H), _first_rows(5, 2)
-    sr = span_rows(F, H, sp.zeros(5, 0), M, LAM, "continuous")
+    sr = q_rows_possible(F, H, sp.zeros(5, 0), M, LAM, "continuous")
     assert sr.possible and sr.stable == (sp.Rational(-5, 2),)
     assert "dimension 1 of 2" in sr.evidence
     assert _sampled_span_dim(F, H, M, np.random.default_rng(1)) == 1  # generic λ: one
-    d = design_jordan(m, observer=observer, estimate=M)
+    d = design_jordan(m, observer=observer, estimate=M, proof_seconds=None)
     assert d.k == 2 and sp.Rational(-5, 2) in d.lambdas and d.certificate.passed
     assert _minimal(d).holds
     _rows_ok(d, F, H, M)
@@ -312,7 +314,7 @@ def test_decoupled_rows_inside_the_span():
     st = extract_structure(m)
     F, H, M = sp.Matrix(st.F), sp.Matrix(st.H), _first_rows(7, 2)
     L = sp.Matrix(st.L)
-    d = design_jordan(m, observer="virtual-sensor", estimate=M)
+    d = design_jordan(m, observer="virtual-sensor", estimate=M, proof_seconds=None)
     assert d.k == 3 and d.certificate.passed and _minimal(d).holds
     _rows_ok(d, F, H, M)
     assert L.cols == 1 and (d.matrices.Phi * L).applyfunc(sp.cancel) == sp.zeros(3, 1)
@@ -321,7 +323,7 @@ def test_decoupled_rows_inside_the_span():
 def test_symbolic_model_is_not_analysed():
     a = sp.Symbol("a")
     F = sp.Matrix([[a, 1, 0], [0, -1, 1], [0, 0, -2]])
-    sr = span_rows(F, sp.Matrix([[0, 0, 1]]), sp.zeros(3, 0), sp.eye(3)[:2, :], LAM,
+    sr = q_rows_possible(F, sp.Matrix([[0, 0, 1]]), sp.zeros(3, 0), sp.eye(3)[:2, :], LAM,
                    "continuous")
     assert not sr.analysed and "symbolic" in sr.evidence
 
@@ -340,9 +342,9 @@ def test_four_rows_need_the_roots_of_a_cubic():
     st = extract_structure(m)
     F, H = sp.Matrix(st.F), sp.Matrix(st.H)
     M = sp.Matrix.vstack(*[sp.eye(7)[i, :] for i in (0, 1, 5, 6)])
-    sr = span_rows(F, H, sp.zeros(7, 0), M, LAM, "continuous")
+    sr = q_rows_possible(F, H, sp.zeros(7, 0), M, LAM, "continuous")
     assert sr.possible and len(sr.stable) == 3 and all(v.has(sp.CRootOf) for v in sr.stable)
-    d = design_jordan(m, observer="interval", estimate=M)
+    d = design_jordan(m, observer="interval", estimate=M, proof_seconds=None)
     assert d.k == 4 and d.certificate.passed and _minimal(d).holds
     assert sum(v.has(sp.CRootOf) for v in d.lambdas) == 3
 
@@ -351,14 +353,14 @@ def test_vectorised_real_roots_agree_with_numpy():
     """The real roots of the pencil scan (closed form for degree 1 and 2, batched companion
     matrices for 3 and 4) are numpy's real roots of each polynomial, one at a time,
     including leading coefficients that vanish."""
-    from observer_cad.synthesis.jordan._jordan import _real_roots
+    from observer_cad.synthesis.jordan._lambda_sets import real_roots
 
     rng = np.random.default_rng(7)
     for deg in (1, 2, 3, 4):
         C = rng.standard_normal((deg + 1, 300))
         C[0, :20] = 0.0  # the degree drops
         C[:2, 20:30] = 0.0  # by two
-        got = np.sort(_real_roots(C))
+        got = np.sort(real_roots(C))
         want = []
         for j in range(C.shape[1]):
             c = np.trim_zeros(C[:, j], "f")
@@ -369,7 +371,7 @@ def test_vectorised_real_roots_agree_with_numpy():
 # --- one more row through lines of P³ (f = 2, c = 4, q = 2) -------------------------------
 
 def _concurrent_triples(F, H, L, M, time, count=1500):
-    """Floating point, independent of one_more_row: approximate triples of stable λ whose
+    """Floating point, independent of q_plus_one_rows_possible: approximate triples of stable λ whose
     images W(λ) modulo rowspace [M; H] (planes of R⁴: lines of P³) meet pairwise. W(λ)
     from a numeric left null space of [F − λI, L; H, 0] (rows (Φ, −y) with Φ L = 0 and
     Φ (F − λI) = y H), Plücker vectors from 2 × 2 minors, normalised and followed
@@ -430,7 +432,7 @@ def test_three_rows_through_lines_of_p3_impossible_and_checked_in_floats(seed, t
     partner), so no triple of distinct λ. In floats, independently, no triple of well
     separated stable λ whose lines meet pairwise exists on a fine grid."""
     F, H, L, M = _parts(9, 3, 1, seed, time)
-    r = one_more_row(F, H, L, M, LAM, time)
+    r = q_plus_one_rows_possible(F, H, L, M, LAM, time)
     assert r.analysed and not r.possible and r.k == 3
     assert "lines of P³" in r.evidence and "h(λ_1) = a² g(λ_2, λ_3)" in r.evidence
     assert ("g(λ, λ) = 0" in r.evidence) == (seed == 1)
@@ -460,7 +462,7 @@ def test_partner_triples_by_hand(triple, time, found):
     pairs are roots of g, distinct, stable); with an unstable one the verdict is
     impossible, and a float scan of λ_1 over a fine stable grid finds no λ_1 whose two
     partners are real and stable."""
-    from observer_cad.synthesis.jordan.minimality._order_bound import _partner_triples
+    from observer_cad.synthesis.jordan.minimality._q_plus_one_rows import _partner_triples
 
     g = _triangle_g(triple)
     verdict, _, lams = _partner_triples(g, LAM, XS, time)
@@ -485,13 +487,13 @@ def test_partner_triples_by_hand(triple, time, found):
 def test_stable_root_count_by_hand():
     """The Sturm count behind the verdict: distinct roots in the open stability region
     (the boundary 0, or ±1, excluded; repeated roots once)."""
-    from observer_cad.synthesis.jordan.minimality._order_bound import _stable_root_count
+    from observer_cad.synthesis.jordan.minimality._roots import stable_root_count
 
     x = sp.Symbol("x")
-    assert _stable_root_count(sp.Poly((x + 1) ** 2 * (x + 2) * x * (x - 3), x), "continuous") == 2
-    assert _stable_root_count(sp.Poly((2 * x - 1) * (x + 1) * (x - 2) * (x ** 2 + 1), x),
+    assert stable_root_count(sp.Poly((x + 1) ** 2 * (x + 2) * x * (x - 3), x), "continuous") == 2
+    assert stable_root_count(sp.Poly((2 * x - 1) * (x + 1) * (x - 2) * (x ** 2 + 1), x),
                               "discrete") == 1
-    assert _stable_root_count(sp.Poly(x ** 2 + 1, x), "continuous") == 0
+    assert stable_root_count(sp.Poly(x ** 2 + 1, x), "continuous") == 0
 
 
 @pytest.mark.parametrize("time, k", [("continuous", 4),
@@ -499,9 +501,9 @@ def test_stable_root_count_by_hand():
 def test_three_rows_impossible_proves_the_design_minimal(time, k):
     """The designs of that plant: continuous four rows (q + 2), proven minimal because
     three are impossible (before: least order in [3, 4]); discrete five rows, proven
-    because three are impossible and four too (planes of R⁴, :func:`two_more_rows`)."""
+    because three are impossible and four too (planes of R⁴, :func:`q_plus_two_rows_possible`)."""
     m = random_model(9, 3, 1, seed=0, time=time)
-    d = design_jordan(m, observer="virtual-sensor", estimate=_first_rows(9, 2))
+    d = design_jordan(m, observer="virtual-sensor", estimate=_first_rows(9, 2), proof_seconds=None)
     assert d.k == k and d.certificate.passed and _minimal(d).holds
     assert "lines of P³" in _minimal(d).detail
 
@@ -509,7 +511,7 @@ def test_three_rows_impossible_proves_the_design_minimal(time, k):
 # --- two more rows: planes of R⁴ -----------------------------------------------------------
 
 def _real_transversals(F, H, M, lams):
-    """Floating point, independent of two_more_rows: the number of real planes U of the
+    """Floating point, independent of q_plus_two_rows_possible: the number of real planes U of the
     4 dimensions modulo rowspace [M; H] meeting the image W(λ_i) of the rows of each of
     four λ_i (the lines of P³ meeting four lines). W(λ) from a numeric left null space of
     [F − λI; H], Plücker vectors from 2 × 2 minors; U satisfies four linear conditions
@@ -555,13 +557,13 @@ def test_two_more_rows_impossible_and_checked_in_floats():
     exist, has them (the check can see one)."""
     st = extract_structure(random_model(8, 2, 0, seed=8, time="discrete"))
     F, H, M = sp.Matrix(st.F), sp.Matrix(st.H), _first_rows(8, 2)
-    r = two_more_rows(F, H, sp.zeros(8, 0), M, LAM, "discrete")
+    r = q_plus_two_rows_possible(F, H, sp.zeros(8, 0), M, LAM, "discrete")
     assert r.analysed and not r.possible and r.k == 4
     assert "Bernstein" in r.evidence
     assert _max_real_transversals(F, H, M, "discrete", np.random.default_rng(0)) == 0
     st2 = extract_structure(random_model(8, 2, 0, seed=2, time="continuous"))
     F2, H2 = sp.Matrix(st2.F), sp.Matrix(st2.H)
-    r2 = two_more_rows(F2, H2, sp.zeros(8, 0), M, LAM, "continuous")
+    r2 = q_plus_two_rows_possible(F2, H2, sp.zeros(8, 0), M, LAM, "continuous")
     assert not r2.analysed and "not ruled out" in r2.evidence
     assert _real_transversals(F2, H2, M, [-30, -15, -8, -19.95]) == 2
     assert _max_real_transversals(F2, H2, M, "continuous", np.random.default_rng(0)) == 2
@@ -571,7 +573,7 @@ def test_two_more_rows_not_analysed_outside_its_case():
     """Seven states (c = 3): not planes of four, five or six dimensions; says so, claims
     nothing."""
     st = extract_structure(random_model(7, 2, 0, seed=0, time="continuous"))
-    r = two_more_rows(sp.Matrix(st.F), sp.Matrix(st.H), sp.zeros(7, 0), _first_rows(7, 2),
+    r = q_plus_two_rows_possible(sp.Matrix(st.F), sp.Matrix(st.H), sp.zeros(7, 0), _first_rows(7, 2),
                       LAM, "continuous")
     assert not r.analysed and not r.possible and "not planes of 4, 5 or 6 dimensions" in r.evidence
 
@@ -580,7 +582,7 @@ def test_two_more_rows_not_analysed_outside_its_case():
 def test_two_more_rows_proves_five_rows_minimal():
     """The design of that plant: five rows (before: least order in [4, 5]), proven."""
     m = random_model(8, 2, 0, seed=8, time="discrete")
-    d = design_jordan(m, observer="virtual-sensor", estimate=_first_rows(8, 2))
+    d = design_jordan(m, observer="virtual-sensor", estimate=_first_rows(8, 2), proof_seconds=None)
     assert d.k == 5 and d.certificate.passed and _minimal(d).holds
     assert "exactly 4 are impossible for every real stable λ" in _minimal(d).detail
 
@@ -616,7 +618,7 @@ def _plane_form(U, G, v):
 
 @pytest.mark.parametrize("seed", [0, 1])
 def test_a_plane_meeting_four_planes_of_r5_lies_in_a_solid(seed):
-    """The step :func:`two_more_rows` rests on, checked in floats on a surface built with a
+    """The step :func:`q_plus_two_rows_possible` rests on, checked in floats on a surface built with a
     plane U = span(e1, e2) meeting W(λ) at λ = −1, −2, −3, −4: P_U(λ) = p_U ∧ π(λ) has
     degree 5 and those four roots, so P_U = p(λ) ℓ(λ) with ℓ = ℓ0 + λ ℓ1 linear, and
     X = {ℓ0, ℓ1}^⊥ is a 3-space containing U that meets W(λ) at every λ (sampled)."""
@@ -650,9 +652,9 @@ def test_two_more_rows_in_five_dimensions_finds_four_rows(seed):
     G = _scroll_through((-1, -2, -3, -4), (1, 2, 3, 5), seed)
 
     def no(why, k=0):
-        return OneMoreRow(False, False, (), why, k)
+        return RowsVerdict(False, False, (), why, k)
 
-    r = _space_rows(G, 4, LAM, "continuous", no, [G[0, :], G[1, :]])
+    r = q_plus_two_rows_in_five_dimensions(G, 4, LAM, "continuous", no, [G[0, :], G[1, :]])
     assert r.analysed and r.possible and r.k == 4
     lams = [float(v) for v in r.lambdas]
     assert len(set(r.lambdas)) == 4 and max(lams) < 0
@@ -675,7 +677,7 @@ def test_two_more_rows_in_five_dimensions_impossible(seed, time):
     (the plane of quartics, decided exactly) — and three conjugate over a cubic field trace
     cubics: four rows are impossible."""
     st = extract_structure(random_model(9, 2, 0, seed=seed, time=time))
-    r = two_more_rows(sp.Matrix(st.F), sp.Matrix(st.H), sp.zeros(9, 0), _first_rows(9, 2),
+    r = q_plus_two_rows_possible(sp.Matrix(st.F), sp.Matrix(st.H), sp.zeros(9, 0), _first_rows(9, 2),
                       LAM, time)
     assert r.analysed and not r.possible and r.k == 4
     assert "3 such X" in r.evidence and "number field of degree 3" in r.evidence
@@ -693,7 +695,7 @@ def test_four_rows_found_through_a_solid():
     m = random_model(10, 3, 1, seed=1, time="continuous")
     st = extract_structure(m)
     F, H, L, M = sp.Matrix(st.F), sp.Matrix(st.H), sp.Matrix(st.L), _first_rows(10, 2)
-    d = design_jordan(m, observer="virtual-sensor", estimate=M)
+    d = design_jordan(m, observer="virtual-sensor", estimate=M, proof_seconds=None)
     assert d.k == 4 and d.certificate.passed and _minimal(d).holds
     assert "subspace bound" in _minimal(d).detail
     _rows_ok(d, F, H, M)
