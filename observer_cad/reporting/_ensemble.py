@@ -1,4 +1,4 @@
-"""Ensemble outputs (issue 16, item 6): ``summary.csv``, ``statistics.json`` and figures.
+"""Ensemble outputs: ``summary.csv``, ``statistics.json`` and figures.
 
 ``summary.csv`` has one row per finished run, in run order: ``run`` (the global index),
 ``case``, ``sample`` (the index k whose random draws the run used: replay it with
