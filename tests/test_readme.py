@@ -137,6 +137,22 @@ def test_readme_python_runs():
                                      "True"], r.stdout
 
 
+@pytest.mark.slow
+def test_notebook_command_in_the_readme_runs(tmp_path):
+    """The README's command runs the notebook top to bottom (here with its outputs in a
+    temporary directory and this checkout's package on the kernel's path)."""
+    text = README.read_text(encoding="utf-8")
+    command = re.search(r"&& (python3 -m jupyter nbconvert [^\n]*)", text).group(1)
+    argv = command.split()
+    argv[argv.index("--output-dir") + 1] = str(tmp_path / "nb")
+    argv[0] = sys.executable
+    env = dict(os.environ, OBSERVER_CAD_TOUR_OUT=str(tmp_path / "out"), MPLBACKEND="Agg",
+               PYTHONPATH=os.pathsep.join([str(ROOT), *filter(None, [os.environ.get("PYTHONPATH")])]))
+    r = subprocess.run(argv, cwd=ROOT, env=env, capture_output=True, text=True, timeout=900)
+    assert r.returncode == 0, r.stderr[-2000:]
+    assert (tmp_path / "nb" / "tour.ipynb").is_file()
+
+
 def test_notebook_command_in_the_readme():
     """The README's way to run the notebook uses what the dev extra installs."""
     text = README.read_text(encoding="utf-8")
