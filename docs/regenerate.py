@@ -290,7 +290,7 @@ def _table(actions: list[argparse.Action]) -> list[str]:
         extra = " (required)" if a.required and a.option_strings else ""
         if isinstance(a, argparse._AppendAction) and "repeatable" not in (a.help or ""):
             extra += " (repeatable)"
-        arg = _argument(a)
+        arg = _argument(a) if a.option_strings else ""   # a positional is its own name
         rows.append(f"| {name} | {_cell(f'`{arg}`' if arg else '')} | {_cell(_default(a))} "
                     f"| {_cell(a.help or '')}{extra} |")
     return rows
