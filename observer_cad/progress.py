@@ -1,4 +1,4 @@
-"""Progress of long computations, as stage lines on stderr (issue 11 item 9).
+"""Progress of long computations, as stage lines on stderr.
 
 Library code says where it is with :func:`report` (``report("designing: k = 3 of at
 most 299")``); nothing is printed unless a reporter is active. :func:`reporting` makes

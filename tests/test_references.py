@@ -1,6 +1,9 @@
-"""Every reference the program, the model files and the README print points into the
-repository: "METHOD §X" to a section of docs/METHOD.md, "seed NNN" to docs/REFERENCES.md
-(and "seed NNN §X" to a section listed there), and no file points outside the clone."""
+"""Every reference the program, the model files, the README and the pages of docs/ print
+points into the repository: "METHOD §X" to a section of docs/METHOD.md, "seed NNN" to
+docs/REFERENCES.md (and "seed NNN §X" to a section listed there), "README: X" to a
+heading of the README; a page's first citation is a link to the page it cites; every
+relative link of the README and docs/ resolves (file and heading); and no file points
+outside the clone."""
 from __future__ import annotations
 
 import re
@@ -13,10 +16,12 @@ ROOT = Path(__file__).resolve().parent.parent
 METHOD = ROOT / "docs" / "METHOD.md"
 REFERENCES = ROOT / "docs" / "REFERENCES.md"
 
+#: the README and the pages of docs/ (the guide; the API pages are built from docstrings)
+PAGES = sorted([ROOT / "README.md", *(ROOT / "docs").glob("*.md")])
 #: files whose text reaches users: the package (console output, report, docstrings),
-#: the model files, the benchmarks and the README
+#: the model files, the benchmarks, the README and docs/
 CITING = sorted([*(ROOT / "observer_cad").rglob("*.py"), *(ROOT / "models").rglob("*.py"),
-                 *(ROOT / "benchmarks").glob("*"), ROOT / "README.md"])
+                 *(ROOT / "benchmarks").glob("*"), *PAGES, *(ROOT / "docs" / "api").glob("*.rst")])
 
 
 def _cited(pattern: str) -> dict:
@@ -95,6 +100,62 @@ def test_method_and_references_cite_each_other_inside_the_repository():
     assert "docs/REFERENCES.md" in readme and "docs/METHOD.md" in readme
     for n in ("000", "001", "002", "003", "004"):
         assert f"seed {n}" in readme.split("## References", 1)[1], f"README References lacks seed {n}"
+
+
+def _slug(heading: str) -> str:
+    """The anchor a forge (and MyST's heading anchors) gives a Markdown heading."""
+    text = re.sub(r"[`*_]", "", heading.strip().lower())
+    text = re.sub(r"\[([^\]]*)\]\([^)]*\)", r"\1", text)
+    return re.sub(r"[^\w\- ]", "", text).replace(" ", "-")
+
+
+def _anchors(path: Path) -> set:
+    text = re.sub(r"```.*?```", "", path.read_text(encoding="utf-8"), flags=re.S)
+    return {_slug(m.group(1)) for m in re.finditer(r"^#{1,6}\s+(.+?)\s*$", text, re.M)}
+
+
+def test_readme_citations_name_a_readme_heading():
+    """The program cites "README: Conditioning": that heading stays in the README."""
+    cited = _cited(r"README: ([A-Z][\w ]*\w)")
+    cited.update(_cited(r"'([A-Z][\w ]*\w)' in the README"))
+    assert cited, "no 'README: X' citation found: the pattern is wrong"
+    heads = {h.lower() for h in re.findall(r"^#+\s+(.+?)\s*$",
+                                           (ROOT / "README.md").read_text(encoding="utf-8"), re.M)}
+    missing = {c: where for c, where in cited.items() if c.lower() not in heads}
+    assert not missing, f"README headings cited by the program but not in the README: {missing}"
+
+
+@pytest.mark.parametrize("page", PAGES, ids=lambda p: p.relative_to(ROOT).as_posix())
+def test_first_citation_is_a_link(page):
+    """A reader meets "seed 000 §9" or "METHOD §2b" first in a paragraph that links the
+    page where it is looked up."""
+    text = page.read_text(encoding="utf-8")
+    paragraphs = re.split(r"\n\s*\n", text)
+    for pattern, target in ((r"\bseeds? \d{3}", "REFERENCES.md"), (r"METHOD §", "METHOD.md")):
+        if page.name == target:
+            continue
+        first = next((p for p in paragraphs if re.search(pattern, p)), None)
+        if first is not None:
+            assert f"({'docs/' if page.name == 'README.md' else ''}{target}" in first, (
+                f"{page.relative_to(ROOT)}: the first citation ({pattern}) has no link to {target}:"
+                f"\n{first[:300]}")
+
+
+@pytest.mark.parametrize("page", PAGES, ids=lambda p: p.relative_to(ROOT).as_posix())
+def test_relative_links_resolve(page):
+    text = re.sub(r"```.*?```", "", page.read_text(encoding="utf-8"), flags=re.S)
+    bad = []
+    for m in re.finditer(r"\]\(([^)\s]+)\)", text):
+        link = m.group(1)
+        if re.match(r"[a-z]+:", link):
+            continue                          # an absolute URL, a mailto
+        path, _, anchor = link.partition("#")
+        target = (page.parent / path).resolve() if path else page
+        if not target.exists():
+            bad.append(f"{link}: no such file")
+        elif anchor and target.suffix == ".md" and anchor not in _anchors(target):
+            bad.append(f"{link}: no heading with that anchor in {target.name}")
+    assert not bad, f"{page.relative_to(ROOT)}: " + "; ".join(bad)
 
 
 def _tracked_text_files():

@@ -606,6 +606,21 @@ def parse_expression(text, names=None, *, where: str, allow_complex: bool = Fals
     ------
     ExpressionError
         One line: ``where``, the text (abridged) and what was rejected.
+
+    Examples
+    --------
+    Decimals are read exactly; nothing is evaluated, and what is not in the grammar is
+    refused in one line:
+
+    >>> import sympy as sp
+    >>> from observer_cad.model import parse_expression
+    >>> t = sp.Symbol("t")
+    >>> parse_expression("0.2*sin(t/10)", {"t": t}, where="scenario.json: signal 'u'")
+    sin(t/10)/5
+    >>> parse_expression("__import__('os')", {"t": t}, where="scenario.json: signal 'u'")
+    Traceback (most recent call last):
+    ...
+    observer_cad.errors.ExpressionError: scenario.json: signal 'u': cannot read "__import__('os')": call of '__import__' (allowed functions: ...)
     """
     shown = text if not isinstance(text, str) or len(text) <= 60 else text[:57] + "..."
 
@@ -662,7 +677,14 @@ def parse_expression(text, names=None, *, where: str, allow_complex: bool = Fals
 def parse_number(text, *, where: str, allow_complex: bool = False) -> sp.Expr:
     """A finite number (exact where the text is: ``0.2`` is 1/5, ``sqrt(2)`` stays
     ``sqrt(2)``) read by :func:`parse_expression` without names; real unless
-    ``allow_complex``. Sympy numbers pass through after the same checks."""
+    ``allow_complex``. Sympy numbers pass through after the same checks.
+
+    Examples
+    --------
+    >>> from observer_cad.model import parse_number
+    >>> parse_number("0.25", where="--gain"), parse_number("1/3", where="--gain")
+    (1/4, 1/3)
+    """
     if isinstance(text, sp.Basic):
         e = text
         shown = str(text)

@@ -195,6 +195,12 @@ def random_model(n: int, l: int, p: int, *, seed: int, m: int = 1,  # noqa: E741
     time : {"discrete", "continuous"}
     density : float, default 1.0
         Probability that an entry of F, H, D, L is drawn at all (else 0).
+
+    Examples
+    --------
+    >>> from observer_cad.model import random_model
+    >>> random_model(3, 1, 1, seed=0)
+    <PlantModel 'random_n3_l1_p1_m1_int_seed0': discrete time, 3 states, 1 output, 1 input, 1 fault, 1 disturbance>
     """
     drawn = _draw_all(n, l, p, seed=seed, m=m, integer=integer, density=density)
     return _model_from(drawn, n, l, p, seed=seed, m=m, integer=integer, time=time,

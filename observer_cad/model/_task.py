@@ -194,6 +194,19 @@ def resolve_task(model: PlantModel, *, observer, faults: Sequence[str] | str | N
     Raises :class:`~observer_cad.errors.ModelError` for a name the model does not declare
     in that role and :class:`~observer_cad.errors.UsageError` for a request that does not
     fit the observer kind; each message is one line naming the model file and the name.
+
+    Examples
+    --------
+    (from the repository's root)
+
+    >>> from observer_cad import load_model, resolve_task
+    >>> drive = load_model("models/electric_drive.py")
+    >>> resolve_task(drive, observer="unknown-input", faults=["d"])
+    Task(unknown-input: estimate d, decoupled from rho)
+    >>> resolve_task(drive, observer="unknown-input", faults=["x"])
+    Traceback (most recent call last):
+    ...
+    observer_cad.errors.ModelError: models/electric_drive.py: unknown fault or disturbance 'x'; declared: d, rho
     """
     kind = ObserverKind.parse(observer)
     where = model.where

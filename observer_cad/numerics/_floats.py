@@ -181,9 +181,16 @@ def algebraic_to_float(expr):
 
 
 def rational_approximation(x, tolerance: float) -> sp.Rational:
-    """The simplest rational within ``tolerance`` (relative to max(1, |x|)) of a float
+    """The simplest rational within ``tolerance`` (relative to max(1, ``|x|``)) of a float
     ``x`` — for floats that stand for a simple value (a pole from ``nroots``). An exact
-    number is returned unchanged."""
+    number is returned unchanged.
+
+    Examples
+    --------
+    >>> from observer_cad.numerics import rational_approximation
+    >>> rational_approximation(0.3333333333333, 1e-9)
+    1/3
+    """
     e = sp.sympify(x)
     if not isinstance(e, sp.Float):
         if e.is_Rational or not e.is_number or e.atoms(sp.Float) == set():

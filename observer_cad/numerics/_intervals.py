@@ -18,7 +18,16 @@ def neg(A):
 
 
 def box_min(A, lo, hi):
-    """min of A v over the box lo ≤ v ≤ hi: A⁺ lo − A⁻ hi."""
+    """min of A v over the box lo ≤ v ≤ hi: A⁺ lo − A⁻ hi.
+
+    Examples
+    --------
+    >>> import sympy as sp
+    >>> from observer_cad.numerics import box_min, box_max
+    >>> A = sp.Matrix([[1, -2]])
+    >>> box_min(A, [0, 0], [1, 1]), box_max(A, [0, 0], [1, 1])
+    (Matrix([[-2]]), Matrix([[1]]))
+    """
     return pos(A) * sp.Matrix(lo) - neg(A) * sp.Matrix(hi)
 
 
@@ -32,7 +41,19 @@ def comparison_stability(M, time: str):
     (discrete time, M ≥ 0) is a nonsingular M-matrix — every leading principal minor > 0 —
     which is equivalent to spectral abscissa α(M) < 0 (resp. spectral radius ρ(M) < 1).
     A minor whose sign sympy cannot decide counts as not proven. ``figure`` is α(M) or
-    ρ(M) in floating point (inf when M has unbounded entries, with no minors)."""
+    ρ(M) in floating point (inf when M has unbounded entries, with no minors).
+
+    Examples
+    --------
+    The comparison system of the interval width of ``models/nonmonotone_chain.py``:
+
+    >>> import sympy as sp
+    >>> from observer_cad.numerics import comparison_stability
+    >>> M = sp.Matrix([[-7, 9], [3, -21]]) / 8
+    >>> stable, alpha, minors = comparison_stability(M, "continuous")
+    >>> stable, round(alpha, 6), minors
+    (True, -0.660275, [7/8, 15/8])
+    """
     import numpy as np
     M = sp.Matrix(M)
     k = M.rows

@@ -406,7 +406,22 @@ def _matrix(M) -> sp.MatrixBase:
 
 
 def exact_rank(M, assumed=()) -> ExactRank:
-    """Rank of a matrix over QQ or QQ(parameters), with the conditions it needs."""
+    """Rank of a matrix over QQ or QQ(parameters), with the conditions it needs.
+
+    Examples
+    --------
+    A rational matrix has an exact rank; with a parameter the rank is generic, and the
+    result names the relations it rests on:
+
+    >>> import sympy as sp
+    >>> from observer_cad.numerics import exact_rank
+    >>> exact_rank(sp.Matrix([[1, 2], [2, 4]])).rank
+    1
+    >>> k = sp.Symbol("k")
+    >>> r = exact_rank(sp.Matrix([[1, k], [k, 1]]))
+    >>> r.rank, sorted(map(str, r.conditions))
+    (2, ['Ne(k + 1, 0)', 'Ne(k - 1, 0)'])
+    """
     M = _matrix(M)
     if M.rows == 0 or M.cols == 0:
         return ExactRank(0, (), frozenset(), M)
@@ -425,6 +440,14 @@ def left_null_space(M, assumed=()):
     Returns ``(basis, ExactRank of M)``. The basis comes from the eliminated Mᵀ: one
     vector per non-pivot column, with a 1 there. ``M`` may also be a DomainMatrix over QQ
     (see :func:`as_rational`).
+
+    Examples
+    --------
+    >>> import sympy as sp
+    >>> from observer_cad.numerics import left_null_space
+    >>> basis, rank = left_null_space(sp.Matrix([[1, 2], [2, 4], [0, 1]]))
+    >>> basis, rank.rank
+    ([Matrix([[-2, 1, 0]])], 2)
     """
     if isinstance(M, DomainMatrix):
         m, nc = M.shape

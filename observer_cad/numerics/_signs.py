@@ -95,9 +95,19 @@ def positive_combination(rows, *, linprog=None) -> tuple | None:
     """Integer weights c with Σ_j c_j a_ij > 0 for every row a_i of ``rows`` (sequences of
     ints, Fractions or sympy Rationals, all of one length K ≥ 1), or None when none is
     found. The search is a float linear programme on the rows scaled to unit length
-    (maximise t with a_i·x ≥ t, |x| ≤ 1, t ≤ 1); an x with t > 0 is rounded to integers
+    (maximise t with a_i·x ≥ t, ``|x|`` ≤ 1, t ≤ 1); an x with t > 0 is rounded to integers
     and every a_i·c > 0 is checked exactly. None is no proof that no c exists
-    (:func:`gordan_alternative` gives one). ``linprog``: scipy's, when the caller has it."""
+    (:func:`gordan_alternative` gives one). ``linprog``: scipy's, when the caller has it.
+
+    Examples
+    --------
+    >>> from observer_cad.numerics import positive_combination
+    >>> c = positive_combination([[1, 1], [-1, 2]])
+    >>> all(sum(ci * ai for ci, ai in zip(c, row)) > 0 for row in ([1, 1], [-1, 2]))
+    True
+    >>> positive_combination([[1], [-1]]) is None
+    True
+    """
     exact = [[_exact(v) for v in row] for row in rows]
     if not exact:
         return None

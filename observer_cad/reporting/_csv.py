@@ -25,7 +25,14 @@ UNITS_FILE = "signals.units.json"
 
 def csv_cell(v: float, *, nan: str = "nan") -> str:
     """A float as a CSV cell: shortest round-trip text, ``inf``/``-inf``, and ``nan`` as
-    given (``signals.csv`` writes ``nan``; an empty cell there means "not available")."""
+    given (``signals.csv`` writes ``nan``; an empty cell there means "not available").
+
+    Examples
+    --------
+    >>> from observer_cad.reporting import csv_cell
+    >>> csv_cell(0.1), csv_cell(float("-inf")), csv_cell(float("nan"), nan="")
+    ('0.1', '-inf', '')
+    """
     if np.isnan(v):
         return nan
     if np.isinf(v):

@@ -106,7 +106,17 @@ def expr_latex(e, names: dict | None = None) -> str:
 
 
 def matrix_latex(M) -> str:
-    """A matrix in round brackets (``pmatrix``-like); empty matrices are named as such."""
+    """A matrix in round brackets (``pmatrix``-like); empty matrices are named as such.
+
+    Examples
+    --------
+    >>> import sympy as sp
+    >>> from observer_cad.reporting import matrix_latex
+    >>> print(matrix_latex(sp.Matrix([[1, sp.Rational(1, 2)]])))
+    \\left(\\begin{matrix}1 & \\frac{1}{2}\\end{matrix}\\right)
+    >>> print(matrix_latex(sp.zeros(2, 0)))
+    \\emptyset_{2\\times 0}
+    """
     M = sp.Matrix(M)
     if M.rows == 0 or M.cols == 0:
         return rf"\emptyset_{{{M.rows}\times {M.cols}}}"
@@ -180,7 +190,14 @@ def lag_states(observer) -> list:
 
 # ---------------------------------------------------------------- markdown
 def md_escape(text) -> str:
-    """Plain text safe inside markdown paragraphs and table cells."""
+    """Plain text safe inside markdown paragraphs and table cells.
+
+    Examples
+    --------
+    >>> from observer_cad.reporting import md_escape
+    >>> print(md_escape("x_hat | r*"))
+    x\\_hat \\| r\\*
+    """
     text = str(text).replace("\\", "\\\\")
     for ch in "*_`|<>[]#":
         text = text.replace(ch, "\\" + ch)

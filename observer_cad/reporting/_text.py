@@ -12,7 +12,17 @@ __all__ = ["format_matrix", "format_structure", "format_design", "structure_to_j
 
 
 def format_matrix(name: str, M, indent: str = "  ") -> str:
-    """A matrix as aligned rows: ``name = [ a  b ]`` with later rows under the first."""
+    """A matrix as aligned rows: ``name = [ a  b ]`` with later rows under the first.
+
+    Examples
+    --------
+    >>> import sympy as sp
+    >>> from observer_cad.reporting import format_matrix
+    >>> k = sp.Symbol("k")
+    >>> print(format_matrix("Phi", [[1, 0, 0], [1, k, -k/2]]))
+      Phi = [ 1  0     0 ]
+            [ 1  k  -k/2 ]
+    """
     M = sp.Matrix(M)
     head = f"{indent}{name} = "
     if M.rows == 0 or M.cols == 0:
