@@ -131,7 +131,8 @@ def test_q_plus_one_rows_through_a_pair_of_lambdas(seed):
 
 
 @pytest.mark.parametrize("seed, time", [pytest.param(0, "continuous", marks=pytest.mark.slow),
-                                        (1, "discrete"), (2, "continuous"),
+                                        pytest.param(1, "discrete", marks=pytest.mark.slow),
+                                        (2, "continuous"),
                                         pytest.param(2, "discrete", marks=pytest.mark.slow)])
 def test_q_plus_two_rows_through_three_lambdas(seed, time):
     """Eight states, two outputs, z = (x1, x2): every model has at least four states
@@ -150,7 +151,8 @@ def test_q_plus_two_rows_through_three_lambdas(seed, time):
 
 
 @pytest.mark.parametrize("n, seed, time, k", [
-    (9, 0, "continuous", 5), pytest.param(9, 1, "discrete", 5, marks=pytest.mark.slow)])
+    pytest.param(9, 0, "continuous", 5, marks=pytest.mark.slow),
+    pytest.param(9, 1, "discrete", 5, marks=pytest.mark.slow)])
 def test_q_plus_c_minus_f_rows_through_a_spread_set(n, seed, time, k):
     """Nine states, two outputs, z = (x1, x2): q = 2, and modulo [M; H] (c = 5
     dimensions) each λ's rows have images in a plane (f = 2). q + e rows need their
@@ -420,7 +422,9 @@ def _parts(n, l, p, seed, time):  # noqa: E741
     return sp.Matrix(st.F), sp.Matrix(st.H), sp.Matrix(st.L), _first_rows(n, 2)
 
 
-@pytest.mark.parametrize("seed, time", [(0, "continuous"), (0, "discrete"), (1, "continuous"),
+@pytest.mark.parametrize("seed, time", [(0, "continuous"),
+                                        pytest.param(0, "discrete", marks=pytest.mark.slow),
+                                        pytest.param(1, "continuous", marks=pytest.mark.slow),
                                         pytest.param(1, "discrete", marks=pytest.mark.slow)])
 def test_three_rows_through_lines_of_p3_impossible_and_checked_in_floats(seed, time):
     """random_model(9, 3, 1, seed), z = (x1, x2), disturbance decoupled: q = 2, and the

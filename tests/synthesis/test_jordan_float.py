@@ -226,8 +226,10 @@ def test_design_jordan_auto_selects_the_float_path_for_large_models(models_dir):
     assert ds.method == "exact" and ds.certificate.exact
 
 
-@pytest.mark.parametrize("time", ["discrete", "continuous"])
-@pytest.mark.parametrize("observer", ["diagnostic", "virtual-sensor"])
+@pytest.mark.parametrize("observer, time", [
+    ("diagnostic", "discrete"), ("virtual-sensor", "continuous"),
+    pytest.param("diagnostic", "continuous", marks=pytest.mark.slow),
+    pytest.param("virtual-sensor", "discrete", marks=pytest.mark.slow)])
 def test_generic_case_uses_well_separated_default_lambdas(time, observer):
     # n = 60, l = 8, p = 1: P(λ) is 67 × 60, so 7 rows per λ; a residual (or z = x1) needs
     # 7k + 8 > 60 at generic λ, so k = 8. The default list is fixed and well separated

@@ -49,7 +49,7 @@ def _numeric_W(F, H, Q):
     return W
 
 
-@pytest.mark.parametrize("seed, time", [(0, "continuous"),
+@pytest.mark.parametrize("seed, time", [pytest.param(0, "continuous", marks=pytest.mark.slow),
                                         pytest.param(0, "discrete", marks=pytest.mark.slow),
                                         pytest.param(1, "continuous", marks=pytest.mark.slow),
                                         pytest.param(1, "discrete", marks=pytest.mark.slow)])
@@ -103,7 +103,8 @@ def test_five_rows_minimal_for_ten_states(seed, time):
         assert s[-1] < 1e-6 * s[0]  # and meeting W(λ)
 
 
-@pytest.mark.parametrize("time", ["continuous", "discrete"])
+@pytest.mark.parametrize("time", ["continuous",
+                                  pytest.param("discrete", marks=pytest.mark.slow)])
 def test_four_rows_in_six_dimensions_impossible(time):
     """random_model(10, 2, 0, seed=0): four rows are impossible — the curve ℓ(λ) of
     4-vectors is unique up to scale, and the plane Y it fixes meets W(λ) at no real stable
