@@ -255,6 +255,14 @@ class PlantModel:
         set_("units", MappingProxyType(_units(self.units, roles, where)))
         set_("uncertainty", MappingProxyType(_uncertainty(self.uncertainty, params, where)))
 
+    @classmethod
+    def from_statespace(cls, sys, **options) -> "PlantModel":
+        """A model from a python-control ``StateSpace``, a scipy ``lti``/``dlti`` or a
+        tuple ``(A, B, C, D)``, its input columns grouped by role
+        (:func:`observer_cad.model.from_statespace`, which documents the options)."""
+        from ._statespace import from_statespace
+        return from_statespace(sys, **options)
+
     # ------------------------------------------------------------------ helpers
     @property
     def where(self) -> str:
