@@ -1,4 +1,4 @@
-"""Ensembles end to end (issue 16, items 2–6, 8): the same summaries for any chunk size
+"""Ensembles end to end: the same summaries for any chunk size
 and on every backend (a Dask LocalCluster included), the worst run found and replayed
 exactly, inclusion statistics equal to the reference simulator's, parameters sampled
 without recompiling, a guaranteed threshold with no false alarm over sampled plants, and
