@@ -17,11 +17,13 @@ The lower level:
 Compiled code reaches the workers as a :class:`observer_cad.codegen.LibrarySpec` in the
 payload, loaded there with :func:`observer_cad.codegen.load_library`.
 """
-from ._backends import (BACKEND_KINDS, DASK_MISSING, Backend, Interrupted, map_chunks, progress_bar)
+from ._backends import (DASK_MISSING, Backend, Interrupted, map_chunks, progress_bar)
 from ._statistics import (EnsembleStatistics, FieldStatistics, GroupStatistics, Statistics, SummaryRow, DEFAULT_QUANTILES)
-from ._runner import (Chunk, EnsembleResult, run_ensemble, replay, replay_worst, ReplayError, ENGINES, default_chunk, CHUNK_BYTES, default_worst_field)
+from ._runner import (Chunk, EnsembleResult, run_ensemble, replay, replay_worst, ReplayError, default_worst_field)
 
-__all__ = ["BACKEND_KINDS", "DASK_MISSING", "Backend", "Interrupted", "map_chunks", "progress_bar",
-           "Chunk", "EnsembleResult", "run_ensemble", "replay", "replay_worst", "ReplayError", "ENGINES",
-           "default_chunk", "CHUNK_BYTES", "default_worst_field", "EnsembleStatistics",
-           "FieldStatistics", "GroupStatistics", "Statistics", "SummaryRow", "DEFAULT_QUANTILES"]
+__all__ = [
+    "DASK_MISSING", "Backend", "Interrupted", "map_chunks", "progress_bar", "Chunk",
+    "EnsembleResult", "run_ensemble", "replay", "replay_worst", "ReplayError",
+    "default_worst_field", "EnsembleStatistics", "FieldStatistics", "GroupStatistics",
+    "Statistics", "SummaryRow", "DEFAULT_QUANTILES"
+]

@@ -46,7 +46,7 @@ from ..analysis import argument_range, format_number
 from ..observers import Observer, output_symbols
 
 __all__ = ["ErrorSystem", "Threshold", "ThresholdSpec", "guaranteed_threshold",
-           "constant_threshold", "residual_outputs", "min_detectable_fault", "DEFAULT_MARGIN"]
+           "constant_threshold", "residual_names", "min_detectable_fault", "DEFAULT_MARGIN"]
 
 #: Absolute allowance added to both ends of a guaranteed band for floating-point roundoff of
 #: the simulated or compiled residual (the band of a noise-free, exactly decoupled residual is
@@ -56,7 +56,7 @@ DEFAULT_MARGIN = 1e-9
 _REF = "METHOD §3 (residual evaluation)"
 
 
-def residual_outputs(observer: Observer) -> tuple:
+def residual_names(observer: Observer) -> tuple:
     """The residual outputs of an observer: ``r`` or ``r1 … rm`` (in output order)."""
     names = tuple(n for n, _ in observer.outputs if re.fullmatch(r"r\d*", n))
     if not names:
@@ -339,7 +339,7 @@ def _checked_options(model: PlantModel, observer: Observer, initial_error, margi
     """The residuals, |e(0)| and the margin, with one-line errors for what cannot have a
     guaranteed threshold."""
     where = model.where
-    residuals = residual_outputs(observer)
+    residuals = residual_names(observer)
     if observer.time != model.time:
         raise UsageError(f"{where}: the observer is {observer.time}-time, the model {model.time}-time")
     if observer.delays and any(observer.delays.get(r, 0) for r in residuals):
@@ -584,7 +584,7 @@ def constant_threshold(observer: Observer, value, *, kind: str = "constant",
                        description: str = "") -> Observer:
     """The observer with constant bands ``rI_lower = −τ_I``, ``rI_upper = τ_I`` (``value`` a
     number, or one per residual)."""
-    residuals = residual_outputs(observer)
+    residuals = residual_names(observer)
     vals = list(value) if isinstance(value, (list, tuple)) else [value] * len(residuals)
     if len(vals) != len(residuals):
         raise UsageError(f"{len(vals)} threshold values for {len(residuals)} residuals"

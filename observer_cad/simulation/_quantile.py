@@ -16,7 +16,7 @@ import numpy as np
 from ..errors import UsageError
 from ..model import PlantModel
 from ..observers import Observer
-from ..residuals import ThresholdSpec, constant_threshold, guaranteed_threshold, residual_outputs
+from ..residuals import ThresholdSpec, constant_threshold, guaranteed_threshold, residual_names
 from ._simulate import Scenario, simulate
 
 __all__ = ["quantile_threshold", "fault_free", "apply_threshold"]
@@ -44,7 +44,7 @@ def quantile_threshold(model: PlantModel, observer: Observer, scenario: Scenario
         raise UsageError(f"a false-alarm rate must lie in (0, 1), got {rate:g}")
     if int(runs) < 1:
         raise UsageError(f"runs must be at least 1, got {runs}")
-    residuals = residual_outputs(observer)
+    residuals = residual_names(observer)
     sc = fault_free(model, scenario)
     if seed is not None:
         sc = dataclasses.replace(sc, seed=int(seed))
