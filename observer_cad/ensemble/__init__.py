@@ -1,12 +1,14 @@
 """Stage 9 — ensembles of runs, after code generation.
 
+::
+
     from observer_cad.ensemble import Backend, run_ensemble
     res = run_ensemble(model, observer, scenario, runs=10_000,
                        backend=Backend("threads"))          # or "processes", "dask", "serial"
     print(res.statistics.to_text())                     # quantiles, worst runs per case
     worst = res.accumulator.worst("x1.min_slack", 3)    # replay(...) reproduces them exactly
 
-The lower level:
+The lower level::
 
     from observer_cad.ensemble import Backend, map_chunks, progress_bar
     backend = Backend("processes", workers=2)        # or "serial", "threads", "dask"

@@ -23,12 +23,12 @@ the comparison (embedding) system
 
 and r̲ = N⁺ e̲ − N⁻ ē + Γ̲, r̄ = N⁺ ē − N⁻ e̲ + Γ̄ with N = −C. While the declared bounds hold,
 the fault-free residual stays in [r̲, r̄]: no false alarm is possible. The comparison system
-must be stable for the band to stay bounded: ρ(|A|) < 1 (discrete) or A_d + |A_o| Hurwitz
+must be stable for the band to stay bounded: ρ(abs(A)) < 1 (discrete) or A_d + abs(A_o) Hurwitz
 (continuous), certified exactly through the leading principal minors of the M-matrix
-I − |A| (or −(A_d + |A_o|)).
+I − abs(A) (or −(A_d + abs(A_o))).
 
 A fault d adds e_f' = A e_f + B_f d to the error and −C e_f to the residual (B_f = Φ D), so
-r = r_0 + r_f with r_0 ∈ [r̲, r̄]: a step fault whose steady response |r_f| exceeds the band
+r = r_0 + r_f with r_0 ∈ [r̲, r̄]: a step fault whose steady response abs(r_f) exceeds the band
 width is detected for sure (:meth:`ErrorSystem.dc_gain`, :func:`min_detectable_fault`).
 """
 from __future__ import annotations
@@ -336,7 +336,7 @@ def _bound_terms(expr, gens, coeff_box, xbox, where):
 
 
 def _checked_options(model: PlantModel, observer: Observer, initial_error, margin) -> tuple:
-    """The residuals, |e(0)| and the margin, with one-line errors for what cannot have a
+    """The residuals, abs(e(0)) and the margin, with one-line errors for what cannot have a
     guaranteed threshold."""
     where = model.where
     residuals = residual_names(observer)
@@ -538,7 +538,7 @@ def guaranteed_threshold(model: PlantModel, observer: Observer, *, initial_error
     extra states (the error bounds ``<ξ>_elo``, ``<ξ>_ehi``); its conditions list what the
     band rests on, and ``observer.threshold`` is the :class:`Threshold`.
 
-    ``initial_error`` bounds |e_i(0)| (0: the observer starts at x*(0) = Φ x(0), as the
+    ``initial_error`` bounds abs(e_i(0)) (0: the observer starts at x*(0) = Φ x(0), as the
     simulator does unless a scenario sets ``observer_initial``); ``margin`` is added to both
     ends for floating-point roundoff.
     """
@@ -608,7 +608,7 @@ def constant_threshold(observer: Observer, value, *, kind: str = "constant",
 
 def min_detectable_fault(threshold: Threshold, width) -> dict:
     """Smallest step fault (per fault name) guaranteed to be detected once its response has
-    settled: min over residuals of width_I / |dc gain_I,j| (``width``: the band width per
+    settled: min over residuals of width_I / abs(dc gain_I,j) (``width``: the band width per
     residual, e.g. its largest value over a run). None where no residual sees the fault."""
     es = threshold.error_system
     if es is None:
