@@ -27,6 +27,9 @@ def design_from_args(args):
         raise UsageError("--structure applies to residual banks: add --isolate")
     if getattr(args, "isolate", False):
         return model, _bank_from_args(args, model)
+    if args.observer == "unknown-input" and len(args.fault) == 1 and not args.robust:
+        from ..observers import continuous_estimation_check  # structural: before the design
+        continuous_estimation_check(model, args.fault[0], args.disturbance)
     result = design(model, observer=args.observer, faults=args.fault,
                     disturbances=args.disturbance, estimate=args.estimate, form=args.form,
                     lambdas=args.lambdas, eigenvalues=args.eigenvalues, variant=args.variant,
@@ -100,6 +103,12 @@ def _warn_conditioning(result) -> None:
 
 
 def observer_options(args, result) -> dict:
+    if getattr(args, "tau", None) is not None:
+        if result.observer != "unknown-input" or getattr(args, "gain", None):
+            raise UsageError("--tau applies to --observer unknown-input on a continuous-time"
+                             " model (without --gain)")
+        from ..model import parse_number
+        return {"tau": parse_number(args.tau, where="--tau")}
     if getattr(args, "gain", None):
         if result.observer != "unknown-input":
             raise UsageError("--gain applies to --observer unknown-input")

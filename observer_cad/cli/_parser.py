@@ -261,6 +261,10 @@ def _add_design_options(p) -> None:
     p.add_argument("--gain", metavar="VALUE", nargs="+",
                    help="unknown-input estimator: the gains g (one, or one per row of the "
                         "model); default as in seed 000 (-0.7; -0.4, -0.1 mismatched)")
+    p.add_argument("--tau", metavar="T", default=None,
+                   help="unknown-input estimator, continuous time: the time constant of the "
+                        "estimate's filter 1/(T s + 1) (default 1/10): the estimate is the "
+                        "input filtered by it")
     p.add_argument("--gamma", type=_positive_float("--gamma"), default=None,
                    help="drem: the gradient gain γ (default: the model's suggestion)")
     p.add_argument("--poles", metavar="SET", nargs="+",
