@@ -72,6 +72,18 @@ def test_process_noise_is_extracted_into_Bw_and_certified(drive):
     assert st.rhs()[1].has(w3) and st.rhs()[2].coeff(w4) == 2
 
 
+def test_show_prints_Bw_only_for_process_noise(drive, models_dir):
+    from observer_cad import load_model
+    from observer_cad.reporting import format_structure, structure_to_json
+    st = extract_structure(drive)
+    text = format_structure(st)
+    assert "+ L rho + Bw w," in text and "Bw = [ 0  0  0  0 ]" in text
+    assert structure_to_json(st)["matrices"]["Bw"][2] == ["0", "0", "0", "2"]
+    plain = extract_structure(load_model(models_dir / "electric_drive.py"))
+    assert "Bw =" not in format_structure(plain)
+    assert structure_to_json(plain)["matrices"]["Bw"] == [["0", "0"]] * 3
+
+
 def test_a_structure_without_process_noise_has_a_zero_Bw(models_dir):
     from observer_cad import load_model
     m = load_model(models_dir / "electric_drive.py")
