@@ -247,3 +247,23 @@ def test_a_noise_column_of_B_from_statespace_is_process_noise():
     assert st.Bw == sp.ImmutableMatrix([[0, 1], [1, 0]])
     assert st.W == sp.ImmutableMatrix([[0, 1]])
     assert st.certificate.exact
+
+
+def test_sliding_mode_gain_bound_covers_the_process_noise(models_dir):
+    """sliding_example (x* = x2 − x3) with process noise w3 on tank 2, |w3| ≤ 1/10: the
+    bound on k1 grows by |Φ_1 Bw| w* = 0.1 (1.07 without it)."""
+    from observer_cad import load_model
+    from observer_cad.synthesis import gain_bound
+    m = load_model(models_dir / "sliding_example.py")
+    w = sp.Symbol("w3")
+    dyn = list(m.dynamics)
+    dyn[1] = dyn[1] + w
+    noisy = PlantModel(name="sliding_noise", time="continuous", states=m.states,
+                       inputs=m.inputs, faults=m.faults, disturbances=m.disturbances,
+                       noise=tuple(m.noise) + (w,), outputs=m.outputs, dynamics=dyn,
+                       bounds={**m.bounds, w: (-sp.Rational(1, 10), sp.Rational(1, 10))})
+    base = gain_bound(m, design(m, observer="sliding-mode", faults=["d"]))
+    gb = gain_bound(noisy, design(noisy, observer="sliding-mode", faults=["d"]))
+    terms = {t.name: t.value for t in gb.terms}
+    assert terms["w*|Φ_1 Bw|"] == pytest.approx(0.1)
+    assert gb.bound == pytest.approx(base.bound + 0.1)
