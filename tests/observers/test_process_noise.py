@@ -267,3 +267,40 @@ def test_sliding_mode_gain_bound_covers_the_process_noise(models_dir):
     terms = {t.name: t.value for t in gb.terms}
     assert terms["w*|Φ_1 Bw|"] == pytest.approx(0.1)
     assert gb.bound == pytest.approx(base.bound + 0.1)
+
+
+def _chain():
+    """Continuous chain a' = −a + b + w, b' = −2 b + u + w/2, y = b + v: w is process noise
+    (two equations), v measurement noise."""
+    a, b, u, w, v = sp.symbols("a b u w v")
+    return PlantModel(name="ct_noise", time="continuous", states=[a, b], inputs=[u],
+                      noise=[w, v], outputs=[b + v], dynamics=[-a + b + w, -2 * b + u + w / 2],
+                      bounds={w: (-sp.Rational(1, 5), sp.Rational(1, 5)),
+                              v: (-sp.Rational(1, 100), sp.Rational(1, 100))})
+
+
+def test_continuous_interval_inclusion_with_process_noise():
+    """x* = a, F* = −1: the bounds carry ∓ (|Φ Bw| w* = 1/5) + (the noise through y, 1/100)."""
+    m = _chain()
+    o = interval_observer(m, design_jordan(m, observer="interval", estimate="a"))
+    assert [str(e) for e in o.update] == ["-xl1 + y1 - 21/100", "-xu1 + y1 + 21/100"]
+    sc = scenario_from_dict({"t_end": 10, "dt": 0.001, "seed": 2,
+                             "initial": {"a": 0.5, "b": 0},
+                             "signals": {"u": "sin(t)", "v": "declared",
+                                         "w": "0.2*(1 - 2*(floor(t) - 2*floor(t/2)))"}})
+    res = simulate(m, o, sc, runs=5)
+    assert _outside(res, "a", "a_lower", "a_upper") == 0
+
+
+def test_one_draw_drives_both_uses_of_a_noise_symbol():
+    """w1 in the output and in the dynamics: the simulated plant uses the same sample in both
+    (discrete: x(t+1) = x/2 + w(t), y(t) = x(t) + w(t))."""
+    x, w = sp.symbols("x w1")
+    m = PlantModel(name="both", time="discrete", states=[x], outputs=[x + w],
+                   dynamics=[x / 2 + w], noise=[w], bounds={w: (-1, 1)})
+    assert extract_structure(m).Bw == sp.ImmutableMatrix([[1]])
+    res = simulate(m, None, scenario_from_dict({"steps": 50, "seed": 9,
+                                                "signals": {"w1": "declared"}}), runs=3)
+    assert np.ptp(res["w1"]) > 1
+    assert np.array_equal(res["y1"], res["x"] + res["w1"])
+    assert np.allclose(res["x"][:, 1:], res["x"][:, :-1] / 2 + res["w1"][:, :-1], atol=0, rtol=0)
