@@ -27,9 +27,6 @@ def design_from_args(args):
         raise UsageError("--structure applies to residual banks: add --isolate")
     if getattr(args, "isolate", False):
         return model, _bank_from_args(args, model)
-    if args.observer == "unknown-input" and len(args.fault) == 1 and not args.robust:
-        from ..observers import continuous_estimation_check  # structural: before the design
-        continuous_estimation_check(model, args.fault[0], args.disturbance)
     result = design(model, observer=args.observer, faults=args.fault,
                     disturbances=args.disturbance, estimate=args.estimate, form=args.form,
                     lambdas=args.lambdas, eigenvalues=args.eigenvalues, variant=args.variant,

@@ -21,7 +21,8 @@ y* reaches d̂ amplified by up to 1/(τ |D*_1|).
 
 Where the estimator does not apply, the refusal names what to use instead:
 
-* :func:`continuous_estimation_check` (cheap, structural, before any design work):
+* :func:`~observer_cad.synthesis.continuous_estimation_check` (cheap, structural, run by
+  :func:`~observer_cad.synthesis.design` before any design work):
   d must reach a measured combination of the outputs that the decoupled inputs do not
   reach, rank [H L, H D_d] > rank [H L]; for a linear model, the combination's derivative
   must also be free of unmeasured states, rank [H L, H F N, H D_d] > rank [H L, H F N]
@@ -38,69 +39,17 @@ from __future__ import annotations
 import sympy as sp
 
 from ..errors import ModelError, UsageError
-from ..model import PlantModel, extract_structure, to_rational
-from ..synthesis import Condition, Design
+from ..model import PlantModel, to_rational
+from ..synthesis import Condition, Design, continuous_estimation_check
 from ._observer import Observer, output_symbols
 from ._uio_derivation import ReducedModel, nonlinear_part, reduced_model
 
-__all__ = ["continuous_unknown_input_observer", "continuous_estimation_check", "DEFAULT_TAU"]
+__all__ = ["continuous_unknown_input_observer", "DEFAULT_TAU"]
 
 #: default time constant τ of the estimate's filter 1/(τ s + 1), in the model's time unit
 DEFAULT_TAU = sp.Rational(1, 10)
 
 _REF = "METHOD §3 (continuous-time unknown-input estimation)"
-_INSTEAD = ("detect it with a residual (--observer diagnostic), or estimate it on a"
-            " discrete-time model (seed 000, with a delay)")
-
-
-def _rank(M: sp.Matrix) -> int:
-    return M.rank() if M.rows and M.cols else 0
-
-
-def _hstack(*blocks) -> sp.Matrix:
-    blocks = [b for b in blocks if b.cols]
-    return sp.Matrix.hstack(*blocks) if blocks else sp.zeros(blocks[0].rows if blocks else 0, 0)
-
-
-def continuous_estimation_check(model: PlantModel, target: str, decouple=()) -> None:
-    """Refuse (one-line :class:`UsageError`) a continuous-time unknown-input request that
-    no measured row can serve (module docstring), before any design work: rank tests on
-    the extracted H, F, D, L only. ``target``: the input to estimate; ``decouple``: further
-    faults or disturbances to decouple (the model's disturbances other than the target
-    always are). Does nothing for a discrete-time model."""
-    if model.time != "continuous":
-        return
-    sym = model.symbol(str(target))
-    if sym is None or sym not in tuple(model.faults) + tuple(model.disturbances):
-        return  # the design names the unknown input itself
-    work = model
-    if model.parameters and all(v is not None for v in model.parameters.values()):
-        work = model.substitute_parameters()
-    st = extract_structure(work)
-    H = sp.Matrix(st.H)
-    names = [s.name for s in model.disturbances if s != sym] + [str(n) for n in decouple
-                                                                   if str(n) != sym.name]
-    L = sp.Matrix(st.unknown_input_columns(names)) if names else sp.zeros(st.n, 0)
-    Dt = sp.Matrix(st.unknown_input_columns([sym.name]))
-    HL, HD = H * L, H * Dt
-    if _rank(_hstack(HL, HD)) == _rank(HL):
-        raise UsageError(
-            f"{model.where}: continuous-time estimation of '{sym}' needs it to reach a measured"
-            f" combination of the outputs directly (relative degree one, H D ∉ span H L); it does"
-            f" not, so neither the filtered estimator nor the sliding-mode observer applies:"
-            f" {_INSTEAD}")
-    if st.is_linear:
-        N = sp.Matrix.hstack(*H.nullspace()) if H.nullspace() else sp.zeros(st.n, 0)
-        HFN = H * sp.Matrix(st.F) * N
-        if _rank(_hstack(HL, HFN, HD)) == _rank(_hstack(HL, HFN)):
-            raise UsageError(
-                f"{model.where}: continuous-time estimation of '{sym}' needs a measured"
-                f" combination of the outputs that sees it and whose derivative involves no"
-                f" unmeasured state; none exists (rank [H L, H F N, H D] = rank [H L, H F N]),"
-                f" so neither the filtered estimator nor the sliding-mode observer applies:"
-                f" {_INSTEAD}")
-
-
 def _tau_value(tau) -> sp.Expr:
     if tau is None:
         return DEFAULT_TAU

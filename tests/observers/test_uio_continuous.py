@@ -18,9 +18,9 @@ import sympy as sp
 from observer_cad import design, load_model, simulate
 from observer_cad.cli import main
 from observer_cad.errors import UsageError
-from observer_cad.observers import (DEFAULT_TAU, build_observer, continuous_estimation_check,
-                                    unknown_input_observer)
+from observer_cad.observers import DEFAULT_TAU, build_observer, unknown_input_observer
 from observer_cad.simulation import scenario_from_dict
+from observer_cad.synthesis import continuous_estimation_check
 
 
 def _filtered(t, d, tau):
@@ -147,3 +147,16 @@ def test_cli_design_and_refusal(capsys, models_dir):
     err = capsys.readouterr().err
     assert rc == 2 and err.count("\n") == 1 and "--observer diagnostic" in err
     assert "Traceback" not in err
+
+
+def test_design_refuses_before_any_design_work(models_dir, monkeypatch):
+    """The Python entry point runs the rank tests before the designer: with the designer
+    replaced by one that fails loudly, the refusal is still the structural one."""
+    import observer_cad.synthesis._dispatch as dispatch
+    m = load_model(models_dir / "three_tank_faults.py")
+
+    def no_design(*args, **kwargs):
+        raise AssertionError("the designer ran")
+    monkeypatch.setattr(dispatch, "_exact", no_design)
+    with pytest.raises(UsageError, match="--observer diagnostic"):
+        design(m, observer="unknown-input", faults=["f1"])
