@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import sympy as sp
 
-from ..errors import UsageError
+from ..errors import InfeasibleDesignError
 from ..model import PlantModel, extract_structure
 
 __all__ = ["continuous_estimation_check"]
@@ -36,8 +36,8 @@ def _hstack(*blocks) -> sp.Matrix:
 
 
 def continuous_estimation_check(model: PlantModel, target: str, decouple=()) -> None:
-    """Refuse (one-line :class:`UsageError`) a continuous-time unknown-input request that
-    no measured row can serve (module docstring), before any design work: rank tests on
+    """Refuse (one line, :class:`~observer_cad.errors.InfeasibleDesignError`) a
+    continuous-time unknown-input request that no measured row can serve (module docstring), before any design work: rank tests on
     the extracted H, F, D, L only. ``target``: the input to estimate; ``decouple``: further
     faults or disturbances to decouple (the model's disturbances other than the target
     always are). Does nothing for a discrete-time model."""
@@ -57,7 +57,7 @@ def continuous_estimation_check(model: PlantModel, target: str, decouple=()) -> 
     Dt = sp.Matrix(st.unknown_input_columns([sym.name]))
     HL, HD = H * L, H * Dt
     if _rank(_hstack(HL, HD)) == _rank(HL):
-        raise UsageError(
+        raise InfeasibleDesignError(
             f"{model.where}: continuous-time estimation of '{sym}' needs it to reach a measured"
             f" combination of the outputs directly (relative degree one, H D ∉ span H L); it does"
             f" not, so neither the filtered estimator nor the sliding-mode observer applies:"
@@ -67,7 +67,7 @@ def continuous_estimation_check(model: PlantModel, target: str, decouple=()) -> 
         N = sp.Matrix.hstack(*null) if null else sp.zeros(st.n, 0)
         HFN = H * sp.Matrix(st.F) * N
         if _rank(_hstack(HL, HFN, HD)) == _rank(_hstack(HL, HFN)):
-            raise UsageError(
+            raise InfeasibleDesignError(
                 f"{model.where}: continuous-time estimation of '{sym}' needs a measured"
                 f" combination of the outputs that sees it and whose derivative involves no"
                 f" unmeasured state; none exists (rank [H L, H F N, H D] = rank [H L, H F N]),"

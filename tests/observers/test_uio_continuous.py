@@ -17,7 +17,7 @@ import sympy as sp
 
 from observer_cad import design, load_model, simulate
 from observer_cad.cli import main
-from observer_cad.errors import UsageError
+from observer_cad.errors import InfeasibleDesignError, UsageError
 from observer_cad.observers import DEFAULT_TAU, build_observer, unknown_input_observer
 from observer_cad.simulation import scenario_from_dict
 from observer_cad.synthesis import continuous_estimation_check
@@ -113,7 +113,7 @@ def test_structural_refusals_name_what_to_use(models_dir):
     m = load_model(models_dir / "three_tank_faults.py")
     for f, what in (("f1", "relative degree one"), ("f3", "relative degree one"),
                     ("f2", "no unmeasured state")):
-        with pytest.raises(UsageError, match=what) as exc:
+        with pytest.raises(InfeasibleDesignError, match=what) as exc:
             continuous_estimation_check(m, f)
         assert "--observer diagnostic" in str(exc.value) and "\n" not in str(exc.value)
 
@@ -158,5 +158,5 @@ def test_design_refuses_before_any_design_work(models_dir, monkeypatch):
     def no_design(*args, **kwargs):
         raise AssertionError("the designer ran")
     monkeypatch.setattr(dispatch, "_exact", no_design)
-    with pytest.raises(UsageError, match="--observer diagnostic"):
+    with pytest.raises(InfeasibleDesignError, match="--observer diagnostic"):
         design(m, observer="unknown-input", faults=["f1"])
