@@ -243,12 +243,29 @@ def unknown_input_observer(model: PlantModel, design: Design, *, g=None, bounds=
     name = red.target.name
     out = f"{name}_hat"
     conds = list(design.conditions) + _conditions(red, der, gvals, params, lo, hi)
+    conds += _process_noise_condition(design, red)
     return Observer(
         name=f"{model.name}_unknown_input_{name}", kind="unknown-input", time="discrete",
         states=states, signals=tuple(output_symbols(l)) + tuple(model.inputs),
         parameters=params, update=tuple(upd) + tuple(lag_upd), outputs=((out, est),),
         delays={out: m}, initial=initial, conditions=tuple(conds),
         assumptions=tuple(design.assumptions), design=design, description=_description(red, der))
+
+
+def _process_noise_condition(design: Design, red: ReducedModel) -> list:
+    """Process noise reaching the reduced model (Φ Bw ≠ 0) is neither decoupled nor in the
+    copies' bound terms: said so (the estimate carries D*_r⁻¹ (Φ Bw w)_r)."""
+    st = design.structure
+    if st is None or not st.Bw.cols:
+        return []
+    PBw = sp.Matrix(design.matrices.Phi) * sp.Matrix(st.Bw)
+    if all(e == 0 for e in PBw):
+        return []
+    return [Condition(
+        "process noise not decoupled", False,
+        f"Φ Bw = {PBw.tolist()}: the estimate of {red.target} carries D*⁻¹ (Φ Bw w) of the row"
+        " of D*, and the copies' bound terms do not include it (inclusion may fail)",
+        "METHOD §1", required=False)]
 
 
 def _numeric_matrix(M, params):

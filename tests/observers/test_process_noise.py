@@ -304,3 +304,17 @@ def test_one_draw_drives_both_uses_of_a_noise_symbol():
     assert np.ptp(res["w1"]) > 1
     assert np.array_equal(res["y1"], res["x"] + res["w1"])
     assert np.allclose(res["x"][:, 1:], res["x"][:, :-1] / 2 + res["w1"][:, :-1], atol=0, rtol=0)
+
+
+def test_discrete_unknown_input_estimator_reports_the_process_noise(drive):
+    """The seed 000 estimator of d (Φ = (0, 0, 1) sees w4 through Bw) says that the process
+    noise reaches its estimate; the model without process noise has no such condition."""
+    o = build_observer(drive, design(drive, observer="unknown-input", faults=["d"]))
+    cond = {c.name: c for c in o.conditions}["process noise not decoupled"]
+    assert not cond.holds and not cond.required and "Φ Bw" in cond.detail
+    from observer_cad import load_model
+    from pathlib import Path
+    plain = load_model(Path(__file__).resolve().parents[2] / "models" / "electric_drive.py")
+    names = [c.name for c in build_observer(plain, design(plain, observer="unknown-input",
+                                                          faults=["d"])).conditions]
+    assert "process noise not decoupled" not in names
