@@ -223,6 +223,10 @@ def _unknown_inputs(work, st, Phi, k):
     unk = [unk[j] for j in used]
     ulo = uhi = None
     if unk:
+        noise = set(work.noise)
+        for what, syms in (("the unknown input", [s for s in unk if s not in noise]),
+                           ("the process noise", [s for s in unk if s in noise])):
+            bounds_box(work, syms, what)  # a missing bound named by its role
         ulo, uhi = bounds_box(work, unk, "the unknown input")
         bmin, bmax = box_min(Bu, ulo, uhi), box_max(Bu, ulo, uhi)
     else:

@@ -318,3 +318,15 @@ def test_discrete_unknown_input_estimator_reports_the_process_noise(drive):
     names = [c.name for c in build_observer(plain, design(plain, observer="unknown-input",
                                                           faults=["d"])).conditions]
     assert "process noise not decoupled" not in names
+
+
+def test_interval_observer_needs_the_process_noise_bounds(drive):
+    """An unbounded process noise that reaches x* is named (one line)."""
+    bounds = {s: b for s, b in drive.bounds.items() if s != w3}
+    m = PlantModel(name=drive.name, time=drive.time, states=drive.states, inputs=drive.inputs,
+                   faults=drive.faults, disturbances=drive.disturbances, noise=drive.noise,
+                   outputs=drive.outputs, dynamics=drive.dynamics, parameters=drive.parameters,
+                   bounds=bounds)
+    with pytest.raises(ModelError, match="bounds on the process noise 'w3'"):
+        interval_observer(m, design_jordan(m, observer="interval", estimate="x2",
+                                           lambdas=[sp.Rational(3, 4)]))
