@@ -131,7 +131,7 @@ typedef struct {{
 
 static fmi2Status fail(Inst* c, fmi2Status st, const char* msg) {{
   if (c != NULL && c->cb.logger != NULL)
-    c->cb.logger(c->cb.componentEnvironment, c->instance, st, "logError", "%s", msg);
+    c->cb.logger(c->cb.componentEnvironment, c->instance, st, "logError", msg);   /* no '%' */
   if (c != NULL && st >= fmi2Error) c->phase = 4;
   return st;
 }}

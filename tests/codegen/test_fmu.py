@@ -328,3 +328,44 @@ def test_cli_codegen_fmu(tmp_path):
     assert float(md.defaultExperiment.stepSize) == 0.001
     assert {"r_alarm", "alarm", "diagnosis_code", "r_lower", "r_upper"} <= {
         v.name for v in md.modelVariables if v.causality == "output"}
+
+
+def test_fmi_calls_directly(drive, tmp_path, capfd):
+    """The FMI 2.0 calls a master makes: outputs held between samples (no direct
+    feedthrough), the fixed initial state, errors logged by the FMU."""
+    from fmpy import extract
+    from fmpy.fmi1 import FMICallException
+    from fmpy.fmi2 import FMU2Slave
+    m, d, o, res = drive
+    rule = decision_rule(m, d, persistence=1)
+    fmu = export_fmu(o, tmp_path, rule=rule)
+    md = fmpy.read_model_description(str(fmu.path))
+    vr = {v.name: v.valueReference for v in md.modelVariables}
+    slave = FMU2Slave(guid=md.guid, unzipDirectory=extract(str(fmu.path)),
+                      modelIdentifier=md.coSimulation.modelIdentifier, instanceName="m")
+    slave.instantiate()
+    slave.setupExperiment(startTime=0.0)
+    slave.enterInitializationMode()
+    x0 = [vr[f"{x}_start"] for x in o.states]
+    slave.setReal(x0, [0.0] * len(x0))
+    slave.setReal([vr["y1"], vr["y2"], vr["u"]], [1.0, 0.0, 0.0])
+    preview = slave.getReal([vr["r"]])[0]
+    slave.exitInitializationMode()
+    assert slave.getReal([vr["r"]])[0] == preview
+    slave.setReal([vr["y1"]], [5.0])                     # no direct feedthrough: held
+    assert slave.getReal([vr["r"]])[0] == preview
+    slave.doStep(0.0, 1.0)                               # sample 0 with y1 = 5
+    ref = reference_run(o, {"y1": [5.0], "y2": [0.0], "u": [0.0]}, rule=rule,
+                        x0=[0.0] * len(o.states))
+    assert slave.getReal([vr["r"]])[0] == pytest.approx(ref["r"][0], abs=1e-15)
+    assert slave.getBoolean([vr["alarm"]])[0] == bool(ref["alarm"][0])
+    assert slave.getInteger([vr["diagnosis_code"]])[0] == int(ref["diagnosis_code"][0])
+    with pytest.raises(FMICallException):
+        slave.setReal(x0[:1], [1.0])                     # fixed after initialization
+    with pytest.raises(FMICallException):
+        slave.setReal([vr["r"]], [1.0])                  # an output
+    out = capfd.readouterr().out
+    assert "initial state is fixed after initialization" in out
+    assert "not an input or parameter" in out
+    slave.terminate()
+    slave.freeInstance()
