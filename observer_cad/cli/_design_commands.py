@@ -88,6 +88,8 @@ def cmd_codegen(args) -> int:
     from ..observers import build_observer
     if args.symbolic:
         raise UsageError("codegen needs numeric parameters: drop --symbolic")
+    if getattr(args, "fmi_version", None) is not None and not getattr(args, "fmu", False):
+        raise UsageError("--fmi-version applies with --fmu")
     model, result = design_from_args(args)
     report("building the observer", stage=True)
     observer = build_observer(model, result, **observer_options(args, result))
@@ -120,7 +122,7 @@ def cmd_codegen(args) -> int:
         if getattr(args, "fmu", False):
             from ..codegen import export_fmu
             fmu = export_fmu(observer, stage, name=args.name, dt=dt, sample_time=sample_time,
-                             rule=rule)
+                             rule=rule, fmi_version=args.fmi_version or "2.0")
             paths.append(fmu.path)
     for p in paths:
         print(f"wrote {out / Path(p).relative_to(stage)}")

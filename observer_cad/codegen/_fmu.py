@@ -1,12 +1,13 @@
-"""FMI 2.0 co-simulation export of a monitor: ``NAME.fmu``, built from the standalone C.
+"""FMI co-simulation export of a monitor: ``NAME.fmu``, built from the standalone C.
 
     from observer_cad.codegen import export_fmu
-    fmu = export_fmu(obs, "out", dt=0.01, rule=rule)   # out/NAME.fmu (a zip)
+    fmu = export_fmu(obs, "out", dt=0.01, rule=rule)   # out/NAME.fmu (a zip), FMI 2.0
+    fmu = export_fmu(obs, "out", dt=0.01, fmi_version="3.0")   # FMI 3.0
     fmu.path, fmu.variables, fmu.renamed                 # where, what, names mapped
 
 The archive holds
 
-* ``modelDescription.xml`` (FMI 2.0, co-simulation): Real inputs — the measurements
+* ``modelDescription.xml`` (FMI 2.0 by default, co-simulation): Real inputs — the measurements
   ``y1 …``, the known inputs ``u …`` and, with a rule whose thresholds are not observer
   outputs, the threshold inputs ``<r>_lower``/``<r>_upper`` (start NaN: not out); Real
   outputs — the observer's outputs (residuals, estimates, bands ``r_lower``/``r_upper``);
@@ -20,6 +21,12 @@ The archive holds
   compiler (``$CC`` or ``cc``; a missing compiler is a one-line
   :class:`~observer_cad.errors.UsageError`);
 * ``documentation/index.html``: the variables, the timing and the renamed names.
+
+FMI 3.0 (``fmi_version="3.0"``, :mod:`._fmu3_c`): the same variables and timing as
+``Float64``/``Int32``/``Boolean`` with value references unique across types (the Real
+ones as in 2.0, then the independent variable ``time``, ``diagnosis_code``, the alarms),
+an ``instantiationToken`` instead of the GUID, ``binaries/x86_64-linux`` (FMI 3.0's
+platform tuples) and ``sources/buildDescription.xml``.
 
 Timing: the samples are at ``t_start + k·Ts``, ``Ts`` the sample time (the RK4/ZOH step
 ``dt`` of a continuous-time observer — the step function is exactly the exported C's —
@@ -64,10 +71,11 @@ from ._compile import CodegenError
 from ._ctext import ascii_text
 from ._export import export_sources
 from ._fmu_c import fmu_wrapper_source
+from ._fmu3_c import fmu3_wrapper_source
 from ._translate import split_signals
 
 __all__ = ["export_fmu", "FmuExport", "FmuVariable", "fmi_variable_name", "FMU_FLAGS",
-           "fmu_platform"]
+           "fmu_platform", "FMI_VERSIONS"]
 
 #: how the binary in the FMU is compiled (plus -shared, the sources, -lm, -o)
 FMU_FLAGS = ("-std=c99", "-O2", "-fPIC", "-fvisibility=hidden")
@@ -135,16 +143,26 @@ def fmi_variable_name(text: str) -> str:
     return s
 
 
-def fmu_platform() -> tuple:
-    """``(folder, suffix)`` of this platform's binary in an FMU (FMI 2.0 names)."""
-    bits = "64" if sys.maxsize > 2 ** 32 else "32"
+def fmu_platform(fmi_version: str = "2.0") -> tuple:
+    """``(folder, suffix)`` of this platform's binary in an FMU: FMI 2.0's names
+    (``linux64`` …) or FMI 3.0's platform tuples (``x86_64-linux`` …)."""
+    import platform
     if sys.platform.startswith("linux"):
-        return f"linux{bits}", ".so"
-    if sys.platform == "darwin":
-        return f"darwin{bits}", ".dylib"
-    if sys.platform in ("win32", "cygwin"):
-        return f"win{bits}", ".dll"
-    raise UsageError(f"fmu: no FMI 2.0 binary folder for platform {sys.platform!r}")
+        system, suffix = "linux", ".so"
+    elif sys.platform == "darwin":
+        system, suffix = "darwin", ".dylib"
+    elif sys.platform in ("win32", "cygwin"):
+        system, suffix = "win" if fmi_version == "2.0" else "windows", ".dll"
+    else:
+        raise UsageError(f"fmu: no FMI binary folder for platform {sys.platform!r}")
+    if fmi_version == "2.0":
+        return f"{system}{'64' if sys.maxsize > 2 ** 32 else '32'}", suffix
+    machine = platform.machine().lower()
+    arch = {"amd64": "x86_64", "x86_64": "x86_64", "arm64": "aarch64", "aarch64": "aarch64",
+            "i386": "x86", "i686": "x86"}.get(machine)
+    if arch is None:
+        raise UsageError(f"fmu: no FMI 3.0 platform tuple for the machine {machine!r}")
+    return f"{arch}-{system}", suffix
 
 
 class _Names:
@@ -174,13 +192,17 @@ def _output_description(o: str, rule, outs) -> str:
     return f"observer output {o}"
 
 
-def _variables(observer: Observer, src, rule) -> tuple:
-    """The variables in model-description order and the renamed pairs."""
+def _variables(observer: Observer, src, rule, version: str = "2.0") -> tuple:
+    """The variables in model-description order and the renamed pairs. Value references:
+    FMI 2.0 numbers each type from 0; FMI 3.0 numbers them across types (the Real ones as
+    in 2.0, then ``time``, ``diagnosis_code``, the alarms)."""
     names = _Names()
+    if version == "3.0":
+        names("time")
     ys, us = split_signals(observer)
     dec = src.decisions
     outs = list(observer.output_names)
-    real, out = [], []
+    real, booleans, integers = [], [], []
 
     def add(lst, source, typ, caus, var, start, desc):
         lst.append(FmuVariable(names(source), source, typ, caus, var, len(lst), start, desc))
@@ -199,7 +221,6 @@ def _variables(observer: Observer, src, rule) -> tuple:
     for x, v in zip(observer.states, src.x0):
         add(real, f"{x}_start", "Real", "parameter", "fixed", float(v),
             f"initial value of the observer state {x}")
-    booleans, integers = [], []
     if rule is not None:
         for r in rule.residuals:
             add(booleans, f"{r}_alarm", "Boolean", "output", "discrete", None,
@@ -208,12 +229,18 @@ def _variables(observer: Observer, src, rule) -> tuple:
         table = "; ".join(f"{k} = {t}" for k, t in enumerate(rule.table()))
         add(integers, "diagnosis_code", "Integer", "output", "discrete", None,
             f"diagnosis code, sum of alarm_i 2^(i-1) over {', '.join(rule.residuals)}: {table}")
-    renamed = tuple(names.renamed)
-    mapped = dict(renamed)
+    first = []
+    if version == "3.0":
+        n = len(real)
+        first = [FmuVariable("time", "time", "Real", "independent", "continuous", n, None,
+                             "simulation time")]
+        integers = [dataclasses.replace(v, value_reference=n + 1) for v in integers]
+        booleans = [dataclasses.replace(v, value_reference=n + 2 + v.value_reference)
+                    for v in booleans]
     variables = tuple(dataclasses.replace(v, description=v.description + (
-        f" (observer name '{v.source}')" if v.source in mapped else ""))
-        for v in real + integers + booleans)
-    return variables, renamed
+        f" (observer name '{v.source}')" if v.name != v.source else ""))
+        for v in first + real + integers + booleans)
+    return variables, tuple(names.renamed)
 
 
 def _xml_number(v: float) -> str:
@@ -264,6 +291,44 @@ def _model_description(name: str, observer: Observer, variables, ts: float, guid
     lines += ['    </Outputs>', '    <InitialUnknowns>']
     lines += [f'      <Unknown index="{i}"/>' for i in outs]
     lines += ['    </InitialUnknowns>', '  </ModelStructure>', '</fmiModelDescription>', '']
+    return "\n".join(lines)
+
+
+def _model_description3(name: str, observer: Observer, variables, ts: float,
+                         token: str) -> str:
+    """modelDescription.xml (FMI 3.0, co-simulation)."""
+    types = {"Real": "Float64", "Integer": "Int32", "Boolean": "Boolean"}
+    desc = f"{observer.kind} monitor {observer.name} ({observer.time} time), sample time {ts!r}"
+    lines = ['<?xml version="1.0" encoding="UTF-8"?>',
+             f'<fmiModelDescription fmiVersion="3.0" modelName={quoteattr(observer.name)}'
+             f' instantiationToken="{token}"',
+             f'  description={quoteattr(desc)}',
+             f'  generationTool="observer_cad {package_version()}"'
+             ' variableNamingConvention="structured">',
+             f'  <CoSimulation modelIdentifier="{name}"'
+             ' canHandleVariableCommunicationStepSize="true" hasEventMode="false"'
+             ' canGetAndSetFMUState="false" canSerializeFMUState="false"'
+             ' providesDirectionalDerivatives="false" providesAdjointDerivatives="false"'
+             ' maxOutputDerivativeOrder="0" providesIntermediateUpdate="false"'
+             ' canReturnEarlyAfterIntermediateUpdate="false"/>',
+             '  <LogCategories>',
+             '    <Category name="logError" description="errors"/>',
+             '  </LogCategories>',
+             f'  <DefaultExperiment startTime="0.0" stepSize="{_xml_number(ts)}"/>',
+             '  <ModelVariables>']
+    for v in variables:
+        attrs = (f'name={quoteattr(v.name)} valueReference="{v.value_reference}"'
+                 f' description={quoteattr(v.description)} causality="{v.causality}"'
+                 f' variability="{v.variability}"')
+        if v.causality == "parameter":
+            attrs += ' initial="exact"'
+        start = "" if v.start is None else f' start="{_xml_number(v.start)}"'
+        lines.append(f'    <{types[v.type]} {attrs}{start}/>')
+    lines += ['  </ModelVariables>', '  <ModelStructure>']
+    outs = [v.value_reference for v in variables if v.causality == "output"]
+    lines += [f'    <Output valueReference="{r}" dependencies=""/>' for r in outs]
+    lines += [f'    <InitialUnknown valueReference="{r}"/>' for r in outs]
+    lines += ['  </ModelStructure>', '</fmiModelDescription>', '']
     return "\n".join(lines)
 
 
@@ -356,44 +421,77 @@ def _zip(members: Mapping) -> bytes:
     return buf.getvalue()
 
 
+FMI_VERSIONS = ("2.0", "3.0")
+
+
+def _build_description(N: str) -> str:
+    """sources/buildDescription.xml of an FMI 3.0 FMU."""
+    return ('<?xml version="1.0" encoding="UTF-8"?>\n'
+            '<fmiBuildDescription fmiVersion="3.0">\n'
+            f'  <BuildConfiguration modelIdentifier="{N}">\n'
+            '    <SourceFileSet language="C99">\n'
+            f'      <SourceFile name="{N}.c"/>\n'
+            f'      <SourceFile name="{N}_fmu.c"/>\n'
+            '    </SourceFileSet>\n'
+            '    <Library name="m"/>\n'
+            '  </BuildConfiguration>\n'
+            '</fmiBuildDescription>\n')
+
+
+def _wrapper(version: str, N: str, token: str, src, ts: float, offsets: dict) -> str:
+    nthr = len(src.decisions.input_columns) if src.decisions is not None else 0
+    make = fmu_wrapper_source if version == "2.0" else fmu3_wrapper_source
+    return make(N, token, nthr_in=nthr, dec=src.decisions, sample_time=repr(ts),
+                n_real=offsets)
+
+
+def _description(version: str, N: str, observer, variables, ts: float, token: str) -> str:
+    make = _model_description if version == "2.0" else _model_description3
+    return make(N, observer, variables, ts, token)
+
+
 def export_fmu(observer: Observer, out_dir, *, name: str | None = None,
                dt: float | None = None, sample_time: float | None = None,
                initial: Mapping | None = None, discretisation: str = "rk4",
-               rule: DecisionRule | None = None, cc: str | None = None) -> FmuExport:
-    """Write ``out_dir/NAME.fmu``, an FMI 2.0 co-simulation FMU of ``observer`` (see the
+               rule: DecisionRule | None = None, cc: str | None = None,
+               fmi_version: str = "2.0") -> FmuExport:
+    """Write ``out_dir/NAME.fmu``, an FMI co-simulation FMU of ``observer`` (see the
     module docstring); returns an :class:`FmuExport`.
 
     ``name``, ``dt``, ``initial``, ``discretisation``, ``rule``: as for
     :func:`export_observer` (``dt`` required in continuous time: it is the sample
     time); ``sample_time``: a discrete observer's sample period (default 1);
-    ``cc``: the C compiler (default ``$CC`` or ``cc``).
+    ``cc``: the C compiler (default ``$CC`` or ``cc``); ``fmi_version``: ``"2.0"``
+    (default) or ``"3.0"``.
     """
+    if fmi_version not in FMI_VERSIONS:
+        raise UsageError(f"fmu: FMI version must be one of {', '.join(FMI_VERSIONS)},"
+                         f" got {fmi_version!r}")
     ts = _checked_sample_time(observer, dt, sample_time)
     src = export_sources(observer, name=name, dt=dt, initial=initial,
                          discretisation=discretisation, rule=rule)
     N = src.name
     cc_path = _c_compiler(cc)
-    folder, suffix = fmu_platform()
-    variables, renamed = _variables(observer, src, rule)
+    folder, suffix = fmu_platform(fmi_version)
+    variables, renamed = _variables(observer, src, rule, fmi_version)
     n_in = sum(v.causality == "input" for v in variables)
     n_out = sum(v.causality == "output" and v.type == "Real" for v in variables)
     n_par = len(observer.parameters)
     offsets = {"inputs": 0, "outputs": n_in, "params": n_in + n_out,
                "starts": n_in + n_out + n_par, "total": n_in + n_out + n_par + len(src.x0)}
-    nthr = len(src.decisions.input_columns) if src.decisions is not None else 0
-    probe = fmu_wrapper_source(N, "GUID", nthr_in=nthr, dec=src.decisions,
-                               sample_time=repr(ts), n_real=offsets)
-    draft = _model_description(N, observer, variables, ts, "GUID")
-    digest = hashlib.sha256("\0".join([src.c, src.h, probe, draft]).encode()).hexdigest()
+    draft = "\0".join([src.c, src.h, _wrapper(fmi_version, N, "T", src, ts, offsets),
+                       _description(fmi_version, N, observer, variables, ts, "T")])
+    digest = hashlib.sha256(draft.encode()).hexdigest()
     guid = "{" + str(uuid.uuid5(uuid.NAMESPACE_URL, "observer_cad:" + digest)) + "}"
-    wrapper = fmu_wrapper_source(N, guid, nthr_in=nthr, dec=src.decisions,
-                                 sample_time=repr(ts), n_real=offsets)
-    sources = {f"{N}.c": src.c, f"{N}.h": src.h, f"{N}_fmu.c": wrapper}
+    sources = {f"{N}.c": src.c, f"{N}.h": src.h,
+               f"{N}_fmu.c": _wrapper(fmi_version, N, guid, src, ts, offsets)}
     binary = _compile_binary(cc_path, sources, N, suffix)
-    members = {"modelDescription.xml": _model_description(N, observer, variables, ts,
-                                                           guid).encode("utf-8")}
+    members = {"modelDescription.xml": _description(fmi_version, N, observer, variables, ts,
+                                                    guid).encode("utf-8")}
     members.update({f"sources/{fn}": text.encode("ascii", "replace")
                     for fn, text in sources.items()})
+    if fmi_version == "3.0":
+        members["sources/buildDescription.xml"] = _build_description(N).encode("utf-8")
     members[f"binaries/{folder}/{N}{suffix}"] = binary
     members["documentation/index.html"] = _documentation(N, observer, variables, renamed,
                                                          ts).encode("utf-8")
@@ -407,4 +505,4 @@ def export_fmu(observer: Observer, out_dir, *, name: str | None = None,
         atomic_write_bytes(path, _zip(members))
     except OSError as exc:
         raise UsageError(f"{path}: cannot write: {exc.strerror}") from None
-    return FmuExport(path, N, "2.0", ts, variables, renamed, folder, guid)
+    return FmuExport(path, N, fmi_version, ts, variables, renamed, folder, guid)

@@ -13,7 +13,7 @@
 * the wrapper compiles against the standard's headers (FMPy's copies) with
   -Wall -Wextra -Werror; names that are not FMI names are mapped and documented; a
   missing C compiler is one line; a failed build leaves an existing FMU as it was.
-Tested: FMI 2.0 only (FMPy 0.3); no FMI 3.0 export.
+Tested: FMI 2.0 and FMI 3.0 co-simulation (FMPy 0.3.x validation and simulation).
 """
 from __future__ import annotations
 
@@ -21,6 +21,7 @@ import csv
 import dataclasses
 import io
 import os
+import re
 import shutil
 import subprocess
 import sys
@@ -108,19 +109,22 @@ def run_fmu(fmu, csv_path: Path, n: int, *, step=None, start_values=None):
                              start_values=start_values or {})
 
 
-def test_drive_fmu_validates_and_equals_the_reference(drive, tmp_path):
+@pytest.mark.parametrize("version", ["2.0", "3.0"])
+def test_drive_fmu_validates_and_equals_the_reference(drive, version, tmp_path):
     m, d, o, res = drive
     rule = decision_rule(m, d, persistence=2)
-    fmu = export_fmu(o, tmp_path, rule=rule, sample_time=0.01, initial={"x1": 0.1})
+    fmu = export_fmu(o, tmp_path, rule=rule, sample_time=0.01, initial={"x1": 0.1},
+                     fmi_version=version)
     assert validate_fmu(str(fmu.path)) == []
     md = fmpy.read_model_description(str(fmu.path))
-    assert md.fmiVersion == "2.0" and md.coSimulation is not None
+    assert md.fmiVersion == version and md.coSimulation is not None
     assert md.defaultExperiment.stepSize == "0.01" or float(md.defaultExperiment.stepSize) == 0.01
     var = {v.name: v for v in md.modelVariables}
     assert [n for n, v in var.items() if v.causality == "input"] == ["y1", "y2", "u"]
     assert {"r", "r_lower", "r_upper", "r_alarm", "alarm", "diagnosis_code"} <= {
         n for n, v in var.items() if v.causality == "output"}
-    assert var["diagnosis_code"].type == "Integer" and var["alarm"].type == "Boolean"
+    assert var["diagnosis_code"].type == ("Integer" if version == "2.0" else "Int32")
+    assert var["alarm"].type == "Boolean"
     for k, text in enumerate(rule.table()):
         assert f"{k} = {text}" in var["diagnosis_code"].description
     starts = [n for n, v in var.items() if v.causality == "parameter"]
@@ -169,11 +173,13 @@ def test_the_c_example_agrees_with_the_same_reference(drive, tmp_path):
     assert set(cmp.columns) >= {"r", "r_alarm", "alarm", "diagnosis_code", *map(str, o.states)}
 
 
-@pytest.mark.parametrize("discretisation", ["rk4", "zoh"])
-def test_continuous_bank_with_threshold_inputs(bank, discretisation, tmp_path):
+@pytest.mark.parametrize("discretisation, version", [("rk4", "2.0"), ("zoh", "2.0"),
+                                                     ("rk4", "3.0")])
+def test_continuous_bank_with_threshold_inputs(bank, discretisation, version, tmp_path):
     m, b, o, res = bank
     rule = decision_rule(m, b, persistence=3)
-    fmu = export_fmu(o, tmp_path, dt=0.01, rule=rule, discretisation=discretisation)
+    fmu = export_fmu(o, tmp_path, dt=0.01, rule=rule, discretisation=discretisation,
+                     fmi_version=version)
     assert validate_fmu(str(fmu.path)) == []
     assert [v.name for v in fmu.inputs] == ["y1", "y2", "y3", "u1", "u2"] + [
         f"{r}_{s}" for r in rule.residuals for s in ("lower", "upper")]
@@ -235,9 +241,10 @@ def test_sliding_mode_parameters_are_tunable(tmp_path):
     assert not np.allclose(reference_run(o, cols, dt=0.005)["d_hat"], ref["d_hat"])
 
 
-def test_wrapper_compiles_against_the_standard_headers(drive, tmp_path):
+@pytest.mark.parametrize("version", ["2.0", "3.0"])
+def test_wrapper_compiles_against_the_standard_headers(drive, version, tmp_path):
     m, d, o, res = drive
-    fmu = export_fmu(o, tmp_path, rule=decision_rule(m, d))
+    fmu = export_fmu(o, tmp_path, rule=decision_rule(m, d), fmi_version=version)
     with zipfile.ZipFile(fmu.path) as z:
         names = set(z.namelist())
         z.extractall(tmp_path / "x")
@@ -245,9 +252,10 @@ def test_wrapper_compiles_against_the_standard_headers(drive, tmp_path):
     assert {"modelDescription.xml", f"sources/{N}.c", f"sources/{N}.h", f"sources/{N}_fmu.c",
             f"binaries/{fmu.platform}/{N}.so", "documentation/index.html"} <= names
     headers = Path(fmpy.__file__).parent / "c-code"
-    assert (headers / "fmi2Functions.h").is_file()
+    v = version[0]
+    assert (headers / f"fmi{v}Functions.h").is_file()
     src = tmp_path / "x" / "sources"
-    for extra in (["-DOBSERVER_CAD_FMI2_HEADERS", f"-I{headers}"], []):
+    for extra in ([f"-DOBSERVER_CAD_FMI{v}_HEADERS", f"-I{headers}"], []):
         r = subprocess.run(["cc", *EXAMPLE_FLAGS, "-fPIC", "-shared", *extra, f"{N}.c",
                             f"{N}_fmu.c", "-lm", "-o", "lib.so"], cwd=src,
                            capture_output=True, text=True, timeout=300)
@@ -259,7 +267,11 @@ def test_wrapper_compiles_against_the_standard_headers(drive, tmp_path):
                             str(tmp_path / "x" / "binaries" / fmu.platform / f"{N}.so")],
                            capture_output=True, text=True)
         syms = {ln.split()[-1] for ln in r.stdout.splitlines() if " T " in ln}
-        assert syms and all(s.startswith("fmi2") for s in syms), sorted(syms)
+        assert syms and all(s.startswith(f"fmi{v}") for s in syms), sorted(syms)
+        if version == "3.0":   # every function of the FMI 3.0 API (FMPy loads them all)
+            declared = set(re.findall(r"#define (fmi3\w+) +fmi3FullName",
+                                      (headers / "fmi3Functions.h").read_text()))
+            assert len(declared) > 60 and declared <= syms, sorted(declared - syms)
 
 
 def test_names_that_are_not_fmi_names_are_mapped(drive, tmp_path):
@@ -311,21 +323,22 @@ def test_a_failed_build_leaves_the_old_fmu(drive, tmp_path, monkeypatch):
     assert sorted(p.name for p in tmp_path.iterdir()) == [fmu.path.name]
 
 
-def test_cli_codegen_fmu(tmp_path):
+@pytest.mark.parametrize("version", ["2.0", "3.0"])
+def test_cli_codegen_fmu(version, tmp_path):
     env = dict(os.environ, PYTHONPATH=str(ROOT))
     env.pop("CC", None)
     p = subprocess.run([sys.executable, "-m", "observer_cad", "codegen",
                         str(ROOT / "models" / "electric_drive.py"), "--observer", "diagnostic",
                         "--threshold", "0.05", "--persistence", "2", "--dt", "0.001", "--fmu",
-                        "--out", str(tmp_path)], capture_output=True, text=True, env=env,
-                       timeout=600)
+                        "--fmi-version", version, "--out", str(tmp_path)],
+                       capture_output=True, text=True, env=env, timeout=600)
     assert p.returncode == 0, p.stderr
     N = "electric_drive_diagnostic"
     assert p.stdout.splitlines() == [f"wrote {tmp_path / N}{s}" for s in
                                      (".c", ".h", "_example.c", ".fmu")]
     assert validate_fmu(str(tmp_path / f"{N}.fmu")) == []
     md = fmpy.read_model_description(str(tmp_path / f"{N}.fmu"))
-    assert float(md.defaultExperiment.stepSize) == 0.001
+    assert md.fmiVersion == version and float(md.defaultExperiment.stepSize) == 0.001
     assert {"r_alarm", "alarm", "diagnosis_code", "r_lower", "r_upper"} <= {
         v.name for v in md.modelVariables if v.causality == "output"}
 
@@ -369,3 +382,17 @@ def test_fmi_calls_directly(drive, tmp_path, capfd):
     assert "not an input or parameter" in out
     slave.terminate()
     slave.freeInstance()
+
+
+def test_cli_fmi_version_needs_fmu(tmp_path, capsys):
+    from observer_cad.cli import main
+    code = main(["codegen", str(ROOT / "models" / "electric_drive.py"), "--observer",
+                 "diagnostic", "--fmi-version", "3.0", "--out", str(tmp_path / "c")])
+    err = capsys.readouterr().err
+    assert code == 2 and err == "observer-cad: error: --fmi-version applies with --fmu\n"
+    assert not (tmp_path / "c").exists()
+    with pytest.raises(UsageError, match="FMI version must be one of 2.0, 3.0"):
+        export_fmu(build_observer(load_model(ROOT / "models" / "electric_drive.py"),
+                                  design(load_model(ROOT / "models" / "electric_drive.py"),
+                                         observer="diagnostic")),
+                   tmp_path, fmi_version="1.0")
