@@ -3,6 +3,7 @@
     ref = reference_run(obs, columns, dt=0.01, rule=rule)    # per sample: states, outputs,
                                                              # <r>_alarm, alarm, diagnosis_code
     got = fmu_samples(result, fmu)      # FMPy's simulate_fmu result, aligned to the samples
+    got = read_csv_columns("out.csv")   # or a CSV: the C example's, a monitor's
     cmp = compare_columns(ref, got)     # signals to 1e-12 (relative to max(1, |ref|)),
     assert cmp.ok, cmp.summary()        # alarms and codes exactly
 
@@ -16,7 +17,9 @@ compares any two such column sets (e.g. the FMU's, the C example's CSV, a monito
 """
 from __future__ import annotations
 
+import csv
 import dataclasses
+from pathlib import Path
 from typing import Mapping
 
 import numpy as np
@@ -28,7 +31,7 @@ from ._export import export_sources
 from ._translate import observer_step, split_signals
 
 __all__ = ["reference_run", "fmu_samples", "compare_columns", "ColumnComparison",
-           "DECISION_COLUMNS"]
+           "DECISION_COLUMNS", "read_csv_columns"]
 
 #: columns compared exactly besides ``<r>_alarm``
 DECISION_COLUMNS = ("alarm", "diagnosis_code")
@@ -95,6 +98,7 @@ def reference_run(observer: Observer, columns: Mapping, *, dt: float | None = No
             res[f"{r}_alarm"] = np.asarray(a, dtype=bool)
         res["alarm"] = np.asarray(d.alarm, dtype=bool)
         res["diagnosis_code"] = np.asarray(d.code, dtype=np.int64)
+        res["diagnosis"] = np.asarray(d.diagnosis, dtype=str)
     return res
 
 
@@ -152,6 +156,10 @@ class ColumnComparison:
         return "; ".join(parts)
 
 
+def _show(v) -> str:
+    return repr(v.item() if hasattr(v, "item") else v)
+
+
 def _is_exact(name: str, a: np.ndarray, b: np.ndarray) -> bool:
     return name in DECISION_COLUMNS or name.endswith("_alarm") or a.dtype.kind in "biu"
 
@@ -175,12 +183,19 @@ def compare_columns(reference: Mapping, candidate: Mapping, *, columns=None,
             bad.append(f"{c}: {b.shape[0] if b.ndim else 0} samples, reference"
                        f" {a.shape[0] if a.ndim else 0}")
             continue
+        if a.dtype.kind in "USO" or b.dtype.kind in "USO":   # text, e.g. the diagnosis
+            diff = a.astype(str) != b.astype(str)
+            worst[c] = float(diff.any())
+            if diff.any():
+                k = int(np.argmax(diff))
+                bad.append(f"{c}: sample {k}: {_show(b[k])}, reference {_show(a[k])}")
+            continue
         if _is_exact(c, a, b):
             diff = a.astype(np.int64) != b.astype(np.int64)
             worst[c] = float(diff.any())
             if diff.any():
                 k = int(np.argmax(diff))
-                bad.append(f"{c}: sample {k}: {b[k]!r}, reference {a[k]!r}")
+                bad.append(f"{c}: sample {k}: {_show(b[k])}, reference {_show(a[k])}")
             continue
         a, b = a.astype(float), b.astype(float)
         both_nan = np.isnan(a) & np.isnan(b)
@@ -190,6 +205,39 @@ def compare_columns(reference: Mapping, candidate: Mapping, *, columns=None,
         worst[c] = float(dev.max()) if dev.size else 0.0
         if worst[c] > tol:
             k = int(np.argmax(dev > tol))
-            bad.append(f"{c}: sample {k}: {b[k]!r}, reference {a[k]!r}")
+            bad.append(f"{c}: sample {k}: {_show(b[k])}, reference {_show(a[k])}")
     return ColumnComparison(tuple(c for c in names if c in worst), worst, tuple(bad),
                             missing, tol)
+
+
+def _cell(text: str):
+    t = text.strip()
+    if t == "":
+        return np.nan
+    if t in ("True", "False", "true", "false"):
+        return 1.0 if t[0] in "Tt" else 0.0
+    return float(t)
+
+
+def read_csv_columns(path) -> dict:
+    """The columns of a CSV file with a header row (name → array, one entry per row):
+    numbers as float (an empty cell NaN; True/False 1/0, as FMPy writes Booleans),
+    a column with any other text as strings — e.g. the C example's output, FMPy's
+    ``write_csv``, a monitor's CSV — for :func:`compare_columns`."""
+    p = Path(path)
+    try:
+        with p.open(newline="", encoding="utf-8") as fh:
+            rows = list(csv.reader(fh))
+    except (OSError, UnicodeDecodeError) as exc:
+        raise UsageError(f"{path}: cannot read: {getattr(exc, 'strerror', None) or exc}") from None
+    if not rows:
+        raise UsageError(f"{path}: empty CSV (no header row)")
+    head, body = [h.strip() for h in rows[0]], [r for r in rows[1:] if any(c.strip() for c in r)]
+    out = {}
+    for i, name in enumerate(head):
+        cells = [r[i] if i < len(r) else "" for r in body]
+        try:
+            out[name] = np.array([_cell(c) for c in cells], dtype=float)
+        except ValueError:
+            out[name] = np.array(cells, dtype=str)
+    return out

@@ -17,9 +17,7 @@ Tested: FMI 2.0 and FMI 3.0 co-simulation (FMPy 0.3.x validation and simulation)
 """
 from __future__ import annotations
 
-import csv
 import dataclasses
-import io
 import os
 import re
 import shutil
@@ -31,9 +29,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 import sympy as sp
+from hypothesis import given, settings, strategies as st
 
 from observer_cad.codegen import (EXAMPLE_FLAGS, compare_columns, export_fmu, export_observer,
-                                  fmi_variable_name, fmu_samples, reference_run)
+                                  fmi_variable_name, fmu_samples, read_csv_columns,
+                                  reference_run)
 from observer_cad.errors import UsageError
 from observer_cad.model import load_model
 from observer_cad.observers import build_observer
@@ -43,6 +43,7 @@ from observer_cad.synthesis import design
 from observer_cad.analysis import design_bank
 
 fmpy = pytest.importorskip("fmpy")
+import fmpy.util  # noqa: E402
 from fmpy.util import read_csv  # noqa: E402
 from fmpy.validation import validate_fmu  # noqa: E402
 
@@ -138,20 +139,14 @@ def test_drive_fmu_validates_and_equals_the_reference(drive, version, tmp_path):
     cmp = compare_columns(ref, got, columns=["r", "r_lower", "r_upper", "r_alarm", "alarm",
                                              "diagnosis_code"])
     assert cmp.ok, cmp.summary()
+    # the same through FMPy's CSV (Booleans written True/False)
+    result = run_fmu(fmu, tmp_path / "in.csv", n)
+    fmpy.util.write_csv(str(tmp_path / "fmu.csv"), result)
+    from_csv = {k: v[1:] for k, v in read_csv_columns(tmp_path / "fmu.csv").items()}
+    assert compare_columns(ref, from_csv, columns=["r", "r_alarm", "alarm",
+                                                   "diagnosis_code"]).ok
     # the reference is the Python simulation's observer, up to rounding
     assert np.allclose(ref["r"], res["r"], rtol=0, atol=1e-12)
-
-
-def _example_columns(stdout: str) -> dict:
-    rows = list(csv.reader(io.StringIO(stdout)))
-    out = {}
-    for i, h in enumerate(rows[0]):
-        vals = [r[i] for r in rows[1:]]
-        if h == "diagnosis":
-            continue
-        out[h] = np.array(vals, dtype=int if h.endswith("alarm") or h == "diagnosis_code"
-                          else float)
-    return out
 
 
 def test_the_c_example_agrees_with_the_same_reference(drive, tmp_path):
@@ -163,14 +158,21 @@ def test_the_c_example_agrees_with_the_same_reference(drive, tmp_path):
     assert r.returncode == 0, r.stderr
     cols = {c: np.asarray(res[c], dtype=float) for c in ("y1", "y2", "u")}
     write_csv(tmp_path / "in.csv", cols, 0.01)
-    p = subprocess.run(["./ex", "in.csv"], cwd=tmp_path, capture_output=True, text=True,
-                       timeout=300)
+    with open(tmp_path / "out.csv", "w") as fh:
+        p = subprocess.run(["./ex", "in.csv"], cwd=tmp_path, stdout=fh, stderr=subprocess.PIPE,
+                           text=True, timeout=300)
     assert p.returncode == 0, p.stderr
-    got = _example_columns(p.stdout)
+    got = read_csv_columns(tmp_path / "out.csv")
     ref = reference_run(o, cols, rule=rule, initial={"x1": 0.1})
     cmp = compare_columns(ref, got, require_all=True)
     assert cmp.ok, cmp.summary()
-    assert set(cmp.columns) >= {"r", "r_alarm", "alarm", "diagnosis_code", *map(str, o.states)}
+    assert set(cmp.columns) >= {"r", "r_alarm", "alarm", "diagnosis_code", "diagnosis",
+                                *map(str, o.states)}
+    # a changed cell is found, with its sample
+    got["diagnosis"] = got["diagnosis"].copy()
+    got["diagnosis"][7] = "d"
+    assert compare_columns(ref, got).mismatches == ("diagnosis: sample 7: 'd', reference"
+                                                    " 'no fault'",)
 
 
 @pytest.mark.parametrize("discretisation, version", [("rk4", "2.0"), ("zoh", "2.0"),
@@ -217,6 +219,34 @@ def test_master_step_of_half_the_sample_time(bank, tmp_path):
     between = {v.source: np.asarray(result[v.name][1::2]) for v in fmu.outputs}
     cmp = compare_columns(ref, between)                 # rows at (k + 1/2)·Ts: still k
     assert cmp.ok and "alarm" in cmp.columns, cmp.summary()
+
+
+def test_master_step_of_two_sample_times(bank, tmp_path):
+    """h = 2 Ts: two samples per step, both with the inputs set at its start (held)."""
+    m, b, o, res = bank
+    rule = decision_rule(m, b, persistence=2)
+    fmu = export_fmu(o, tmp_path, dt=0.01, rule=rule)
+    n = 120
+    cols = {c: np.asarray(res[c][:n], dtype=float) for c in ("y1", "y2", "y3", "u1", "u2")}
+    for r in rule.residuals:
+        cols[f"{r}_lower"] = np.full(n, -0.02)
+        cols[f"{r}_upper"] = np.full(n, 0.02)
+    result = run_fmu(fmu, write_csv(tmp_path / "in.csv", cols, 0.01), n, step=0.02)
+    assert len(result) == n // 2 + 1
+    held = {c: np.repeat(v[0::2], 2) for c, v in cols.items()}
+    ref = reference_run(o, held, dt=0.01, rule=rule)
+    odd = {c: v[1::2] for c, v in ref.items()}          # the row at 2(j+1)·Ts: sample 2j+1
+    cmp = compare_columns(odd, fmu_samples(result, fmu))
+    assert cmp.ok and "diagnosis_code" in cmp.columns, cmp.summary()
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.text(max_size=12))
+def test_fmi_variable_names_are_identifiers(text):
+    name = fmi_variable_name(text)
+    assert re.fullmatch(r"[A-Za-z_][A-Za-z0-9_]*", name)
+    if re.fullmatch(r"[A-Za-z_][A-Za-z0-9_]*", text):
+        assert name == text                              # valid names are kept
 
 
 def test_sliding_mode_parameters_are_tunable(tmp_path):
