@@ -211,8 +211,9 @@ static int preview(Inst* c) {{
 
 /* Real value references: [0, NIN_) inputs; [VR_OUT_, VR_PAR_) outputs; [VR_PAR_, VR_X0_)
    parameters (tunable); [VR_X0_, NREAL_) initial state (fixed). */
-static double* real_slot(Inst* c, unsigned r) {{
-  if (r < (unsigned)NIN_) return &c->v[r];
+static double* real_slot(Inst* c, unsigned vr) {{
+  long r = (long)vr;   /* signed: no always-true comparison when a range is empty */
+  if (r < NIN_) return &c->v[r];
   if (r >= VR_OUT_ && r < VR_PAR_) return &c->out[r - VR_OUT_];
   if (r >= VR_PAR_ && r < VR_X0_) return &c->p[r - VR_PAR_];
   if (r >= VR_X0_ && r < NREAL_) return &c->x0[r - VR_X0_];
@@ -226,8 +227,9 @@ static int get_real(Inst* c, unsigned r, double* value) {{
   return 0;
 }}
 
-static int set_real(Inst* c, unsigned r, double value) {{
-  double* s = real_slot(c, r);
+static int set_real(Inst* c, unsigned vr, double value) {{
+  long r = (long)vr;
+  double* s = real_slot(c, vr);
   if (s == NULL || (r >= VR_OUT_ && r < VR_PAR_))
     return fail(c, 3, "set: not an input or parameter");
   if (r >= VR_X0_ && c->phase >= 2)
@@ -237,9 +239,10 @@ static int set_real(Inst* c, unsigned r, double value) {{
 }}
 
 /* alarm i (i < NRES_) or any alarm (i == NRES_) */
-static int get_alarm(Inst* c, unsigned i, int* value) {{
-  if (i < (unsigned)NRES_) *value = c->alarms[i] != 0;
-  else if (i == (unsigned)NRES_ && NRES_ > 0) *value = c->code != 0;
+static int get_alarm(Inst* c, unsigned vr, int* value) {{
+  long i = (long)vr;
+  if (i < NRES_) *value = c->alarms[i] != 0;
+  else if (i == NRES_ && NRES_ > 0) *value = c->code != 0;
   else return fail(c, 3, "get: unknown Boolean value reference");
   return 0;
 }}
