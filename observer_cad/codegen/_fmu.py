@@ -253,16 +253,18 @@ def _xml_number(v: float) -> str:
 
 def _model_description(name: str, observer: Observer, variables, ts: float, guid: str) -> str:
     """modelDescription.xml (FMI 2.0, co-simulation)."""
+    desc = f"{observer.kind} monitor {observer.name} ({observer.time} time), sample time {ts!r}"
     lines = ['<?xml version="1.0" encoding="UTF-8"?>',
              f'<fmiModelDescription fmiVersion="2.0" modelName={quoteattr(observer.name)}'
              f' guid="{guid}"',
-             f'  description={quoteattr(f"{observer.kind} monitor {observer.name} ({observer.time} time), sample time {ts!r}")}',
+             f'  description={quoteattr(desc)}',
              f'  generationTool="observer_cad {package_version()}"'
              ' variableNamingConvention="structured" numberOfEventIndicators="0">',
              f'  <CoSimulation modelIdentifier="{name}"'
              ' canHandleVariableCommunicationStepSize="true" canInterpolateInputs="false"'
              ' maxOutputDerivativeOrder="0" canRunAsynchronuously="false"'
-             ' canBeInstantiatedOnlyOncePerProcess="false" canNotUseMemoryManagementFunctions="true"'
+             ' canBeInstantiatedOnlyOncePerProcess="false"'
+             ' canNotUseMemoryManagementFunctions="true"'
              ' canGetAndSetFMUstate="false" canSerializeFMUstate="false"'
              ' providesDirectionalDerivative="false">',
              '    <SourceFiles>',

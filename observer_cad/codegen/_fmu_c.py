@@ -299,7 +299,7 @@ FMI2_EXPORT fmi2Status fmi2SetupExperiment(fmi2Component comp, fmi2Boolean toler
   Inst* c = (Inst*)comp;
   (void)toleranceDefined; (void)tolerance; (void)stopTimeDefined; (void)stopTime;
   if (c == NULL) return fmi2Error;
-  if (c->phase != 0) return fail(c, fmi2Error, "fmi2SetupExperiment: not in the instantiated state");
+  if (c->phase != 0) return fail(c, fmi2Error, "fmi2SetupExperiment: not instantiated");
   c->t_start = c->time = startTime;
   return fmi2OK;
 }}
@@ -371,7 +371,8 @@ FMI2_EXPORT fmi2Status fmi2GetInteger(fmi2Component comp, const fmi2ValueReferen
   if (c == NULL) return fmi2Error;
   if (in_init(c) && preview(c) != 0) return fmi2Error;
   for (i = 0; i < nvr; ++i) {{
-    if (vr[i] != 0 || NRES_ == 0) return fail(c, fmi2Error, "fmi2GetInteger: unknown value reference");
+    if (vr[i] != 0 || NRES_ == 0)
+      return fail(c, fmi2Error, "fmi2GetInteger: unknown value reference");
     value[i] = c->code;
   }}
   return fmi2OK;
