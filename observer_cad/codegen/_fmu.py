@@ -214,8 +214,11 @@ def _variables(observer: Observer, src, rule, version: str = "2.0") -> tuple:
     for col in (dec.input_columns if dec is not None else []):
         add(real, col, "Real", "input", "continuous", math.nan,
             f"threshold {col} (NaN: not available, the residual is not out)")
+    delays = {str(k): int(v) for k, v in observer.delays.items() if int(v)}
     for o in outs:
-        add(real, o, "Real", "output", "discrete", None, _output_description(o, rule, outs))
+        lag = f" (the estimate for sample k - {delays[o]})" if o in delays else ""
+        add(real, o, "Real", "output", "discrete", None,
+            _output_description(o, rule, outs) + lag)
     for p, v in observer.parameters.items():
         add(real, str(p), "Real", "parameter", "tunable", float(v), f"observer parameter {p}")
     for x, v in zip(observer.states, src.x0):

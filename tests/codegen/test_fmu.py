@@ -430,3 +430,20 @@ def test_cli_fmi_version_needs_fmu(tmp_path, capsys):
                                   design(load_model(ROOT / "models" / "electric_drive.py"),
                                          observer="diagnostic")),
                    tmp_path, fmi_version="1.0")
+
+
+def test_unknown_input_estimate_with_its_delay(tmp_path):
+    """The drive's estimator of d (an output delayed by one sample, no decisions)."""
+    m = load_model(ROOT / "models" / "electric_drive.py")
+    o = build_observer(m, design(m, observer="unknown-input", faults=["d"]))
+    fmu = export_fmu(o, tmp_path)
+    assert validate_fmu(str(fmu.path)) == []
+    assert fmu.variable("d_hat").description.endswith("(the estimate for sample k - 1)")
+    assert [v.type for v in fmu.variables if v.causality == "output"] == ["Real"]
+    rng = np.random.default_rng(3)
+    n = 150
+    cols = {"y1": rng.uniform(-1, 1, n), "y2": rng.uniform(-1, 1, n),
+            "u": 0.2 * np.sin(np.arange(n) / 10)}
+    got = fmu_samples(run_fmu(fmu, write_csv(tmp_path / "in.csv", cols, 1.0), n), fmu, n)
+    cmp = compare_columns(reference_run(o, cols), got)
+    assert cmp.ok and cmp.columns == ("d_hat",), cmp.summary()
