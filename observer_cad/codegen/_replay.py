@@ -22,6 +22,7 @@ import dataclasses
 from pathlib import Path
 from typing import Mapping
 
+import casadi as ca
 import numpy as np
 
 from ..errors import UsageError
@@ -45,6 +46,32 @@ def _column(columns: Mapping, name: str, n: int | None) -> np.ndarray:
     if n is not None and a.size != n:
         raise UsageError(f"reference run: column '{name}' has {a.size} rows, expected {n}")
     return a
+
+
+#: samples per call of the accumulated step function (its build time grows with it)
+_CHUNK = 1024
+
+
+def _steps(f, x, V, ny: int, pv, nout: int) -> tuple:
+    """States before each step and outputs, (n, nx) and (n, nout): ``f`` stepped over the
+    rows of ``V`` from ``x`` — casadi's ``mapaccum`` of ``f`` over chunks of rows, the
+    same operations as one call per row (bit for bit), without a Python loop per row."""
+    n = V.shape[0]
+    xs, outs = np.empty((n, x.size)), np.empty((n, nout))
+    chains = {}
+    k = 0
+    while k < n:
+        m = min(_CHUNK, n - k)
+        F = chains.get(m) or chains.setdefault(m, f.mapaccum(f"{f.name()}_acc", m))
+        X, O = F(ca.DM(x), ca.DM(V[k:k + m, :ny].T), ca.DM(V[k:k + m, ny:].T),
+                 ca.DM(np.tile(pv.reshape(-1, 1), (1, m))))
+        X = np.asarray(X, dtype=float).reshape(x.size, m)
+        xs[k] = x
+        xs[k + 1:k + m] = X[:, :-1].T
+        outs[k:k + m] = np.asarray(O, dtype=float).reshape(nout, m).T
+        x = X[:, -1]
+        k += m
+    return xs, outs
 
 
 def reference_run(observer: Observer, columns: Mapping, *, dt: float | None = None,
@@ -77,15 +104,8 @@ def reference_run(observer: Observer, columns: Mapping, *, dt: float | None = No
             raise UsageError(f"reference run: '{k}' is not a parameter of {observer.name}")
         p[str(k)] = float(v)
     pv = np.array(list(p.values()), dtype=float)
-    x = np.array(x0, dtype=float).reshape(-1)
-    ny = len(ys)
-    xs = np.empty((n, x.size))
-    outs = np.empty((n, len(observer.output_names)))
-    for k in range(n):
-        xs[k] = x
-        xn, out = f(x, V[k, :ny], V[k, ny:], pv)
-        outs[k] = np.asarray(out).reshape(-1)
-        x = np.asarray(xn).reshape(-1)
+    xs, outs = _steps(f, np.array(x0, dtype=float).reshape(-1), V, len(ys), pv,
+                      len(observer.output_names))
     res = {str(s): xs[:, i] for i, s in enumerate(observer.states)}
     res.update({o: outs[:, i] for i, o in enumerate(observer.output_names)})
     if rule is not None:

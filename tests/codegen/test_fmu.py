@@ -447,3 +447,23 @@ def test_unknown_input_estimate_with_its_delay(tmp_path):
     got = fmu_samples(run_fmu(fmu, write_csv(tmp_path / "in.csv", cols, 1.0), n), fmu, n)
     cmp = compare_columns(reference_run(o, cols), got)
     assert cmp.ok and cmp.columns == ("d_hat",), cmp.summary()
+
+
+def test_reference_run_is_the_step_function_row_by_row():
+    """reference_run (accumulated over chunks of rows) = observer_step called per row, bit
+    for bit, across a chunk boundary; with a tuned parameter."""
+    from observer_cad.codegen import observer_step
+    m = load_model(ROOT / "models" / "sliding_example.py")
+    o = build_observer(m, design(m, observer="sliding-mode", faults=["d"]))
+    rng = np.random.default_rng(11)
+    n = 1100
+    cols = {c: rng.uniform(-1, 1, n) for c in ("y1", "y2", "u1", "u2")}
+    ref = reference_run(o, cols, dt=0.005, parameters={"eps_sm": 0.01}, x0=[0.25])
+    f = observer_step(o, h=0.005)
+    p = [float(o.parameters[s]) if str(s) != "eps_sm" else 0.01 for s in o.parameters]
+    x = np.array([0.25])
+    for k in range(n):
+        assert ref["xs1"][k] == x[0]
+        xn, out = f(x, [cols["y1"][k], cols["y2"][k]], [cols["u1"][k], cols["u2"][k]], p)
+        assert [ref[name][k] for name in o.output_names] == list(np.asarray(out).ravel())
+        x = np.asarray(xn).ravel()
