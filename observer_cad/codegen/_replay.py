@@ -3,6 +3,7 @@
     ref = reference_run(obs, columns, dt=0.01, rule=rule)    # per sample: states, outputs,
                                                              # <r>_alarm, alarm, diagnosis_code
     got = fmu_samples(result, fmu)      # FMPy's simulate_fmu result, aligned to the samples
+                                        # (fmu: the FmuExport, or the path of the .fmu)
     got = read_csv_columns("out.csv")   # or a CSV: the C example's, a monitor's
     cmp = compare_columns(ref, got)     # signals to 1e-12 (relative to max(1, |ref|)),
     assert cmp.ok, cmp.summary()        # alarms and codes exactly
@@ -122,30 +123,56 @@ def reference_run(observer: Observer, columns: Mapping, *, dt: float | None = No
     return res
 
 
+def _fmu_outputs(fmu) -> list:
+    """``(FMI name, observer name, type)`` of the FMU's outputs: from an
+    :class:`FmuExport`, or read from the ``modelDescription.xml`` of an ``.fmu`` file
+    (FMI 2.0 or 3.0; then the observer name is the FMI name)."""
+    if hasattr(fmu, "outputs"):
+        return [(v.name, v.source, v.type) for v in fmu.outputs]
+    import xml.etree.ElementTree as ET
+    import zipfile
+    try:
+        with zipfile.ZipFile(fmu) as z:
+            root = ET.fromstring(z.read("modelDescription.xml"))
+    except (OSError, KeyError, zipfile.BadZipFile, ET.ParseError) as exc:
+        raise UsageError(f"{fmu}: not an FMU with a readable modelDescription.xml"
+                         f" ({type(exc).__name__})") from None
+    kinds = {"Real": "Real", "Float64": "Real", "Float32": "Real", "Integer": "Integer",
+             "Int32": "Integer", "Boolean": "Boolean"}
+    out = []
+    variables = root.find("ModelVariables")
+    for v in (variables if variables is not None else []):
+        if v.get("causality") != "output":
+            continue
+        tag = v.tag if v.tag != "ScalarVariable" else (v[0].tag if len(v) else "Real")
+        out.append((v.get("name"), v.get("name"), kinds.get(tag, "Real")))
+    return out
+
+
 def fmu_samples(result, fmu, n: int | None = None) -> dict:
     """The outputs of an FMU run per sample, keyed by the observer's names: ``result``
     a structured array with a ``time`` field (FMPy's ``simulate_fmu``), recorded at the
     communication points ``t_start + k·Ts`` with one step per sample; ``fmu`` the
-    :class:`FmuExport`. The outputs at ``t_start + (k+1)·Ts`` are those of sample ``k``
-    (one sample of latency), so row ``k + 1`` becomes sample ``k``; ``n`` samples
-    (default all recorded)."""
+    :class:`FmuExport` or the path of the ``.fmu`` file. The outputs at
+    ``t_start + (k+1)·Ts`` are those of sample ``k`` (one sample of latency), so row
+    ``k + 1`` becomes sample ``k``; ``n`` samples (default all recorded)."""
     names = result.dtype.names
     out = {}
     rows = len(result) - 1
     n = rows if n is None else n
     if n > rows:
         raise UsageError(f"fmu_samples: {n} samples asked, the run recorded {rows}")
-    for v in fmu.outputs:
-        if v.name not in names:
+    for name, source, typ in _fmu_outputs(fmu):
+        if name not in names:
             continue
-        col = np.asarray(result[v.name][1:n + 1])
-        if v.type == "Boolean":
+        col = np.asarray(result[name][1:n + 1])
+        if typ == "Boolean":
             col = col.astype(bool)
-        elif v.type == "Integer":
+        elif typ == "Integer":
             col = col.astype(np.int64)
         else:
             col = col.astype(float)
-        out[v.source] = col
+        out[source] = col
     return out
 
 

@@ -135,12 +135,15 @@ def test_drive_fmu_validates_and_equals_the_reference(drive, version, tmp_path):
     cols = {c: np.asarray(res[c], dtype=float) for c in ("y1", "y2", "u")}
     ref = reference_run(o, cols, rule=rule, initial={"x1": 0.1})
     assert 0 < ref["alarm"].sum() < n                       # some alarms, not all
-    got = fmu_samples(run_fmu(fmu, write_csv(tmp_path / "in.csv", cols, 0.01), n), fmu, n)
+    result = run_fmu(fmu, write_csv(tmp_path / "in.csv", cols, 0.01), n)
+    got = fmu_samples(result, fmu, n)
     cmp = compare_columns(ref, got, columns=["r", "r_lower", "r_upper", "r_alarm", "alarm",
                                              "diagnosis_code"])
     assert cmp.ok, cmp.summary()
+    from_file = fmu_samples(result, fmu.path, n)         # names and types read from the FMU
+    assert compare_columns(got, from_file, require_all=True).ok
+    assert from_file["alarm"].dtype == bool
     # the same through FMPy's CSV (Booleans written True/False)
-    result = run_fmu(fmu, tmp_path / "in.csv", n)
     fmpy.util.write_csv(str(tmp_path / "fmu.csv"), result)
     from_csv = {k: v[1:] for k, v in read_csv_columns(tmp_path / "fmu.csv").items()}
     assert compare_columns(ref, from_csv, columns=["r", "r_alarm", "alarm",
@@ -467,3 +470,30 @@ def test_reference_run_is_the_step_function_row_by_row():
         xn, out = f(x, [cols["y1"][k], cols["y2"][k]], [cols["u1"][k], cols["u2"][k]], p)
         assert [ref[name][k] for name in o.output_names] == list(np.asarray(out).ravel())
         x = np.asarray(xn).ravel()
+
+
+def test_fmu_on_simulate_signals_csv(tmp_path, monkeypatch, capsys):
+    """The command-line path: `observer-cad simulate` writes signals.csv, `codegen --fmu`
+    the FMU; FMPy runs the FMU on the CSV's y/u columns. Its residual, bands and alarms
+    equal the reference run and the simulation's own columns (to 1e-12, alarms exactly)."""
+    from observer_cad.cli import main
+    monkeypatch.chdir(tmp_path)
+    common = [str(ROOT / "models" / "electric_drive.py"), "--observer", "diagnostic",
+              "--threshold", "guaranteed"]
+    assert main(["simulate", *common, "--scenario",
+                 str(ROOT / "models" / "scenarios" / "electric_drive_diagnostic.json"),
+                 "--out", "sim"]) == 0
+    assert main(["codegen", *common, "--fmu", "--out", "c"]) == 0
+    capsys.readouterr()
+    sim = read_csv_columns("sim/signals.csv")
+    n = sim["t"].size
+    assert np.array_equal(sim["t"], np.arange(n))              # discrete: t = k, Ts = 1
+    inp = np.rec.fromarrays([sim[c] for c in ("t", "y1", "y2", "u")], names="time,y1,y2,u")
+    result = fmpy.simulate_fmu("c/electric_drive_diagnostic.fmu", input=inp,
+                               stop_time=sim["t"][-1] + 1)
+    got = fmu_samples(result, "c/electric_drive_diagnostic.fmu", n)   # types from the file
+    assert got["alarm"].dtype == bool and got["diagnosis_code"].dtype == np.int64
+    assert 0 < got["alarm"].sum() < n
+    cmp = compare_columns(sim, got, columns=["r", "r_lower", "r_upper", "alarm"])
+    assert cmp.ok, cmp.summary()
+    assert list(got["diagnosis_code"]) == [1 if d == "d" else 0 for d in sim["diagnosis"]]
