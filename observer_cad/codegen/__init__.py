@@ -14,6 +14,7 @@ from ._decide_c import (DecisionSources)
 from ._export import (export_observer, export_sources, ExportedSources, EXAMPLE_FLAGS, silence_unused_parameters)
 from ._trajectory import (CompiledSimulator, simulate_compiled)
 from ._translate import (to_casadi, Translator, observer_step, plant_step, joint_step, describe, split_signals, rk4, zoh_matrices)
+from ._monitor_engine import (CompiledMonitorEngine)
 from ._library import (LibrarySpec, library_spec, load_library, loaded_libraries)
 
 __all__ = [
@@ -24,5 +25,5 @@ __all__ = [
     "ExportedSources", "EXAMPLE_FLAGS", "silence_unused_parameters", "CompiledSimulator",
     "simulate_compiled", "to_casadi", "Translator", "observer_step", "plant_step", "joint_step",
     "describe", "split_signals", "rk4", "zoh_matrices", "LibrarySpec", "library_spec",
-    "load_library", "loaded_libraries"
+    "load_library", "loaded_libraries", "CompiledMonitorEngine"
 ]
