@@ -169,6 +169,8 @@ class Monitor:
         self.engine = engine if engine is not None else ReferenceMonitorEngine(observer)
         self.envelope = declared_envelope(model)
         self.record = record
+        #: the name the row checks of :meth:`step` give (e.g. ``<stdin>``)
+        self.source = "monitor.step"
         self.reset()
 
     # ------------------------------------------------------------------ state
@@ -270,7 +272,7 @@ class Monitor:
         n = len(self._t)
         if n:
             h = check_times(np.array([self._t[-1], t]), time=self.model.time,
-                            sample_time=self.sample_time, source="monitor.step", first_row=n,
+                            sample_time=self.sample_time, source=self.source, first_row=n,
                             h=self.h)
             if self._pending is not None:  # the first interval gives h: the first step now
                 with np.errstate(all="ignore"):
@@ -278,8 +280,7 @@ class Monitor:
                 self._pending = None
             self.h = h
         elif self.model.time == "discrete":
-            check_times(np.array([t]), time="discrete", sample_time=self.sample_time,
-                        source="monitor.step")
+            pass
         with np.errstate(all="ignore"):
             if self.model.time == "continuous" and self.h is None:
                 O, _ = self.engine.run(self.x, row, 0.0)   # outputs only; the step waits for h

@@ -31,7 +31,10 @@ from ..errors import UsageError
 from ..model import PlantModel
 
 __all__ = ["TIME_RTOL", "declared_envelope", "check_times", "check_cells", "Recording",
-           "recording_from_columns"]
+           "recording_from_columns", "read_table", "parse_row", "PARQUET_SUFFIXES"]
+
+#: file name endings read as Parquet (with pyarrow); anything else is CSV
+PARQUET_SUFFIXES = (".parquet", ".pq")
 
 #: relative tolerance of the sample time: every interval of ``t`` equals the first one
 #: within this fraction of it (0.1 %: a logger's rounded time stamps pass, a dropped or
@@ -100,8 +103,8 @@ def check_cells(name: str, v: np.ndarray, *, source: str | None, first_row: int 
     bad = np.flatnonzero(~np.isfinite(v))
     if bad.size:
         k = int(bad[0])
-        raise UsageError(f"{_where(source, first_row + k, name)}: {v[k]!r} is not a finite"
-                         " number")
+        what = "empty or NaN" if np.isnan(v[k]) else f"{v[k]!r}, not a finite number"
+        raise UsageError(f"{_where(source, first_row + k, name)}: {what}")
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
@@ -121,11 +124,7 @@ def _as_float(name: str, v, source: str | None) -> np.ndarray:
         a = np.asarray(v, dtype=float)
     except (TypeError, ValueError):
         for k, cell in enumerate(list(v)):
-            try:
-                float(cell)
-            except (TypeError, ValueError):
-                raise UsageError(f"{_where(source, k + 1, name)}: {str(cell)!r} is not a"
-                                 " number") from None
+            _cell(cell if isinstance(cell, str) else repr(cell), source, k + 1, name)
         raise UsageError(f"{source or 'data'}, column '{name}': not numbers") from None
     if a.ndim != 1:
         raise UsageError(f"{source or 'data'}, column '{name}': a column must be one-"
@@ -164,3 +163,69 @@ def recording_from_columns(model: PlantModel, needed, data: Mapping, *,
     h = check_times(cols["t"], time=model.time, sample_time=sample_time, source=source)
     t = cols.pop("t")
     return Recording(t=t, columns=cols, h=h if math.isfinite(h) else 1.0, source=source)
+
+
+def _cell(text: str, source, row: int, name: str) -> float:
+    try:
+        return float(text)
+    except ValueError:
+        what = "empty" if not text.strip() else f"{text.strip()!r} is not a number"
+        raise UsageError(f"{_where(source, row, name)}: {what}") from None
+
+
+def parse_row(cells, header, wanted, *, source, row: int) -> dict:
+    """The cells of one CSV row (a list of text) for the columns ``wanted`` (names of
+    ``header``) as floats; one line naming the row and column otherwise."""
+    if len(cells) != len(header):
+        raise UsageError(f"{source or 'data'}, row {row}: {len(cells)} cells, the header has"
+                         f" {len(header)} columns")
+    return {n: _cell(cells[header.index(n)], source, row, n) for n in wanted}
+
+
+def read_table(path) -> dict:
+    """The columns of a recorded table: ``path`` a CSV file (a header row, then one row
+    per sample; numbers as text) or Parquet (``.parquet``, ``.pq``; needs pyarrow).
+    Returns name → column: float arrays, or for a CSV column with a cell that is not a
+    number, its text (the checks name the cell)."""
+    import csv
+    import io
+    from pathlib import Path
+    p = Path(path)
+    if p.suffix.lower() in PARQUET_SUFFIXES:
+        try:
+            import pyarrow.parquet as pq
+        except ImportError:
+            raise UsageError(f"{path}: reading Parquet needs pyarrow, which is not installed:"
+                             " python3 -m pip install pyarrow (or give a CSV file)") from None
+        try:
+            return {str(k): v for k, v in pq.read_table(p).to_pydict().items()}
+        except (OSError, ValueError) as exc:
+            raise UsageError(f"{path}: cannot read as Parquet: {str(exc).splitlines()[0]}") from None
+    try:
+        text = p.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise UsageError(f"{path}: no such data file") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise UsageError(f"{path}: cannot read the data:"
+                         f" {getattr(exc, 'strerror', None) or type(exc).__name__}") from None
+    first, _, body = text.partition("\n")
+    header = [h.strip() for h in next(csv.reader([first]), [])]
+    if not header or header == [""]:
+        raise UsageError(f"{path}: empty (a header row naming the columns is needed)")
+    twice = sorted({h for h in header if header.count(h) > 1})
+    if twice:
+        raise UsageError(f"{path}: the column '{twice[0]}' appears twice in the header")
+    try:  # fast path: every cell a number
+        a = np.loadtxt(io.StringIO(body), delimiter=",", ndmin=2, dtype=float, quotechar='"')
+        if a.size == 0:
+            a = np.zeros((0, len(header)))
+        if a.shape[1] == len(header):
+            return {h: a[:, j] for j, h in enumerate(header)}
+    except ValueError:
+        pass
+    rows = [r for r in csv.reader(io.StringIO(body)) if any(c.strip() for c in r)]
+    for k, r in enumerate(rows):
+        if len(r) != len(header):
+            raise UsageError(f"{path}, row {k + 1} (line {k + 2}): {len(r)} cells, the header"
+                             f" has {len(header)} columns")
+    return {h: [r[j] for r in rows] for j, h in enumerate(header)}
