@@ -112,7 +112,9 @@ def cmd_codegen(args) -> int:
     from ..files import staged_directory
     out = Path(args.out)
     with staged_directory(out) as stage:  # the three files together, or none changed
-        paths = export_observer(observer, stage, name=args.name, dt=dt, rule=rule)
+        from ..simulation import declared_envelope
+        paths = export_observer(observer, stage, name=args.name, dt=dt, rule=rule,
+                                envelope=declared_envelope(model))
     for p in paths:
         print(f"wrote {out / Path(p).relative_to(stage)}")
     return 0

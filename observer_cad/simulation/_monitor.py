@@ -38,6 +38,7 @@ from ._recording import check_times, declared_envelope, recording_from_columns
 from ._simulate import SimulationResult, align_delay, column_units
 
 __all__ = ["Monitor", "MonitorStep", "ReferenceMonitorEngine", "monitor_signals",
+           "monitor_signal_columns",
            "monitor_initial_state", "MONITOR_COLUMNS"]
 
 #: the columns a monitor adds after the observer's outputs: with a decision rule
@@ -52,6 +53,13 @@ def monitor_signals(observer: Observer) -> tuple:
     names = [str(s) for s in observer.signals]
     ys = [s for s in names if re.fullmatch(r"y\d+", s)]
     return tuple(ys), tuple(s for s in names if s not in ys)
+
+
+def monitor_signal_columns(observer: Observer) -> tuple:
+    """The signals' columns of ``monitor.csv`` (and of the exported C's output), in order:
+    the measurements by number (y1, y2, …), then the known inputs in the observer's order."""
+    ys, us = monitor_signals(observer)
+    return tuple(sorted(ys, key=lambda s: int(s[1:]))) + us
 
 
 def monitor_initial_state(observer: Observer, initial: Mapping | None = None) -> np.ndarray:
@@ -188,9 +196,7 @@ class Monitor:
     @property
     def columns(self) -> tuple:
         """The columns of :meth:`run`'s table (and monitor.csv), in order."""
-        ins = [str(s) for s in self.model.inputs]
-        outs = [f"y{i}" for i in range(1, len(self.model.outputs) + 1)]
-        sig = [c for c in outs + ins if c in self.signals]
+        sig = list(monitor_signal_columns(self.observer))
         dec = list(MONITOR_COLUMNS[:2]) if self.rule is not None else []
         return tuple(["t"] + sig + list(self.outputs) + dec + ["in_bounds"])
 
