@@ -3,11 +3,12 @@
 the step size as an argument) in a C loop over the rows of recorded data, called
 through ctypes (the GIL released while it runs).
 
-    NAME_monitor(N, x, V, p, h, O): for k < N: O[k] = outputs at (x, V[k]);
+    NAME_monitor(N, x, V, p, h, O): for k < N: O[:, k] = outputs at (x, V[k]);
                                      x = the next state (x updated in place)
 
-``V`` (N, ny + nu) and ``O`` (N, no) row-major doubles; returns 0, or 1 + k when the step
-function failed at row k.
+``V`` (N, ny + nu) row-major and ``O`` (no, N) — one contiguous column per output —
+doubles; returns 0, or 1 + k when the step function failed at row k. Compiled with the
+trajectory loops' flags (``-fno-semantic-interposition``: the step is inlined).
 """
 from __future__ import annotations
 
@@ -18,7 +19,8 @@ import numpy as np
 from ..errors import UsageError
 from ..observers import Observer
 from ..simulation import monitor_signals
-from ._compile import CodegenError, compile_source, generate_c
+from ._compile import CodegenError, compile_source, generate_c, size_aware_flags
+from ._trajectory import TRAJ_FLAGS
 from ._translate import observer_step, split_signals
 
 __all__ = ["CompiledMonitorEngine", "monitor_loop_source"]
@@ -42,6 +44,7 @@ CASADI_SYMBOL_EXPORT int {name}_monitor(long long N, casadi_real* x, const casad
   casadi_int iw[{sz[2]}];
   casadi_real w[{sz[3]}];
   casadi_real xn[{max(nx, 1)}];
+  casadi_real ob[{max(no, 1)}];
   long long k;
   int i;
   for (i = 0; i < {sz[0]}; ++i) arg[i] = 0;
@@ -50,12 +53,13 @@ CASADI_SYMBOL_EXPORT int {name}_monitor(long long N, casadi_real* x, const casad
   arg[3] = p;
   {"arg[4] = &h;" if h_arg else "(void)h;"}
   res[0] = xn;
+  res[1] = ob;
   for (k = 0; k < N; ++k) {{
     arg[1] = V + k * {ny + nu};
     arg[2] = V + k * {ny + nu} + {ny};
-    res[1] = O + k * {max(no, 0)};
     if ({name}(arg, res, iw, w, 0)) return (int)(1 + k);
     for (i = 0; i < {nx}; ++i) x[i] = xn[i];
+    for (i = 0; i < {no}; ++i) O[i * N + k] = ob[i];
   }}
   return 0;
 }}
@@ -81,7 +85,8 @@ class CompiledMonitorEngine:
         self.p = np.ascontiguousarray([float(v) for v in observer.parameters.values()],
                                       dtype=float)
         src = generate_c(f) + monitor_loop_source(f, h_arg=h_arg)
-        res = compile_source(src, f"{f.name()}_mon", cache=cache, cc=cc)
+        res = compile_source(src, f"{f.name()}_mon", cache=cache, cc=cc,
+                             flags=size_aware_flags(src, TRAJ_FLAGS))
         self.cached = res.cached
         try:
             lib = ctypes.CDLL(str(res.path))
@@ -94,16 +99,17 @@ class CompiledMonitorEngine:
 
     def run(self, x0, V, h: float):
         """(O (N, no), the state after the last row) from the state ``x0`` over the rows
-        ``V`` (N, ny + nu) at the step size ``h`` (ignored in discrete time)."""
+        ``V`` (N, ny + nu) at the step size ``h`` (ignored in discrete time); ``O`` is a
+        transposed view: its columns are contiguous."""
         V = np.ascontiguousarray(V, dtype=np.float64).reshape(-1, self.nv)
         x = np.array(x0, dtype=np.float64).reshape(self.nx).copy()
         N = V.shape[0]
-        O = np.empty((N, self.no))
+        O = np.empty((self.no, N))
         if N == 0:
-            return O, x
+            return O.T, x
         dummy = np.zeros(1)
         ptr = (lambda a: a.ctypes.data if a.size else dummy.ctypes.data)
         rc = self._fn(N, ptr(x), ptr(V), ptr(self.p), float(h), ptr(O))
         if rc:
             raise CodegenError(f"{self._name} failed at row {rc - 1}")
-        return O, x
+        return O.T, x

@@ -235,11 +235,17 @@ class Monitor:
         delays = {}
         for j, name in enumerate(self.outputs):
             delays[name] = int(self.observer.delays.get(name, 0))
-            cols[name] = align_delay(np.array(O[:, j], dtype=float), delays[name])
+            v = np.ascontiguousarray(O[:, j], dtype=float)
+            cols[name] = align_delay(v[None, :], delays[name])[0] if delays[name] else v
         if self.rule is not None:
             dec = decide(self.rule, cols)
             cols["alarm"] = dec.alarm.astype(np.int64)
-            cols["diagnosis"] = dec.diagnosis
+            if len(self.rule.residuals) <= 12:   # a table of every code: no sort
+                texts = np.array([self.rule.diagnosis(c) for c in range(self.rule.codes)],
+                                 dtype=object)
+                cols["diagnosis"] = texts[dec.code]
+            else:
+                cols["diagnosis"] = dec.diagnosis
         cols["in_bounds"] = self._in_bounds(sigs, n).astype(np.int64)
         order = self.columns
         return SimulationResult(cols, order, delays, None,
