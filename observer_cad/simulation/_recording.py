@@ -30,7 +30,7 @@ import numpy as np
 from ..errors import UsageError
 from ..model import PlantModel
 
-__all__ = ["TIME_RTOL", "declared_envelope", "check_times", "check_cells", "Recording",
+__all__ = ["TIME_RTOL", "declared_envelope", "declared_signal_bounds", "bounds_check", "check_times", "check_cells", "Recording",
            "recording_from_columns", "read_table", "parse_row", "PARQUET_SUFFIXES"]
 
 #: a CSV longer than this (characters) is parsed by pandas when it is installed (its C
@@ -60,6 +60,36 @@ def declared_envelope(model: PlantModel) -> dict:
     for k, (lo, hi) in dict(extra).items():
         env[str(k)] = (float(lo), float(hi))
     return env
+
+
+def declared_signal_bounds(model: PlantModel) -> dict:
+    """What a simulated run must stay in for the guaranteed threshold to hold: name →
+    (low, high) floats for the disturbances and noise with declared bounds, and the
+    signals of :func:`declared_envelope` (faults are not included: a fault is what the
+    monitor is there to see)."""
+    out = {str(s): (float(b[0]), float(b[1])) for s, b in model.bounds.items()
+           if s in set(model.disturbances) | set(model.noise)}
+    out.update(declared_envelope(model))
+    return out
+
+
+def bounds_check(ranges: Mapping, columns: Mapping, n: int) -> tuple:
+    """(mask (n,) bool: every signal of ``ranges`` present in ``columns`` lies in its
+    range (inclusive), the first violation as ``(index, name, value, low, high)`` or
+    None)."""
+    ok = np.ones(n, dtype=bool)
+    first = None
+    for name, (lo, hi) in ranges.items():
+        if name not in columns:
+            continue
+        v = np.asarray(columns[name], dtype=float).reshape(-1)[:n]
+        inside = (v >= lo) & (v <= hi)
+        if not inside.all():
+            k = int(np.flatnonzero(~inside)[0])
+            if first is None or k < first[0]:
+                first = (k, name, float(v[k]), lo, hi)
+        ok &= inside
+    return ok, first
 
 
 def _where(source: str | None, row: int, column: str) -> str:

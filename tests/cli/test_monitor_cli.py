@@ -160,3 +160,30 @@ def test_streaming_bad_row_one_line_nothing_written(tmp_path):
                        capture_output=True, text=True, env=env, cwd=tmp_path)
     assert r.returncode == 2 and not (tmp_path / "m").exists()
     assert "row 30, column 'y2'" in r.stderr and len(r.stderr.strip().splitlines()) == 1
+
+
+def test_simulate_flags_noise_beyond_its_declared_bounds(capsys, tmp_path):
+    """A scenario drawing the current sensor's noise from ±0.05 against the declared
+    ±0.01: a warning line with the first time, and in_bounds = 0 in those rows."""
+    import json
+    scen = {"steps": 120, "seed": 11, "initial": {"x1": 0, "x2": 0, "x3": 0},
+            "signals": {"u": "2*sin(t/10)", "rho": {"uniform": [-0.05, 0.05]},
+                        "w1": {"uniform": [0, 0.02]},
+                        "w2": "Piecewise((0, t < 50), (0.04, True))"}}
+    path = tmp_path / "noisy.json"
+    path.write_text(json.dumps(scen))
+    rc, so, se = run(capsys, ["simulate", DRIVE, "--observer", "diagnostic", "--threshold",
+                              "guaranteed", "--scenario", path, "--out", tmp_path / "sim"])
+    assert rc == 0, se
+    rows = read(tmp_path / "sim" / "signals.csv")
+    assert list(rows[0])[-3:] == ["alarm", "diagnosis", "in_bounds"]
+    assert [r["in_bounds"] for r in rows] == ["1"] * 50 + ["0"] * 70
+    line = [ln for ln in se.splitlines() if "declared bounds" in ln]
+    assert len(line) == 1 and "at t = 50 (w2 = 0.04 outside [-0.01, 0.01]); 70 of 120" in line[0]
+    # within the bounds: no warning, every row in
+    scen["signals"]["w2"] = {"uniform": [-0.01, 0.01]}
+    path.write_text(json.dumps(scen))
+    rc, so, se = run(capsys, ["simulate", DRIVE, "--observer", "diagnostic", "--threshold",
+                              "guaranteed", "--scenario", path, "--out", tmp_path / "sim2"])
+    assert rc == 0 and "declared bounds" not in se
+    assert {r["in_bounds"] for r in read(tmp_path / "sim2" / "signals.csv")} == {"1"}
