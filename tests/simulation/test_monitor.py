@@ -162,3 +162,46 @@ def test_step_refuses_wrong_rows(drive):
         mon.step(0, [1.0], [0.0, 0.0])
     with pytest.raises(UsageError, match="not a finite number"):
         mon.step(1, [float("nan")], [0.0, 0.0])
+
+
+def test_parquet_is_read_through_pyarrow(tmp_path, monkeypatch):
+    """A .parquet file goes to pyarrow.parquet.read_table (a stand-in module here)."""
+    import sys
+    import types
+
+    class Table:
+        def to_pydict(self):
+            return {"t": [0.0, 1.0], "u": [1.0, 2.0]}
+    pq = types.ModuleType("pyarrow.parquet")
+    pq.read_table = lambda path: Table()
+    pa = types.ModuleType("pyarrow")
+    pa.parquet = pq
+    monkeypatch.setitem(sys.modules, "pyarrow", pa)
+    monkeypatch.setitem(sys.modules, "pyarrow.parquet", pq)
+    path = tmp_path / "rec.parquet"
+    path.write_bytes(b"PAR1")
+    assert read_table(path) == {"t": [0.0, 1.0], "u": [1.0, 2.0]}
+
+
+from hypothesis import given, settings, strategies as st  # noqa: E402
+
+
+@settings(max_examples=8, deadline=None)
+@given(seed=st.integers(0, 2 ** 16), persistence=st.integers(1, 4), n=st.integers(1, 60))
+def test_rows_one_at_a_time_equal_the_table(drive, seed, persistence, n):
+    """Whatever the data and the persistence, step() row by row gives run()'s alarms,
+    diagnoses and numbers (the counters carried from row to row as decide() counts)."""
+    m, obs, _, _ = drive
+    from observer_cad.residuals import DecisionRule
+    rule0 = drive[2]
+    rule = DecisionRule(residuals=rule0.residuals, faults=rule0.faults,
+                        structure=rule0.structure, persistence=persistence)
+    rng = np.random.default_rng(seed)
+    data = {"t": np.arange(n, dtype=float), "u": rng.uniform(-2, 2, n),
+            "y1": rng.uniform(-0.05, 0.05, n), "y2": rng.uniform(-0.1, 0.1, n)}
+    whole = Monitor(m, obs, rule=rule).run(data)
+    mon = Monitor(m, obs, rule=rule)
+    for k in range(n):
+        s = mon.step(data["t"][k], [data["u"][k]], [data["y1"][k], data["y2"][k]])
+        assert s.alarm == bool(whole["alarm"][k]) and s.diagnosis == whole["diagnosis"][k]
+        assert s.outputs["r"] == whole["r"][k]
