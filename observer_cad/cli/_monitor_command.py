@@ -192,11 +192,11 @@ def _stream(args, mon, rename: dict, how: str) -> int:
                 warned = True
                 print(f"{PROG}: warning: t = {t:g}: the data leave the declared envelope (no"
                       " guarantee while they are out; in_bounds = 0)", file=sys.stderr, flush=True)
-    except KeyboardInterrupt:
+    except (KeyboardInterrupt, SystemExit) as exc:  # Ctrl-C, or SIGTERM (SystemExit 143)
         print(f"{PROG}: interrupted after {row} rows; writing them", file=sys.stderr)
         if row:
             _finish(args, mon, mon.result(), how)
-        return 130
+        return exc.code if isinstance(exc, SystemExit) and isinstance(exc.code, int) else 130
     if row == 0:
         raise UsageError(f"{src}: no rows after the header")
     return _finish(args, mon, mon.result(), how)

@@ -187,3 +187,26 @@ def test_simulate_flags_noise_beyond_its_declared_bounds(capsys, tmp_path):
                               "guaranteed", "--scenario", path, "--out", tmp_path / "sim2"])
     assert rc == 0 and "declared bounds" not in se
     assert {r["in_bounds"] for r in read(tmp_path / "sim2" / "signals.csv")} == {"1"}
+
+
+def test_streaming_terminated_writes_the_rows_read(tmp_path):
+    """SIGTERM while rows arrive: the rows read so far are written, nothing lost."""
+    import signal
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    out = tmp_path / "stream"
+    p = subprocess.Popen([sys.executable, "-m", "observer_cad", "monitor", str(TANKS), *BANK,
+                          "--data", "-", "--out", str(out)], stdin=subprocess.PIPE,
+                         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=tmp_path,
+                         env=env)
+    lines = RECORDING.read_text().splitlines()
+    p.stdin.write("\n".join(lines[:431]) + "\n")   # up to t = 21.45, past the first alarm
+    p.stdin.flush()
+    assert p.stdout.readline().startswith("monitoring rows from stdin")
+    assert p.stdout.readline().startswith("t = 20.55: alarm")   # row 412 has been read
+    p.send_signal(signal.SIGTERM)
+    rc = p.wait(timeout=120)
+    assert rc == 143, p.stderr.read()
+    rows = read(out / "monitor.csv")
+    assert 412 <= len(rows) <= 430
+    assert [float(r["t"]) for r in rows] == [float(ln.split(",")[0])
+                                             for ln in lines[1:len(rows) + 1]]
