@@ -22,11 +22,14 @@ from ._ctext import c_comment, c_string
 __all__ = ["example_source"]
 
 
-def example_source(name, observer, h_arg, ys, us, xs, outs, dec=None, envelope=None) -> str:
+def example_source(name, observer, h_arg, ys, us, xs, outs, dec=None, envelope=None,
+                   dt=None) -> str:
     """The text of ``NAME_example.c`` for ``observer`` (``h_arg``: the step size is an
     argument; ``ys``, ``us``: the signals; ``xs``, ``outs``: the states' and outputs'
     names; ``dec``: the :class:`~observer_cad.codegen.DecisionSources` of a rule, or None;
-    ``envelope``: signal name → (low, high), the declared ranges ``in_bounds`` checks)."""
+    ``envelope``: signal name → (low, high), the declared ranges ``in_bounds`` checks;
+    ``dt``: the baked-in step size of a continuous-time observer, which the data's sample
+    time must equal)."""
     N = name
     sig = [str(s) for s in ys] + [str(s) for s in us]
     extra = dec.input_columns if dec is not None else []
@@ -38,7 +41,41 @@ def example_source(name, observer, h_arg, ys, us, xs, outs, dec=None, envelope=N
     return (_preamble(N, observer, h_arg, sig, xs, outs, len(extra), sig_items, dec_doc,
                       _monitor_tables(observer, sig, envelope or {}))
             + _HELPERS + _main_start(N, usage, dt_decl, dec_decl, dt_opt, dt_check)
-            + _READ_HEADER + _steps(N, h_set, dec_head, dec_step))
+            + _READ_HEADER + _steps(N, h_set, dec_head, dec_step,
+                                    _time_check(observer.time == "continuous", h_arg, dt)))
+
+
+def _time_check(continuous: bool, h_arg: bool, dt) -> str:
+    """The monitor format's checks of t per row: increasing, regular (every interval the
+    first within 0.1 %) and, in continuous time, the first interval equal to the step
+    size (within 0.1 %) — the checks of ``observer-cad monitor``."""
+    step = ""
+    if continuous:
+        h = "h" if h_arg else repr(float(dt))
+        step = f"""      if (step == 1 && fabs(h_t - {h}) > 1e-3 * {h}) {{
+        fprintf(stderr, "%s: %s line %ld: the sample time %.10g is not the step size %.10g"
+                " of this observer (export it with dt = the data's sample time)\\n", argv[0],
+                argv[1], lineno, h_t, (double){h});
+        status = 2;
+        break;
+      }}
+"""
+    return """    if (!trace) {
+      if (step == 1) h_t = v[TCOL] - t_prev;
+      if (step >= 1 && !(v[TCOL] > t_prev)) {
+        fprintf(stderr, "%s: %s line %ld: t does not increase\\n", argv[0], argv[1], lineno);
+        status = 2;
+        break;
+      }
+      if (step >= 1 && fabs(v[TCOL] - t_prev - h_t) > 1e-3 * h_t) {
+        fprintf(stderr, "%s: %s line %ld: t is not regular (the interval differs from the"
+                " first, %.10g, by more than 0.1 %%)\\n", argv[0], argv[1], lineno, h_t);
+        status = 2;
+        break;
+      }
+""" + step + """      t_prev = v[TCOL];
+    }
+"""
 
 
 def _c_double(v: float) -> str:
@@ -227,6 +264,7 @@ def _main_start(N: str, usage: str, dt_decl: str, dec_decl: str, dt_opt: str,
   int* sig_of_col = NULL;
   long lineno = 1, step = 0;
   int trace = 0, need = NREAD, ok = 1;
+  double t_prev = 0.0, h_t = 0.0;
   double v[NREAD + 1];
   double x[ASIZE({N}_NX)], xn[ASIZE({N}_NX)], out[ASIZE({N}_NOUT)], p[ASIZE({N}_NP)];
 {dt_decl}{dec_decl}  const casadi_real* arg[ASIZE({N}_SZ_ARG)];
@@ -323,7 +361,7 @@ _READ_HEADER = """  fp = fopen(argv[1], "r");
 """
 
 
-def _steps(N: str, h_set: str, dec_head: str, dec_step: str) -> str:
+def _steps(N: str, h_set: str, dec_head: str, dec_step: str, t_check: str) -> str:
     """The step function's arguments, the output header, one step per input row, and
     the clean-up."""
     return f"""  for (i = 0; i < ASIZE({N}_SZ_ARG); ++i) arg[i] = 0;
@@ -383,7 +421,7 @@ def _steps(N: str, h_set: str, dec_head: str, dec_step: str) -> str:
       status = 2;
       break;
     }}
-    if ({N}(arg, res, iw, w, mem) != 0) {{
+{t_check}    if ({N}(arg, res, iw, w, mem) != 0) {{
       fprintf(stderr, "%s: the step function failed at step %ld\\n", argv[0], step);
       status = 1;
       break;

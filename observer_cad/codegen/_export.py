@@ -188,7 +188,7 @@ def export_sources(observer: Observer, *, name: str | None = None, dt: float | N
     parts = _parts(observer, name, dt, discretisation, initial, rule)
     c_text, h_text = _c_source(parts), _header_source(parts)
     ex_text = example_source(name, observer, parts.h_arg, parts.ys, parts.us, parts.xs,
-                             parts.outs, parts.dec, envelope=envelope)
+                             parts.outs, parts.dec, envelope=envelope, dt=parts.dt)
     return ExportedSources(name, parts.f, c_text, h_text, ex_text)
 
 

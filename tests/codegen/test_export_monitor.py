@@ -69,6 +69,18 @@ def test_c_example_equals_the_python_monitor_continuous(tmp_path):
     alarm = np.array(got["alarm"], dtype=int)
     t = np.array(got["t"], dtype=float)
     assert alarm[t < 20].sum() == 0 and alarm[-1] == 1 and got["diagnosis"][-1] == "f2"
+    # the checks of t: as observer-cad monitor's, exit status 2 naming the line
+    lines = RECORDING.read_text().splitlines()
+    for name, rows, words in (("gap.csv", lines[:30] + lines[31:], "line 31: t is not regular"),
+                              ("back.csv", lines[:30] + [lines[28]] + lines[31:],
+                               "line 31: t does not increase"),
+                              ("slow.csv", [lines[0]] + [",".join([repr(0.1 * k)] + ln.split(",")[1:])
+                                                         for k, ln in enumerate(lines[1:])],
+                               "line 3: the sample time 0.1")):
+        (tmp_path / name).write_text("\n".join(rows) + "\n")
+        r = subprocess.run([str(exe), str(tmp_path / name)], capture_output=True, text=True,
+                           timeout=120)
+        assert r.returncode == 2 and words in r.stderr, (name, r.stderr)
 
 
 @needs_cc
