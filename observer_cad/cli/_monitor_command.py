@@ -158,7 +158,7 @@ def _stream(args, mon, rename: dict, how: str) -> int:
     import csv
     from ..simulation import parse_row
     src = mon.source = "<stdin>"
-    line = sys.stdin.readline()
+    line = sys.stdin.readline().lstrip("\ufeff")
     header = [h.strip() for h in next(csv.reader([line]), [])]
     if not header or header == [""]:
         raise UsageError(f"{src}: no header row (t and the signals' columns)")

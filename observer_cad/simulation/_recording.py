@@ -252,7 +252,7 @@ def read_table(path) -> dict:
         except (OSError, ValueError) as exc:
             raise UsageError(f"{path}: cannot read as Parquet: {str(exc).splitlines()[0]}") from None
     try:
-        text = p.read_text(encoding="utf-8")
+        text = p.read_text(encoding="utf-8-sig")   # a spreadsheet's byte-order mark dropped
     except FileNotFoundError:
         raise UsageError(f"{path}: no such data file") from None
     except (OSError, UnicodeDecodeError) as exc:

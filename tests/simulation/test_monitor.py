@@ -205,3 +205,16 @@ def test_rows_one_at_a_time_equal_the_table(drive, seed, persistence, n):
         s = mon.step(data["t"][k], [data["u"][k]], [data["y1"][k], data["y2"][k]])
         assert s.alarm == bool(whole["alarm"][k]) and s.diagnosis == whole["diagnosis"][k]
         assert s.outputs["r"] == whole["r"][k]
+
+
+def test_read_table_text_cells_and_byte_order_mark(tmp_path):
+    p = tmp_path / "r.csv"
+    p.write_text("\ufefft,u\n0,1\n1,x\n", encoding="utf-8")
+    cols = read_table(p)
+    assert list(cols) == ["t", "u"] and list(cols["u"]) == ["1", "x"]
+    p.write_text("t,u\n0,1\n1,2,3\n")
+    with pytest.raises(UsageError, match=r"row 2 \(line 3\): 3 cells, the header has 2"):
+        read_table(p)
+    p.write_text("t,t\n0,1\n")
+    with pytest.raises(UsageError, match="appears twice"):
+        read_table(p)
