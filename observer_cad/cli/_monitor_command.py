@@ -120,6 +120,9 @@ def _print_findings(mon, res) -> None:
     unit = "" if mon.model.time == "discrete" else " s"
     if mon.model.time == "continuous":
         print(f"sample time h = {mon.h:.10g} s (the observer's RK4 step, inputs held over it)")
+    if mon.assumed_zero:
+        print(f"initial state: the observer starts as if {' = '.join(mon.assumed_zero)} = 0 at"
+              f" t = {float(t[0]):g} (not measured; --initial NAME=VALUE sets them)")
     _warn_envelope(mon, res)
     if mon.rule is None:
         return

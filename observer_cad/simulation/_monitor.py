@@ -62,23 +62,29 @@ def monitor_signal_columns(observer: Observer) -> tuple:
     return tuple(sorted(ys, key=lambda s: int(s[1:]))) + us
 
 
-def monitor_initial_state(observer: Observer, initial: Mapping | None = None) -> np.ndarray:
+def monitor_initial_state(observer: Observer, initial: Mapping | None = None, *,
+                          zeroed: list | None = None) -> np.ndarray:
     """The observer's initial state: ``observer.initial`` with the plant symbols it
     mentions set from ``initial`` (name → value; an observer state's name sets that
-    state) and the rest 0 — the default of the exported C."""
+    state) and the rest 0 — the default of the exported C. ``zeroed``: a list that
+    receives the names taken as 0."""
     given = {str(k): float(v) for k, v in (initial or {}).items()}
     par = dict(observer.parameters)
     x0 = []
+    taken = set()
     for s in observer.states:
         if str(s) in given:
             x0.append(given[str(s)])
             continue
         e = algebraic_to_float(sp.sympify(observer.initial.get(s, 0))).xreplace(par)
         sub = {v: given.get(str(v), 0.0) for v in e.free_symbols}
+        taken.update(str(v) for v in e.free_symbols if str(v) not in given)
         try:
             x0.append(float(e.xreplace(sub)))
         except TypeError:
             raise UsageError(f"monitor: the initial value of {s} ({e}) is not a number") from None
+    if zeroed is not None:
+        zeroed.extend(sorted(taken))
     return np.array(x0, dtype=float)
 
 
@@ -173,7 +179,10 @@ class Monitor:
         if h is not None and not (np.isfinite(h) and h > 0):
             raise UsageError(f"monitor: h must be a positive finite sample time, got {h!r}")
         self.h0, self.sample_time = h, sample_time
-        self.x0 = monitor_initial_state(observer, initial)
+        #: the plant symbols the observer's initial state depends on that were taken as 0
+        #: (not given in ``initial``): an assumption the CLI states
+        self.assumed_zero = []
+        self.x0 = monitor_initial_state(observer, initial, zeroed=self.assumed_zero)
         self.engine = engine if engine is not None else ReferenceMonitorEngine(observer)
         self.envelope = declared_envelope(model)
         self.record = record

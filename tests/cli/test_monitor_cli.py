@@ -210,3 +210,14 @@ def test_streaming_terminated_writes_the_rows_read(tmp_path):
     assert 412 <= len(rows) <= 430
     assert [float(r["t"]) for r in rows] == [float(ln.split(",")[0])
                                              for ln in lines[1:len(rows) + 1]]
+
+
+def test_the_initial_state_assumption_is_stated(capsys, tmp_path):
+    """The observer's initial state rests on plant states nobody measured: the run says
+    which were taken as 0; --initial sets them (a wrong x1(0) then shows as an alarm)."""
+    base = ["monitor", TANKS, *BANK, "--data", RECORDING, "--out", tmp_path / "m"]
+    rc, so, se = run(capsys, base)
+    assert rc == 0 and "the observer starts as if x1 = x2 = x3 = 0 at t = 0" in so
+    rc, so, se = run(capsys, base + ["--initial", "x1=0.1"])
+    assert rc == 0 and "as if x2 = x3 = 0" in so
+    assert "first alarm at t = 0 s" in so
