@@ -89,12 +89,12 @@ def bank():
     return m, b, o, simulate(m, o, sc)
 
 
-def write_csv(path: Path, columns: dict, ts: float) -> Path:
+def write_csv(path: Path, columns: dict, ts: float, *, time: str = "time") -> Path:
     """A recorded-input CSV: ``time`` = k·Ts, then the columns (repr: exact doubles; NaN
     written as an empty cell is not what FMPy reads, so NaN as 'nan')."""
     names = list(columns)
     n = len(next(iter(columns.values())))
-    lines = [",".join(["time"] + names)]
+    lines = [",".join([time] + names)]
     for k in range(n):
         lines.append(",".join([repr(k * ts)] + [repr(float(columns[c][k])) for c in names]))
     path.write_text("\n".join(lines) + "\n")
@@ -160,9 +160,11 @@ def test_the_c_example_agrees_with_the_same_reference(drive, tmp_path):
                        cwd=tmp_path, capture_output=True, text=True, timeout=300)
     assert r.returncode == 0, r.stderr
     cols = {c: np.asarray(res[c], dtype=float) for c in ("y1", "y2", "u")}
-    write_csv(tmp_path / "in.csv", cols, 0.01)
+    # the example reads the monitor's CSV: t (steps of a discrete model), then the signals
+    write_csv(tmp_path / "in.csv", cols, 1, time="t")
     with open(tmp_path / "out.csv", "w") as fh:
-        p = subprocess.run(["./ex", "in.csv"], cwd=tmp_path, stdout=fh, stderr=subprocess.PIPE,
+        p = subprocess.run(["./ex", "in.csv", "trace"], cwd=tmp_path, stdout=fh,
+                           stderr=subprocess.PIPE,
                            text=True, timeout=300)
     assert p.returncode == 0, p.stderr
     got = read_csv_columns(tmp_path / "out.csv")
