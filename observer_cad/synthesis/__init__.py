@@ -33,8 +33,9 @@ from .robust import (design_robust_canonical, design_robust_jordan, robust_basis
 from .sliding import (K1, EPS, TAU, design_sliding, sliding_pencil, admissible_sliding_lambdas,
                       GainBound, GainTerm, gain_bound, reaching_time, RK4_STABILITY)
 from ._dispatch import design, OBSERVERS
+from ._frozen import load_design_data, recomputed_design
 
-__all__ = [
+__all__ = ["load_design_data", "recomputed_design", 
     "Identity", "Certificate", "certify_reduced_model", "certify_design", "certify_against_model",
     "MODEL_PREFIX", "denominator_assumptions", "complete_assumptions", "CONDITIONING_LEVEL",
     "CONDITIONING_NAME", "CONDITIONING_REFERENCE", "conditioning_numbers", "conditioning_verdict",
