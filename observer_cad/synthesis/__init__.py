@@ -17,7 +17,7 @@ from .certificates import (Identity, Certificate, certify_reduced_model, certify
                            FaultSensitivity, fault_signature, fault_sensitivity,
                            residual_response, SIGNATURE_RTOL)
 from .core import (Condition, Design, DesignMatrices, DesignRequest, Form, Method,
-                   NonlinearSubstitution, SlidingGainInputs, MATRIX_ORDER, parse_json_expression,
+                   NonlinearSubstitution, SlidingGainInputs, MATRIX_ORDER, parse_json_expression, check_model_hash,
                    substitute_arguments, default_eigenvalues, parse_eigenvalues, place_poles,
                    require_stable, pole_placement, PolePlacement, certify_poles,
                    closed_loop_eigenvalues, target_polynomial, PLACEMENT_SEED, observer_symbols,
@@ -35,7 +35,7 @@ from .sliding import (K1, EPS, TAU, design_sliding, sliding_pencil, admissible_s
 from ._dispatch import design, OBSERVERS
 from ._frozen import load_design_data, recomputed_design
 
-__all__ = ["load_design_data", "recomputed_design", 
+__all__ = ["load_design_data", "check_model_hash", "recomputed_design", 
     "Identity", "Certificate", "certify_reduced_model", "certify_design", "certify_against_model",
     "MODEL_PREFIX", "denominator_assumptions", "complete_assumptions", "CONDITIONING_LEVEL",
     "CONDITIONING_NAME", "CONDITIONING_REFERENCE", "conditioning_numbers", "conditioning_verdict",
