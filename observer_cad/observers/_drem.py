@@ -304,7 +304,17 @@ class DremDesign:
                 raise UsageError(f"{model.where}: the recorded DREM design does not match the"
                                  f" model: its '{key}' differs when rebuilt")
         # what it reports is recomputed too; a recorded value only serves as a comparison
-        for key in ("coefficients", "terms", "Q", "known_term", "conditions", "outputs"):
+        ob = (rebuilt.observer.to_json() if any(k in data for k in (
+            "observer_equations", "states", "equations")) else {})
+        if "observer_equations" in data:
+            again["observer_equations"] = ob
+        for key in ("states", "equations"):  # (what 'design --json' prints beside them)
+            if key in data:
+                again[key] = ob[key]
+        if "equations" in data:  # 'design --json' prints the observer's outputs too
+            again["outputs"] = ob["outputs"]
+        for key in ("coefficients", "terms", "Q", "known_term", "conditions", "outputs",
+                    "observer_equations", "states", "equations"):
             if key in data and again[key] != data[key]:
                 raise UsageError(f"the recorded DREM design's '{key}' differs from the"
                                  " recomputed one: the file is not what designing again gives"
