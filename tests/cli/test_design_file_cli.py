@@ -16,12 +16,17 @@ SCEN = MODELS / "scenarios"
 SCENARIOS = {
     "drive": {"steps": 60, "seed": 2, "signals": {"u": "0.2*sin(t/10)",
               "rho": {"uniform": [-0.05, 0.05]}, "d": "Piecewise((0, t < 30), (0.5, True))"}},
-    "tank": {"t_end": 2, "dt": 0.01, "seed": 4, "initial": {"x1": 2, "x2": 1.2, "x3": 0.6},
+    "tank": {"t_end": 0.5, "dt": 0.01, "seed": 4, "initial": {"x1": 2, "x2": 1.2, "x3": 0.6},
              "signals": {"u1": "0.5", "u2": "0.2", "w1": {"uniform": [-0.01, 0.01]},
                          "w2": {"uniform": [-0.01, 0.01]}}},
-    "sliding": {"t_end": 1, "dt": 0.001, "seed": 1, "initial": {"x1": 0, "x2": 1, "x3": 0},
+    "sliding": {"t_end": 0.5, "dt": 0.001, "seed": 1, "initial": {"x1": 0, "x2": 1, "x3": 0},
                 "signals": {"d": "Piecewise((0, t < 0.5), (0.8*sin(t - 0.5), True))",
                             "rho": "0.3*sin(3*t)"}},
+    "isolation": {"t_end": 3, "dt": 0.01, "seed": 0, "initial": {"x1": 0.5, "x2": 0.2, "x3": 0.1},
+                  "signals": {"u1": "1", "u2": "0.5", "rho": "0.2*sin(2*t)",
+                              "f2": "Piecewise((0, t < 1.5), (0.3, True))"}},
+    "drem": {"t_end": 12, "dt": 0.02, "seed": 0, "initial": {"x1": 1, "x2": -0.5},
+             "signals": {"u": "2*sin(t) + sin(2.7*t) + 1.6*cos(0.6*t)"}},
 }
 
 CASES = {
@@ -36,8 +41,8 @@ CASES = {
     "interval": ("three_tank.py", ["--observer", "interval", "--estimate", "x1"], "tank", []),
     "sliding-mode": ("sliding_example.py", ["--observer", "sliding-mode"], "sliding", []),
     "bank": ("three_tank_isolation.py", ["--observer", "diagnostic", "--isolate"],
-             SCEN / "three_tank_isolation.json", ["--threshold", "guaranteed"]),
-    "drem": ("drem_example.py", ["--observer", "drem"], SCEN / "drem_example.json", []),
+             "isolation", ["--threshold", "guaranteed"]),
+    "drem": ("drem_example.py", ["--observer", "drem"], "drem", []),
 }
 
 
@@ -64,19 +69,26 @@ def _scenario(tmp_path, scen):
     return path
 
 
-@pytest.mark.parametrize("name", sorted(CASES))
+#: the cases whose design, threshold or reference simulation take more than ~10 s
+SLOW = ("bank", "drem", "interval")
+
+
+@pytest.mark.parametrize("name", [pytest.param(n, marks=pytest.mark.slow) if n in SLOW else n
+                                  for n in sorted(CASES)])
 def test_simulate_with_a_frozen_design_writes_the_same_csv(tmp_path, capsys, name):
     model, options, scen, extra = CASES[name]
     path = _frozen(tmp_path, capsys, model, options)
     scenario = _scenario(tmp_path, scen)
     common = ["--scenario", scenario, "--engine", "reference", *extra]
-    first = _run(capsys, ["simulate", MODELS / model, *options, *common, "--out", tmp_path / "a"])
+    first = _run(capsys, ["simulate", MODELS / model, *options, *common, "--out", tmp_path / "a"],
+                 code=0)
     again = _run(capsys, ["simulate", MODELS / model, "--observer", options[1], "--design", path,
                           *common, "--out", tmp_path / "b"])
     a = (tmp_path / "a" / "signals.csv").read_bytes()
     assert a == (tmp_path / "b" / "signals.csv").read_bytes()
     # what it prints (the first alarm, the evaluation) is the same but for the folder
     assert first.out.replace(str(tmp_path / "a"), "") == again.out.replace(str(tmp_path / "b"), "")
+    assert first.err.replace(str(tmp_path / "a"), "") == again.err.replace(str(tmp_path / "b"), "")
 
 
 @pytest.mark.parametrize("name", ["unknown-input", "bank", "sliding-mode"])
@@ -96,7 +108,7 @@ def _rows(path):
     return list(csv.reader(open(path)))
 
 
-@pytest.mark.parametrize("name", ["unknown-input", "bank"])
+@pytest.mark.parametrize("name", ["unknown-input", pytest.param("bank", marks=pytest.mark.slow)])
 def test_ensemble_with_a_frozen_design_gives_the_same_summary(tmp_path, capsys, name):
     model, options, scen, extra = CASES[name]
     path = _frozen(tmp_path, capsys, model, options)
