@@ -25,6 +25,7 @@ import sympy as sp
 
 from ..errors import DimensionError, ExpressionError, ModelError
 from ._expressions import parse_number
+from ._statespace import statespace_model_arguments
 
 __all__ = ["PlantModel", "load_model", "load_model_module", "model_from_module", "to_rational"]
 
@@ -259,9 +260,8 @@ class PlantModel:
     def from_statespace(cls, sys, **options) -> "PlantModel":
         """A model from a python-control ``StateSpace``, a scipy ``lti``/``dlti`` or a
         tuple ``(A, B, C, D)``, its input columns grouped by role
-        (:func:`observer_cad.model.from_statespace`, which documents the options)."""
-        from ._statespace import from_statespace
-        return from_statespace(sys, **options)
+        (the options: :func:`observer_cad.model.statespace_model_arguments`)."""
+        return cls(**statespace_model_arguments(sys, **options))
 
     # ------------------------------------------------------------------ helpers
     @property

@@ -339,7 +339,7 @@ def _joint_lipschitz(red: _Reduced, i, sg, rng) -> tuple:
 
 def _joint_user(red: _Reduced, i, sg, mg) -> tuple:
     """Row i sign-definite in the states, the noise by the user's k* w* for the nonlinear
-    part plus |J*| W w* for the linear one; a condition compares k* w* with the Lipschitz
+    part plus abs(J*) W w* for the linear one; a condition compares k* w* with the Lipschitz
     bound when there is one. Returns (lower, upper, margin text, condition)."""
     lo_x, hi_x = _state_ends(red, i, sg)
     W, wlo, whi = red.W, red.wlo, red.whi
@@ -513,7 +513,7 @@ def interval_observer_nonlinear(model: PlantModel, design: Design, *, margin=Non
         worst case over the noise box (needs f_i monotone in each ỹ_k; no Lipschitz
         constant). ``"lipschitz"``: f_i(x, y) ∓ Σ_k K_ik r_k with K_ik = sup|∂f_i/∂ỹ_k|
         (fails when that is infinite, as for √ at 0). Numbers (one, or one per row):
-        the paper's "k* w*" for the nonlinear part, added to the linear |J*| W w*
+        the paper's "k* w*" for the nonlinear part, added to the linear abs(J*) W w*
         term; a Condition compares it with the Lipschitz bound when there is one.
     domain : relations, optional
         Override the model's state domain (for the clipping ranges and the checks).

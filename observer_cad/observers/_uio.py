@@ -33,7 +33,7 @@ bounds) and stable:
   after D*'s row and from row 3 on;
 * Jordan: g = λ − 0.7, so that the copies' error obeys e(t+1) = 0.7 e(t).
 
-Degenerate α: α is computed as ``Piecewise((num/den, |den| > eps), (1/2, True))`` with the
+Degenerate α: α is computed as ``Piecewise((num/den, abs(den) > eps), (1/2, True))`` with the
 denominator itself made nonzero in the unused branch (numpy evaluates every branch of a
 select: no division by zero, no NaN), ``eps`` the observer parameter ``alpha_eps``
 (default 1e-12). With −g ≥ 0 (k = 1; F* − g H* ≥ 0 in general) and x̲(0) ≤ x̄(0) the

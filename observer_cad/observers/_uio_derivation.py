@@ -504,7 +504,7 @@ def _derive_core(model, red, k, r, m, l, inputs, _lambda):
 
 
 def _guarded(num, den, eps):
-    """num/den, or 1/2 where |den| ≤ eps (the denominator itself guarded: no 0/0)."""
+    """num/den, or 1/2 where abs(den) ≤ eps (the denominator itself guarded: no 0/0)."""
     ok = sp.Abs(den) > eps
     # den + (0 or 1 − den): an Add, so that sympy does not move the power into the
     # Piecewise (numpy evaluates every branch of a select)

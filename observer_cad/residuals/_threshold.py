@@ -23,12 +23,12 @@ the comparison (embedding) system
 
 and r̲ = N⁺ e̲ − N⁻ ē + Γ̲, r̄ = N⁺ ē − N⁻ e̲ + Γ̄ with N = −C. While the declared bounds hold,
 the fault-free residual stays in [r̲, r̄]: no false alarm is possible. The comparison system
-must be stable for the band to stay bounded: ρ(|A|) < 1 (discrete) or A_d + |A_o| Hurwitz
+must be stable for the band to stay bounded: ρ(abs(A)) < 1 (discrete) or A_d + abs(A_o) Hurwitz
 (continuous), certified exactly through the leading principal minors of the M-matrix
-I − |A| (or −(A_d + |A_o|)).
+I − abs(A) (or −(A_d + abs(A_o))).
 
 A fault d adds e_f' = A e_f + B_f d to the error and −C e_f to the residual (B_f = Φ D), so
-r = r_0 + r_f with r_0 ∈ [r̲, r̄]: a step fault whose steady response |r_f| exceeds the band
+r = r_0 + r_f with r_0 ∈ [r̲, r̄]: a step fault whose steady response abs(r_f) exceeds the band
 width is detected for sure (:meth:`ErrorSystem.dc_gain`, :func:`min_detectable_fault`).
 """
 from __future__ import annotations
@@ -46,7 +46,7 @@ from ..analysis import argument_range, format_number
 from ..observers import Observer, output_symbols
 
 __all__ = ["ErrorSystem", "Threshold", "ThresholdSpec", "guaranteed_threshold",
-           "constant_threshold", "residual_outputs", "min_detectable_fault", "DEFAULT_MARGIN"]
+           "constant_threshold", "residual_names", "min_detectable_fault", "DEFAULT_MARGIN"]
 
 #: Absolute allowance added to both ends of a guaranteed band for floating-point roundoff of
 #: the simulated or compiled residual (the band of a noise-free, exactly decoupled residual is
@@ -56,7 +56,7 @@ DEFAULT_MARGIN = 1e-9
 _REF = "METHOD §3 (residual evaluation)"
 
 
-def residual_outputs(observer: Observer) -> tuple:
+def residual_names(observer: Observer) -> tuple:
     """The residual outputs of an observer: ``r`` or ``r1 … rm`` (in output order)."""
     names = tuple(n for n, _ in observer.outputs if re.fullmatch(r"r\d*", n))
     if not names:
@@ -336,10 +336,10 @@ def _bound_terms(expr, gens, coeff_box, xbox, where):
 
 
 def _checked_options(model: PlantModel, observer: Observer, initial_error, margin) -> tuple:
-    """The residuals, |e(0)| and the margin, with one-line errors for what cannot have a
+    """The residuals, abs(e(0)) and the margin, with one-line errors for what cannot have a
     guaranteed threshold."""
     where = model.where
-    residuals = residual_outputs(observer)
+    residuals = residual_names(observer)
     if observer.time != model.time:
         raise UsageError(f"{where}: the observer is {observer.time}-time, the model {model.time}-time")
     if observer.delays and any(observer.delays.get(r, 0) for r in residuals):
@@ -538,7 +538,7 @@ def guaranteed_threshold(model: PlantModel, observer: Observer, *, initial_error
     extra states (the error bounds ``<ξ>_elo``, ``<ξ>_ehi``); its conditions list what the
     band rests on, and ``observer.threshold`` is the :class:`Threshold`.
 
-    ``initial_error`` bounds |e_i(0)| (0: the observer starts at x*(0) = Φ x(0), as the
+    ``initial_error`` bounds abs(e_i(0)) (0: the observer starts at x*(0) = Φ x(0), as the
     simulator does unless a scenario sets ``observer_initial``); ``margin`` is added to both
     ends for floating-point roundoff.
     """
@@ -584,7 +584,7 @@ def constant_threshold(observer: Observer, value, *, kind: str = "constant",
                        description: str = "") -> Observer:
     """The observer with constant bands ``rI_lower = −τ_I``, ``rI_upper = τ_I`` (``value`` a
     number, or one per residual)."""
-    residuals = residual_outputs(observer)
+    residuals = residual_names(observer)
     vals = list(value) if isinstance(value, (list, tuple)) else [value] * len(residuals)
     if len(vals) != len(residuals):
         raise UsageError(f"{len(vals)} threshold values for {len(residuals)} residuals"
@@ -608,7 +608,7 @@ def constant_threshold(observer: Observer, value, *, kind: str = "constant",
 
 def min_detectable_fault(threshold: Threshold, width) -> dict:
     """Smallest step fault (per fault name) guaranteed to be detected once its response has
-    settled: min over residuals of width_I / |dc gain_I,j| (``width``: the band width per
+    settled: min over residuals of width_I / abs(dc gain_I,j) (``width``: the band width per
     residual, e.g. its largest value over a run). None where no residual sees the fault."""
     es = threshold.error_system
     if es is None:

@@ -1,6 +1,6 @@
 """The command line: ``observer-cad show|design|demo`` and their help.
 
-Output formats (README "Command line"): ``show`` prints the extracted matrices (or one
+Output formats (docs/CLI.md): ``show`` prints the extracted matrices (or one
 JSON object with ``--json``); ``design`` prints the design with its conditions marked
 ``[ ok ]`` / ``[FAIL]`` / ``[ -- ]``, or one JSON object with keys ``k``, ``form``,
 ``matrices``, ``conditions``, ``assumptions``. Error paths are in test_bad_input.py.
@@ -168,7 +168,7 @@ def test_design_json_symbolic(capsys):
 
 
 def test_design_json_symbolic_rho_assumptions(capsys):
-    """README §2: estimating rho symbolically needs k4 != 0 (and k1 != 0)."""
+    """The README tour's symbolic design: estimating rho symbolically needs k4 != 0 (and k1 != 0)."""
     obj = design_json(capsys, "--symbolic", fault="rho")
     assert obj["decoupled"] == []  # d is a fault, taken as zero; nothing to decouple
     mats = check_design_json(obj, symbolic=True, n_decoupled=0)

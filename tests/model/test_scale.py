@@ -1,4 +1,4 @@
-"""Model building and structure extraction at scale (issue 14, item 2): the fast paths
+"""Model building and structure extraction at scale: the fast paths
 give exactly what sympy's own constructors give, and a seed still draws the same plant.
 
 Timing goals are shown by ``benchmarks/bench_scale.py``, not asserted here."""
@@ -47,7 +47,7 @@ def test_integer_and_zero_matrices_keep_sympys_domain():
 
 
 def test_a_seed_draws_the_same_plant_as_before():
-    # fingerprints of the matrices the first implementation drew (issue 11) for these seeds
+    # fingerprints of the matrices the first implementation drew for these seeds
     mats = random_matrices(40, 8, 1, seed=0, integer=False)
     F, H = mats["F"], mats["H"]
     assert sum(F) == sp.Rational(-2219, 1000)
