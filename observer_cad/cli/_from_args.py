@@ -128,8 +128,9 @@ def _agree(args, path, result, bank: bool) -> None:
     else:
         req = result.request
         faults, dist = list(req.faults), list(req.disturbances)
-        if getattr(args, "isolate", False):
-            refuse("--isolate", "(a bank)", "a single design")
+        if getattr(args, "isolate", False) or _given(args, "structure", None):
+            refuse("--isolate" if getattr(args, "isolate", False) else "--structure",
+                   "(a bank)", "a single design")
     if _given(args, "fault", []) and sorted(args.fault) != sorted(faults):
         refuse("--fault", ",".join(args.fault), ",".join(faults) or "none")
     if _given(args, "disturbance", []) and sorted(args.disturbance) != sorted(dist):

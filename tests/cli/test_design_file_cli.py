@@ -128,7 +128,10 @@ def test_design_options_beside_the_file_must_agree(tmp_path, capsys):
     for bad, names in ((["--observer", "diagnostic"], "--observer diagnostic"),
                        (["--observer", "unknown-input", "--fault", "rho"], "--fault rho"),
                        (["--observer", "unknown-input", "--form", "jordan"], "--form jordan"),
-                       (["--observer", "unknown-input", "--isolate"], "--isolate")):
+                       (["--observer", "unknown-input", "--isolate"], "--isolate"),
+                       (["--observer", "unknown-input", "--structure", "1"], "--structure"),
+                       (["--observer", "unknown-input", "--eigenvalues", "1/3"],
+                        "--eigenvalues 1/3")):
         err = _run(capsys, ["design", MODELS / model, *bad, "--design", path], code=2).err
         assert err.count("\n") == 1 and names in err and "does not agree" in err, err
 
