@@ -279,6 +279,12 @@ class Design:
         ones the matrices give. A design that does not fit the model or fails its
         certificate raises; nothing is trusted because it was on disk. A value of the wrong
         type or shape anywhere is one UsageError naming what Python or sympy refused.
+
+        This is the parsing and certifying step only: the conditions, assumptions and
+        λ it returns are the file's. A design file is loaded with
+        :func:`observer_cad.analysis.load_design` (or
+        :func:`observer_cad.synthesis.load_design_data`), which also checks the model
+        hash and recomputes every reported value, comparing the recorded ones.
         """
         try:
             return design_from_json(cls, data, model)
