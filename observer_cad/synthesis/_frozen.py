@@ -27,6 +27,12 @@ from ._dispatch import design
 
 __all__ = ["load_design_data", "recomputed_design"]
 
+#: the largest comparison this module makes by algebra (sympy's operation count of the
+#: difference, and the largest integer exponent in it): a recorded value beyond it is not
+#: one this tool writes, and is refused without expanding it
+COMPARE_OPS = 400
+COMPARE_EXPONENT = 64
+
 #: the relative tolerance within which a float design's matrices must equal the ones
 #: designing again gives (a float design is reproduced up to rounding)
 FLOAT_MATRIX_RTOL = 1e-8
@@ -126,7 +132,7 @@ def _compare_matrices(loaded: Design, fresh: Design) -> None:
         if A == B or A.rows * A.cols == 0:
             continue
         if exact or A.free_symbols or B.free_symbols:
-            same = all(is_identically_zero(a - b).holds for a, b in zip(A, B))
+            same = all(_same_value(a, b) for a, b in zip(A, B))
         else:
             a, b = np_exact(A), np_exact(B)
             same = bool(np.all(np.isfinite(a))) and np.allclose(
@@ -176,5 +182,18 @@ def _compare_values(field: str, mine, theirs) -> None:
     if len(mine) != len(theirs):
         _refuse(field, f"list {len(mine)} value(s), designing again gives {len(theirs)}")
     for a, b in zip(mine, theirs):
-        if a != b and not is_identically_zero(a - b).holds:
+        if not _same_value(a, b):
             _refuse(field, f"hold {a}, designing again gives {b}")
+
+
+def _same_value(a, b) -> bool:
+    """Whether two parsed values are equal: identical, or (within :data:`COMPARE_OPS` and
+    :data:`COMPARE_EXPONENT`, so that nothing recorded is expanded without bound) their
+    difference is identically zero."""
+    if a == b:
+        return True
+    d = a - b
+    if sp.count_ops(d) > COMPARE_OPS or any(
+            p.exp.is_Integer and abs(int(p.exp)) > COMPARE_EXPONENT for p in d.atoms(sp.Pow)):
+        return False
+    return is_identically_zero(d).holds
