@@ -259,3 +259,28 @@ def test_a_tampered_bank_is_refused(tmp_path):
     path.write_text(json.dumps(data))
     with pytest.raises(UsageError, match="recorded scheme differs"):
         load_design(path, model)
+
+
+MORE_FORMS = [
+    ("three_tank_linear.py", dict(observer="interval", estimate="x1", form="canonical",
+                                  eigenvalues=["-1", "-2"])),
+    ("three_tank_linear.py", dict(observer="virtual-sensor", estimate="x1", form="canonical",
+                                  variant="004")),
+    ("nonmonotone_chain.py", dict(observer="interval", estimate="x1")),
+    ("electric_drive.py", dict(observer="diagnostic", symbolic=True)),
+    ("three_tank_faults.py", dict(observer="diagnostic", faults=["f1"], method="float")),
+]
+
+
+@pytest.mark.parametrize("file, options", MORE_FORMS,
+                         ids=[f"{f}-{o['observer']}-{o.get('form', '')}{o.get('method', '')}"
+                              for f, o in MORE_FORMS])
+def test_more_forms_round_trip(tmp_path, file, options):
+    """Canonical interval designs (T and the diagonal form), seed 004's virtual sensor, a
+    γ-shift interval observer, a symbolic diagnostic design and a float one."""
+    model = load_model(MODELS / file)
+    d = design(model, **options)
+    back = load_design(write_design_json(d, tmp_path / "d.json"), model)
+    _same_matrices(d, back)
+    assert [c.name for c in back.conditions] == [c.name for c in d.conditions]
+    assert back.assumptions == d.assumptions
