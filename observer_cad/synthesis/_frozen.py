@@ -108,6 +108,8 @@ def _compare(data: dict, loaded: Design, fresh: Design) -> None:
     if data.get("signature_detail") and data["signature_detail"] != [
             s.to_json() for s in fresh.signature]:
         _refuse("signature_detail", "differs from the recomputed fault signature")
+    if fresh.request is not None and data.get("request") != fresh.request.to_json():
+        _refuse("request", "differs from the request designing again records")
     if "task" in data and data["task"] != fresh.task.to_json():
         _refuse("task", "differs from the task designing again resolves")
     want_sliding = fresh.sliding_inputs.to_json() if fresh.sliding_inputs is not None else None
