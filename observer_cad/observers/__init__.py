@@ -11,6 +11,7 @@ from ._full_state import (full_state_intervals)
 from ._observer import (Observer, output_symbols)
 from ._sliding import (sliding_observer)
 from ._uio_derivation import (Derivation, derive_estimate, ALPHA, ALPHA_PREV)
+from ._uio_continuous import (continuous_unknown_input_observer, DEFAULT_TAU)
 from ._uio import (unknown_input_observer, vector_unknown_input_observer, combine_observers, default_gains)
 
 __all__ = [
@@ -21,5 +22,6 @@ __all__ = [
     "check_excitation", "suggest_gamma", "true_unknowns", "determinants",
     "interval_observer_nonlinear", "full_state_intervals", "Observer", "output_symbols",
     "sliding_observer", "Derivation", "derive_estimate", "unknown_input_observer",
-    "vector_unknown_input_observer", "combine_observers", "ALPHA", "ALPHA_PREV", "default_gains"
+    "vector_unknown_input_observer", "combine_observers", "ALPHA", "ALPHA_PREV", "default_gains",
+    "continuous_unknown_input_observer", "DEFAULT_TAU"
 ]

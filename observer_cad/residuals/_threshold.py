@@ -27,6 +27,10 @@ must be stable for the band to stay bounded: ρ(abs(A)) < 1 (discrete) or A_d + 
 (continuous), certified exactly through the leading principal minors of the M-matrix
 I − abs(A) (or −(A_d + abs(A_o))).
 
+Process noise in the dynamics (f = … + Bw w) is not decoupled: it adds Φ Bw w to Δ, bounded
+over the noise box together with the measurement noise of the same symbols
+(:func:`_process_noise_term`), so the band grows by its contribution.
+
 A fault d adds e_f' = A e_f + B_f d to the error and −C e_f to the residual (B_f = Φ D), so
 r = r_0 + r_f with r_0 ∈ [r̲, r̄]: a step fault whose steady response abs(r_f) exceeds the band
 width is detected for sure (:meth:`ErrorSystem.dc_gain`, :func:`min_detectable_fault`).
@@ -387,10 +391,29 @@ def _error_terms(model: PlantModel, observer: Observer, xi, upd, g, where: str) 
     ysub = dict(zip(ys, outs))
     xsub = dict(zip(xi, phi))
     nofault = {d: 0 for d in model.faults}
+    nofault.update({w: 0 for w in model.noise})  # process noise: _process_noise_term
     Fx = sp.Matrix([f.xreplace(nofault) for f in dyn])
     Delta = (Phi * Fx - sp.Matrix([e.xreplace(xsub).xreplace(ysub) for e in upd])).applyfunc(sp.expand)
     Gamma = sp.Matrix([e.xreplace(xsub).xreplace(ysub) for e in g]).applyfunc(sp.expand)
     return Delta, Gamma, Phi, dyn, outs, deltas, dbox
+
+
+def _process_noise_term(model: PlantModel, Phi, dyn) -> tuple:
+    """Process noise in the error equation: Φ Bw w with Bw = ∂f/∂w (constant, the model's
+    extraction guarantees it; uncertain parameters kept as θ0 + δ), and the condition naming
+    it (None without process noise). Added to Δ, it is bounded over the noise box like every
+    other term, jointly with the measurement noise −J* W w of the same symbols."""
+    k = Phi.rows
+    noise = [w for w in model.noise if any(f.has(w) for f in dyn)]
+    if not noise:
+        return sp.zeros(k, 1), None
+    Bw = sp.Matrix([[sp.diff(f, w) for w in noise] for f in dyn])
+    term = (Phi * Bw * sp.Matrix(noise)).applyfunc(sp.expand)
+    seen = [str(w) for j, w in enumerate(noise) if any(e != 0 for e in (Phi * Bw)[:, j])]
+    detail = (f"Φ Bw w over {', '.join(map(str, noise))}: Φ Bw = {(Phi * Bw).tolist()}; "
+              + (f"{', '.join(seen)} widen the band (bounded over their declared boxes)" if seen
+                 else "Φ Bw = 0: the process noise does not reach this residual"))
+    return term, Condition("process noise bounded", True, detail, _REF)
 
 
 def _identity_condition(model: PlantModel, Delta, Gamma, deltas, where: str) -> Condition:
@@ -548,6 +571,9 @@ def guaranteed_threshold(model: PlantModel, observer: Observer, *, initial_error
     k = len(xi)
     Delta, Gamma, Phi, dyn, outs, deltas, dbox = _error_terms(model, observer, xi, upd, g, where)
     conds = [_identity_condition(model, Delta, Gamma, deltas, where)]
+    process, process_cond = _process_noise_term(model, Phi, dyn)
+    Delta = Delta + process
+    conds += [process_cond] if process_cond is not None else []
     Dl, Dh, Gl, Gh, bound_conds = _uncertainty_bounds(model, Delta, Gamma, outs, deltas, dbox,
                                                       xi, residuals, where)
     conds += bound_conds

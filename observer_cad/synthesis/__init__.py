@@ -18,6 +18,7 @@ from .canonical import (design_canonical, krylov_blocks, krylov_null_spaces, mem
 from .jordan import (Admissible, admissible_lambdas, design_jordan, design_jordan_unknown_input, admissible_lambdas_float, design_jordan_float)
 from .robust import (design_robust_canonical, design_robust_jordan, robust_basis, jordan_candidates)
 from .sliding import (K1, EPS, TAU, design_sliding, sliding_pencil, admissible_sliding_lambdas, GainBound, GainTerm, gain_bound, reaching_time)
+from ._continuous_estimation import (continuous_estimation_check)
 from ._dispatch import (design)
 from ._frozen import (load_design_data, recomputed_design)
 
@@ -36,6 +37,6 @@ __all__ = [
     "design_jordan_unknown_input", "admissible_lambdas_float", "design_jordan_float",
     "design_robust_canonical", "design_robust_jordan", "robust_basis", "jordan_candidates",
     "K1", "EPS", "TAU", "design_sliding", "sliding_pencil", "admissible_sliding_lambdas",
-    "GainBound", "GainTerm", "gain_bound", "reaching_time", "design",
-    "check_model_hash", "load_design_data", "recomputed_design"
+    "GainBound", "GainTerm", "gain_bound", "reaching_time", "continuous_estimation_check",
+    "design", "check_model_hash", "load_design_data", "recomputed_design"
 ]

@@ -232,7 +232,7 @@ def test_help_design_mentions_every_option(capsys):
     assert out.startswith("usage: observer-cad design")
     expected = {"--observer", "--fault", "--disturbance", "--form", "--symbolic", "--method",
                 "--rtol", "--json", "--help", "--estimate", "--lambda", "--eigenvalues",
-                "--variant", "--robust", "--bound", "--gain", "--gamma", "--poles",
+                "--variant", "--robust", "--bound", "--gain", "--tau", "--gamma", "--poles",
                 "--include-epsilon", "--isolate", "--structure", "--threshold", "--initial-error",
                 "--proof-seconds", "--design"}
     subparsers = next(a for a in build_parser()._actions if a.choices and "design" in a.choices)

@@ -74,10 +74,13 @@ def test_long_equation_checks_still_name_the_symbol():
     bad = [lin + 3 * q * xs[1] * xs[2]] + [lin] * (len(xs) - 1)
     with pytest.raises(ModelError, match="undeclared symbol 'q' in dynamics equation 1"):
         PlantModel(**{**ok, "dynamics": bad})
-    # noise in the dynamics, found through a number·symbol term
-    with pytest.raises(ModelError, match="noise 'w' appears in dynamics equation 2"):
-        PlantModel(**{**ok, "noise": [w], "outputs": [xs[0] + w],
-                      "dynamics": [lin, lin + sp.Rational(2, 3) * w] + [lin] * 58})
+    # process noise in the dynamics, found through a number·symbol term; a noise symbol
+    # that multiplies a state is refused at extraction, naming it
+    PlantModel(**{**ok, "noise": [w], "outputs": [xs[0] + w],
+                  "dynamics": [lin, lin + sp.Rational(2, 3) * w] + [lin] * 58})
+    with pytest.raises(ModelError, match="noise 'w' enters with the coefficient x2"):
+        extract_structure(PlantModel(**{**ok, "noise": [w], "outputs": [xs[0] + w],
+                                        "dynamics": [lin, lin + w * xs[1]] + [lin] * 58}))
     # a declared fault that appears nowhere
     with pytest.raises(ModelError, match="fault 'd' is declared but appears in no"):
         PlantModel(**{**ok, "faults": [d]})

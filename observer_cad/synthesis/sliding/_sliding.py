@@ -62,6 +62,9 @@ sufficient condition is
 
     k1 > d*|D*| + Σ_i abs(((J* + λR*) W)_i) w*_i + δ N*      (+ abs(R* W) ẇ* for smooth noise).
 
+Process noise in the dynamics (x' = … + Bw w, not decoupled) adds −Φ_1 Bw w to e' and
+Σ_i |(Φ_1 Bw)_i| w*_i to the bound.
+
 The printed bound k1 > λδ + d*‖D*‖ (+ w*‖J*‖ + δN*) is *not* sufficient for λ < 0: it
 lowers the bound by |λ|δ, but on the sliding surface abs(v_eq) = abs(D* d)/k1 ≤ 1 forces
 k1 ≥ sup abs(D* d) = d*|D*| whatever λ and δ are (a test shows tracking failing at the
@@ -285,6 +288,11 @@ def gain_bound(model: PlantModel, design: Design, *, delta: float = 1.0,
     else:
         pv = 0.0
         terms.append(GainTerm("w*|J* + λR*|", 0.0, "no measurement noise declared"))
+    PBw = sp.Matrix(mats.Phi) * sp.Matrix(st.Bw)  # process noise: not decoupled, bounded
+    if any(e != 0 for e in PBw):
+        terms.append(GainTerm("w*|Φ_1 Bw|", sum(abs(float(c)) * w for c, w in zip(PBw, wst)),
+                              f"process noise: Σ_i |(Φ_1 Bw)_i| w*_i = Σ |{[float(c) for c in PBw]}|"
+                              f"·{wst}"))
     Cs = sp.Matrix(mats.C_star) if mats.C_star is not None else sp.zeros(1, 0)
     nonlin = any(e != 0 for e in Cs)
     if nonlin:
