@@ -29,17 +29,18 @@ def structure(F, H, D, Dy=None, L=None, Ly=None, *, time="continuous", name="exa
     L = sp.zeros(n, 0) if L is None else sp.Matrix(L)
     Dy = sp.zeros(l, m) if Dy is None else sp.Matrix(Dy)
     Ly = sp.zeros(l, L.cols) if Ly is None else sp.Matrix(Ly)
-    # a model declares only what enters its dynamics: a sensor-only fault gets a
-    # stand-in column there, replaced on the structure by its true (zero) one
-    B = sp.Matrix.hstack(*[D[:, j] if any(D[:, j]) else sp.ones(n, 1) for j in range(m)],
-                         L, sp.zeros(n, 1))
+    # a model declares only what enters its dynamics: a fault or disturbance only in
+    # the outputs gets a stand-in column there, replaced on the structure by its true (zero) one
+    def stand_in(X):
+        return [X[:, j] if any(X[:, j]) else sp.ones(n, 1) for j in range(X.cols)]
+    B = sp.Matrix.hstack(*stand_in(D), *stand_in(L), sp.zeros(n, 1))
     Dm = sp.zeros(l, B.cols)
     model = PlantModel.from_statespace(
         (F, B, H, Dm), faults=list(range(m)), disturbances=list(range(m, m + L.cols)),
         inputs=[m + L.cols], time=time, name=name)
     st = extract_structure(model)
     im = sp.ImmutableMatrix
-    return dataclasses.replace(st, D=im(D), Dy=im(Dy), Ly=im(Ly))
+    return dataclasses.replace(st, D=im(D), L=im(L), Dy=im(Dy), Ly=im(Ly))
 
 
 def niemann():
