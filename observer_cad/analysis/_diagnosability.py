@@ -260,7 +260,7 @@ def _with_strong(P, result: Analysis, omegas) -> Analysis:
     rows = _strong_rows(P, result.structure, points, conds)
     var = "s = jω" if P.work.time == "continuous" else "z = e^{jω}"
     notes = [f"strong detectability: a residual gain ≠ 0 at {var} for ω = {where} (ω = 0:"
-             " the steady-state gain), Varga 2017 §3.5"]
+             " the steady-state gain; Varga 2017, Ch. 3)"]
     if P.hidden:
         notes.append("strong answers are those with the nonlinear terms of unmeasured"
                      " arguments decoupled")

@@ -27,8 +27,8 @@ once stabilised by output injection, which leaves N unchanged). So
   combination of the outputs alone (``R* H = 0``, ``R* Ly = 0``, ``R* Dy ≠ 0``);
 * it is **strongly detectable** at a frequency ω iff some v has ``N(λ) ≠ 0`` at
   λ = jω (continuous time) or λ = e^{jω} (discrete time): the residual's gain there
-  is nonzero, for ω = 0 its steady-state gain (Varga 2017, §3.5, strong fault
-  detectability; ``fdigenspec`` with ``FDfreq``).
+  is nonzero, for ω = 0 its steady-state gain (Varga 2017, Ch. 3, strong fault
+  detectability; ``fdigenspec`` with ``FDfreq`` in FaultDetectionTools.jl).
 
 Why V_K for one K suffices: the members of all orders are the polynomial left kernel of
 the pencil ``[[sI − F, L], [−H, Ly]]`` (a member of order k multiplied by a polynomial
@@ -52,6 +52,7 @@ with recorded conditions, or float with evidence), as in :mod:`._reach`.
 from __future__ import annotations
 
 import math
+
 
 import numpy as np
 import sympy as sp

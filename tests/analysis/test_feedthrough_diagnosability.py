@@ -234,7 +234,8 @@ def test_float_path_agrees_on_a_published_example():
 
 def test_structure_fields_default_to_zero():
     _, s = random_structure(3, 2, 1, seed=1, m=2)
-    assert s.Dy.shape == (2, s.D.cols) and s.Ly.shape == (2, s.L.cols) and s.Gy.shape == (2, s.G.cols)
+    assert s.Dy.shape == (2, s.D.cols) and s.Ly.shape == (2, s.L.cols)
+    assert s.Gy.shape == (2, s.G.cols)
     assert not s.has_feedthrough
     Dy = sp.zeros(2, s.D.cols)
     Dy[0, 0] = 1
