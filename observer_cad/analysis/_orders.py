@@ -53,7 +53,6 @@ from __future__ import annotations
 
 import math
 
-
 import numpy as np
 import sympy as sp
 
