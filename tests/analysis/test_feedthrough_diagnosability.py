@@ -240,3 +240,20 @@ def test_structure_fields_default_to_zero():
     Dy = sp.zeros(2, s.D.cols)
     Dy[0, 0] = 1
     assert dataclasses.replace(s, Dy=sp.ImmutableMatrix(Dy)).has_feedthrough
+
+
+# ---------------------------------------------------------------- the command line
+def test_cli_frequency_and_json_keys(capsys, models_dir):
+    from observer_cad.cli import main
+    path = str(models_dir / "three_tank_faults.py")
+    assert main(["analyze", path, "--json", "--frequency", "0", "--frequency", "0.5"]) == 0
+    js = json.loads(capsys.readouterr().out)
+    assert js["frequencies"] == ["0", "1/2"]
+    assert js["strongly_detectable"] == {"f1": True, "f2": True, "f3": False}
+    assert js["strong_structure_matrices"] == [{"f1": 1, "f2": 1, "f3": 0}]
+    assert js["structure_matrices"] == [{"f1": 1, "f2": 1, "f3": 0}]  # unchanged
+    assert main(["analyze", path]) == 0
+    out = capsys.readouterr().out
+    assert "Strong detectability" in out and "f1  strongly detectable" in out
+    assert main(["analyze", path, "--frequency", "1e"]) == 2
+    assert "observer-cad: error: frequency '1e'" in capsys.readouterr().err
