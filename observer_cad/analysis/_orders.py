@@ -56,10 +56,15 @@ import math
 import numpy as np
 import sympy as sp
 
+from sympy import QQ
+from sympy.polys.matrices import DomainMatrix
+from sympy.polys.matrices.exceptions import DMNonInvertibleMatrixError
+
 from ..errors import UsageError
+from ..numerics import as_rational, from_rational, rational_left_null, rational_rref
 from ..synthesis.core import arithmetic
 
-__all__ = ["OrderSpaces", "feedthrough_orders", "GAIN_RTOL", "evaluation_points"]
+__all__ = ["OrderSpaces", "Products", "feedthrough_orders", "GAIN_RTOL", "evaluation_points"]
 
 #: Relative tolerance of a gain decided in floating point (discrete time, ω ∉ {0, π}).
 GAIN_RTOL = 1e-9
@@ -85,84 +90,181 @@ def evaluation_points(frequencies, time: str) -> list:
     return out
 
 
-def _as_float(N) -> np.ndarray:
-    """A basis as the backend holds it, as a float array."""
-    if isinstance(N, np.ndarray):
-        return N
-    M = N.to_Matrix() if hasattr(N, "to_Matrix") else sp.Matrix(N)
-    if M.free_symbols:
-        raise UsageError("a gain at a discrete-time frequency other than 0 is decided"
-                         " numerically: analyse without --symbolic")
-    return np.array(M.evalf(), dtype=float)
+class _Native:
+    """The matrices of one question as the fastest exact or float type: DomainMatrix
+    over QQ (FLINT) for rational matrices on the exact path, numpy arrays on the float
+    path, sympy matrices (through the arithmetic ``ops``, which records the conditions)
+    with parameters."""
 
+    def __init__(self, ops, *mats):
+        self.ops = ops
+        if not ops.exact:
+            self.kind = "float"
+        elif all(as_rational(sp.Matrix(M)) is not None for M in mats):
+            self.kind = "rational"
+        else:
+            self.kind = "sympy"
 
-def _blocks(F, H, X, Xy, k):
-    """The columns (c_0 | c_1 … c_k) of the module docstring for X (n×p), Xy (l×p):
-    l(k+1) rows, p(k+1) columns, sympy."""
-    l, p = H.rows, X.cols
-    M = sp.zeros(l * (k + 1), p * (k + 1))
-    if p == 0:
+    def conv(self, M):
+        M = sp.Matrix(M)
+        if self.kind == "rational":
+            return as_rational(M).convert_to(QQ) if M.rows and M.cols else \
+                DomainMatrix.zeros(M.shape, QQ)
+        if self.kind == "float":
+            return np.array(M.evalf(), dtype=float).reshape(M.shape)
         return M
-    M[0:l, 0:p] = Xy
-    HF = [H]
-    for _ in range(max(k - 1, 0)):
-        HF.append(HF[-1] * F)
-    HFX = [A * X for A in HF]
-    for i in range(1, k + 1):
-        cols = slice(i * p, (i + 1) * p)
-        M[0:l, cols] = HFX[i - 1]
-        for j in range(1, i):
-            M[j * l:(j + 1) * l, cols] = HFX[i - 1 - j]
-        M[i * l:(i + 1) * l, cols] = Xy
-    return M
+
+    def zeros(self, r, c):
+        if self.kind == "rational":
+            return DomainMatrix.zeros((r, c), QQ)
+        return np.zeros((r, c)) if self.kind == "float" else sp.zeros(r, c)
+
+    def vstack(self, parts):
+        if self.kind == "rational":
+            if len(parts) == 1:
+                return parts[0]
+            rows = [r for P in parts for r in P.to_list()]
+            return DomainMatrix(rows, (len(rows), parts[0].shape[1]), QQ)
+        return np.vstack(parts) if self.kind == "float" else sp.Matrix.vstack(*parts)
+
+    def hstack(self, parts):
+        if self.kind == "rational":  # through lists: much faster than hstack for many columns
+            if len(parts) == 1:
+                return parts[0]
+            lists = [P.to_list() for P in parts]
+            rows = [sum((L[i] for L in lists), []) for i in range(parts[0].shape[0])]
+            return DomainMatrix(rows, (len(rows), sum(P.shape[1] for P in parts)), QQ)
+        return np.hstack(parts) if self.kind == "float" else sp.Matrix.hstack(*parts)
+
+    def scale(self, M, c):
+        """c M for a rational number c."""
+        if self.kind == "rational":
+            return M * QQ(int(c.p), int(c.q))
+        return M * (float(c) if self.kind == "float" else c)
+
+    def column(self, M, j):
+        if self.kind == "rational":
+            return M.extract(list(range(M.shape[0])), [j])
+        return M[:, j:j + 1] if self.kind == "float" else M[:, j]
+
+    def rank(self, M) -> int:
+        if self.kind == "rational":
+            return len(rational_rref(M)[1]) if M.shape[0] and M.shape[1] else 0
+        ops = self.ops
+        if self.kind == "float":
+            return ops.basis(_unit_columns(M), set()).shape[0]
+        return ops.basis(ops.mat(M, "cols"), set()).shape[0]
+
+    def left_null(self, M, conds):
+        """A basis of {v : v M = 0} (rows)."""
+        if M.shape[1] == 0:
+            return self.conv(sp.eye(M.shape[0]))
+        if self.kind == "rational":
+            return rational_left_null(M)
+        if self.kind == "float":
+            return self.ops.left_null(_unit_columns(M), conds)
+        return self.ops.left_null(self.ops.mat(M, "cols"), conds)
+
+    def sees(self, N, v, conds) -> bool:
+        """N v ≠ 0 for a column v."""
+        if N.shape[0] == 0:
+            return False
+        if self.kind == "rational":
+            return any(e for row in (N * v).to_list() for e in row)
+        if self.kind == "float":
+            nrm = float(np.linalg.norm(v))
+            return nrm > 0 and self.ops.sees(N, v / nrm, conds)
+        return self.ops.sees(N, v, conds)
+
+    def to_float(self, M) -> np.ndarray:
+        if self.kind == "float":
+            return M
+        S = from_rational(M) if self.kind == "rational" else sp.Matrix(M)
+        if S.free_symbols:
+            raise UsageError("a gain at a discrete-time frequency other than 0 is decided"
+                             " numerically: analyse without --symbolic")
+        return np.array(S.evalf(), dtype=float).reshape(S.shape)
 
 
-def _krylov_w(F, H, k):
-    """W⁽ᵏ⁾ = [H Fᵏ; H Fᵏ⁻¹; …; H] (sympy)."""
-    HF = [H]
-    for _ in range(k):
-        HF.append(HF[-1] * F)
-    return sp.Matrix.vstack(*[HF[k - i] for i in range(k + 1)])
+def _unit_columns(A: np.ndarray) -> np.ndarray:
+    nrm = np.linalg.norm(A, axis=0, keepdims=True)
+    nrm[nrm == 0] = 1.0
+    return A / nrm
 
 
 class OrderSpaces:
     """V_k for one (F, H, L, Ly), grown order by order up to the order K from which
-    every member is a polynomial combination of members of V_K."""
+    every member is a polynomial combination of members of V_K. The products H F^i and
+    H F^i x of every column x are computed once (``products``, shareable between the
+    spaces of one model and output matrix)."""
 
-    def __init__(self, ops, F, H, L, Ly):
-        """``F``, ``H``, ``L``, ``Ly`` as sympy matrices; ``ops`` the arithmetic."""
+    def __init__(self, ops, F, H, L, Ly, products=None, names=None, parent=None):
+        """``F``, ``H``, ``L``, ``Ly`` as sympy matrices; ``ops`` the arithmetic. With
+        ``parent`` (the spaces of the first columns of L and Ly, sharing ``products``)
+        each V_k is the subspace of the parent's V_k annihilating the last column's
+        c_0 … c_k, found from the small matrix V_k(parent) (c_0 … c_k)."""
         self.ops = ops
-        self.F, self.H, self.L, self.Ly = (sp.Matrix(M) for M in (F, H, L, Ly))
+        self.F, self.H, self.L, self.Ly = (M if isinstance(M, sp.MatrixBase) else sp.Matrix(M)
+                                           for M in (F, H, L, Ly))
         self.n, self.l = self.F.rows, self.H.rows
+        self.P = products if products is not None else Products(ops, self.F, self.H)
+        self.alg = self.P.alg
         self.conds: set = set()
-        self.V: list = []  # backend bases, one per order
+        self.V: list = []  # bases, one per order
         self.done = False
+        self.dist = [names[j] if names and self.P.has(names[j]) else
+                     self.P.key(self.L[:, j], self.Ly[:, j], names[j] if names else None)
+                     for j in range(self.L.cols)]
         self.nu = self._kernel_count()
+        self.parent = parent
+        self._bases: dict = {}
 
     def _kernel_count(self) -> int:
         """ν = (n + l) − rank of the pencil at a random rational point (an upper bound
         of the number of minimal basis elements, exact with probability one)."""
-        n, l = self.n, self.l
-        s0 = sp.Rational(7919, 1009)
-        top = sp.Matrix.hstack(s0 * sp.eye(n) - self.F, self.L)
-        S = sp.Matrix.vstack(top, sp.Matrix.hstack(-self.H, self.Ly))
-        ops = self.ops
-        r = ops.basis(ops.mat(S, "cols"), set()).shape[0] if S.cols else 0
-        return n + l - r
+        alg, P = self.alg, self.P
+        if not self.dist:  # [s I − F; −H] has full column rank n
+            return self.l
+        M0 = P.resolvent()
+        if M0 is None:  # s0 an eigenvalue of F: the pencil itself
+            cols = [P.pencil()] + [alg.vstack(list(P.native(key))) for key in self.dist]
+            return self.n + self.l - alg.rank(alg.hstack(cols))
+        # rank [[s0 I − F, L], [−H, Ly]] = n + rank (H (s0 I − F)⁻¹ L + Ly)
+        G = alg.hstack([P.g_column(key) for key in self.dist])
+        return self.l - alg.rank(G)
 
     def _grow(self) -> bool:
         if self.done:
             return False
         k = len(self.V)
-        ops = self.ops
-        M = sp.Matrix.hstack(_krylov_w(self.F, self.H, k),
-                             _blocks(self.F, self.H, self.L, self.Ly, k))
-        N = ops.left_null(ops.mat(M, "cols"), self.conds)
+        N = self.basis(k)
         self.V.append(N)
         prev = self.V[-2].shape[0] if k else 0
         if k >= self.n or N.shape[0] - prev >= self.nu:
             self.done = True
         return True
+
+    def basis(self, k):
+        """A basis (rows) of V_k, for any k (also beyond the last order)."""
+        if k in self._bases:
+            return self._bases[k]
+        alg, P = self.alg, self.P
+        if self.parent is not None:
+            Np = self.parent.basis(k)
+            key = self.dist[-1]
+            if Np.shape[0] == 0:
+                N = Np
+            else:
+                M = alg.hstack([P.times(Np, P.block_column(key, i, k)) for i in range(k + 1)])
+                Y = alg.left_null(M, self.conds)
+                N = P.times(Y, Np) if Y.shape[0] else alg.zeros(0, Np.shape[1])
+            self.conds |= self.parent.conds
+        else:
+            cols = [P.w(k)] + [P.block_column(key, i, k)
+                               for i in range(k + 1) for key in self.dist]
+            N = alg.left_null(alg.hstack(cols), self.conds)
+        self._bases[k] = N
+        return N
 
     @property
     def last(self) -> int:
@@ -176,51 +278,167 @@ class OrderSpaces:
             pass
         return self.V[min(k, len(self.V) - 1)]
 
-    def fault_columns(self, k, d, dy) -> sp.Matrix:
-        """C_f = (c_0 … c_k) for one fault (columns d of D, dy of Dy)."""
-        return _blocks(self.F, self.H, sp.Matrix(d), sp.Matrix(dy), k)
+    def fault_columns(self, k, d, dy, name=None) -> list:
+        """C_f = (c_0 … c_k) for one fault (columns d of D, dy of Dy), as columns."""
+        key = self.P.key(d, dy, name)
+        return [self.P.block_column(key, i, k) for i in range(k + 1)]
 
-    def _sees(self, N, col, conds) -> bool:
-        if N.shape[0] == 0 or all(e == 0 for e in col):
-            return False
-        return self.ops.sees(N, self.ops.mat(col, "all"), conds)
-
-    def detects_at(self, k, d, dy, conds) -> bool:
+    def detects_at(self, k, d, dy, conds, name=None) -> bool:
         """Some member of order ≤ k has N ≢ 0 (weak)."""
-        return self._sees(self.at(k), self.fault_columns(k, d, dy), conds)
+        N = self.at(k)
+        return any(self.alg.sees(N, c, conds) for c in self.fault_columns(k, d, dy, name))
 
-    def gain_at(self, k, d, dy, point, conds) -> bool:
+    def gain_at(self, k, d, dy, point, conds, name=None) -> bool:
         """Some member of order ≤ k has N(λ) ≠ 0 at the evaluation point ``point``
         (one of :func:`evaluation_points`)."""
         exact, powers = point
         N = self.at(k)
-        C = self.fault_columns(k, d, dy)
         if N.shape[0] == 0:
             return False
+        alg = self.alg
+        C = self.fault_columns(k, d, dy, name)
         pw = [powers(k - i) for i in range(k + 1)]  # column i multiplies λ^(k−i)
         if exact:
-            re = sp.Matrix([[sp.Rational(a) for a, _ in pw]]).T
-            im = sp.Matrix([[sp.Rational(b) for _, b in pw]]).T
-            return self._sees(N, C * re, conds) or self._sees(N, C * im, conds)
-        Y = _as_float(N) @ np.array(C.evalf(), dtype=float)
+            for part in (0, 1):
+                coef = [sp.Rational(p[part]) for p in pw]
+                if all(c == 0 for c in coef):
+                    continue
+                v = None
+                for c, col in zip(coef, C):
+                    if c != 0:
+                        term = col if c == 1 else alg.scale(col, c)
+                        v = term if v is None else v + term
+                if alg.sees(N, v, conds):
+                    return True
+            return False
+        Nf = alg.to_float(N)
+        Y = np.hstack([Nf @ alg.to_float(c) for c in C])
         z = np.array([complex(a, b) for a, b in pw])
         g = np.abs(Y @ z)
         scale = max(float(np.abs(Y).max(initial=0.0)) * float(np.abs(z).sum()),
                     np.finfo(float).tiny)
         return bool((g > GAIN_RTOL * scale).any())
 
-    def min_order(self, d, dy, conds, points=()) -> int | None:
+    def min_order(self, d, dy, conds, points=(), name=None) -> int | None:
         """Smallest k with a member of order ≤ k sensitive to the fault (weakly; with
         ``points``, with a nonzero gain at every one of them), or None."""
         K = self.last
-        test = (lambda k, c: all(self.gain_at(k, d, dy, p, c) for p in points)) if points \
-            else (lambda k, c: self.detects_at(k, d, dy, c))
+        test = (lambda k, c: all(self.gain_at(k, d, dy, p, c, name) for p in points)) \
+            if points else (lambda k, c: self.detects_at(k, d, dy, c, name))
         if not test(K, set()):
             return None
         for k in range(K + 1):
             if test(k, conds):
                 return k
         return K  # not reached: order K answered yes
+
+
+class Products:
+    """H F^i and H F^i x for one (F, H), computed once, in the native type."""
+
+    def __init__(self, ops, F, H):
+        self.alg = _Native(ops, F, H)
+        self.F, self.H = self.alg.conv(F), self.alg.conv(H)
+        self.l = H.shape[0]
+        self.hf = [self.H]
+        self._hfx: dict = {}
+        self._w: dict = {}
+        self._native: dict = {}
+        self._blocks: dict = {}
+        self._sym = (sp.Matrix(F), sp.Matrix(H))
+        self._pencil = None
+        self._resolvent = None
+
+    def hf_at(self, i):
+        while len(self.hf) <= i:
+            self.hf.append(self.hf[-1] * self.F if self.alg.kind != "float"
+                           else self.hf[-1] @ self.F)
+        return self.hf[i]
+
+    def pencil(self):
+        """[s0 I − F; −H] at the rational point s0 = 7919/1009."""
+        if self._pencil is None:
+            F, H = self._sym
+            s0 = sp.Rational(7919, 1009)
+            self._pencil = self.alg.conv(sp.Matrix.vstack(s0 * sp.eye(F.rows) - F, -H))
+        return self._pencil
+
+    def resolvent(self):
+        """H (s0 I − F)⁻¹ at s0 = 7919/1009, or None when s0 is an eigenvalue of F."""
+        if self._resolvent is None:
+            F, H = self._sym
+            A = sp.Rational(7919, 1009) * sp.eye(F.rows) - F
+            try:
+                if self.alg.kind == "float":
+                    An = self.alg.conv(A)
+                    if np.linalg.cond(An) > 1e12:
+                        raise ValueError
+                    R = np.linalg.solve(An.T, self.alg.conv(H).T).T
+                elif self.alg.kind == "rational":
+                    R = self.alg.conv(A).transpose().lu_solve(
+                        self.alg.conv(H).transpose()).transpose()
+                else:
+                    R = (A.T.LUsolve(H.T)).T.applyfunc(sp.cancel)
+            except (ValueError, ZeroDivisionError, np.linalg.LinAlgError,
+                    DMNonInvertibleMatrixError):
+                R = False
+            self._resolvent = R
+        return self._resolvent if self._resolvent is not False else None
+
+    def has(self, name) -> bool:
+        return name in self._native
+
+    def g_column(self, key):
+        """H (s0 I − F)⁻¹ x + xy for the input ``key`` (the resolvent exists)."""
+        if ("G", key) not in self._hfx:
+            x, xy = self._native[key]
+            self._hfx[("G", key)] = self.times(self.resolvent(), x) + xy
+        return self._hfx[("G", key)]
+
+    def times(self, A, B):
+        return A @ B if self.alg.kind == "float" else A * B
+
+    def native(self, key):
+        return self._native[key]
+
+    def key(self, x, xy, name=None):
+        """A key for one input's columns (x of F's input matrix, xy of the outputs'):
+        its ``name`` when given (the same name must mean the same columns), else the
+        entries."""
+        if name is not None and name in self._native:
+            return name
+        k = name if name is not None else (tuple(x), tuple(xy))
+        if k not in self._native:
+            self._native[k] = (self.alg.conv(x), self.alg.conv(xy))
+        return k
+
+    def hfx(self, key, i):
+        """H F^i x for the input ``key``."""
+        if (key, i) not in self._hfx:
+            xn = self._native[key][0]
+            A = self.hf_at(i)
+            self._hfx[(key, i)] = A @ xn if self.alg.kind == "float" else A * xn
+        return self._hfx[(key, i)]
+
+    def w(self, k):
+        """W⁽ᵏ⁾ = [H Fᵏ; H Fᵏ⁻¹; …; H]."""
+        if k not in self._w:
+            self._w[k] = self.alg.vstack([self.hf_at(k - i) for i in range(k + 1)])
+        return self._w[k]
+
+    def block_column(self, key, i, k):
+        """Column c_i (module docstring) for the input ``key`` at order k: l(k+1) rows."""
+        ck = (key, i, k)
+        if ck in self._blocks:
+            return self._blocks[ck]
+        alg, l = self.alg, self.l
+        xy = self._native[key][1]
+        parts = [xy] if i == 0 else [self.hfx(key, i - 1 - j) for j in range(i)] + [xy]
+        rest = l * (k + 1) - l * len(parts)
+        if rest:
+            parts.append(alg.zeros(rest, 1))
+        self._blocks[ck] = out = alg.vstack(parts)
+        return out
 
 
 def feedthrough_orders(F, H, L, Ly, D, Dy, *, frequencies=None, time="continuous",

@@ -21,7 +21,7 @@ from ..synthesis import krylov_blocks, member_to_phi
 from ..synthesis import substitute_arguments
 from ..synthesis import observer_symbols, output_symbols
 from ..synthesis.core import arithmetic
-from ._orders import OrderSpaces
+from ._orders import OrderSpaces, Products
 
 
 def _feedthrough_columns(st: Structure, names) -> sp.ImmutableMatrix:
@@ -193,20 +193,32 @@ class DiagnosisQuestions:
         self.Dycol = {f.name: sp.Matrix(_feedthrough_columns(st, [f])) for f in faults}
         self.Ly0 = sp.Matrix(_feedthrough_columns(st, list(disturbances)))
         self._orders: dict = {}
+        self._products = None
 
     def spaces(self, decoupled: tuple, extra=None) -> OrderSpaces:
         """The residual generators of every order with the disturbances, the faults
         ``decoupled`` and the hidden nonlinear terms decoupled (:mod:`._orders`)."""
         key = (decoupled, None if extra is None else tuple(extra))
         if key not in self._orders:
-            L = self.L(decoupled, True)
-            Ly = sp.Matrix.hstack(self.Ly0, *[self.Dycol[f] for f in decoupled],
-                                  sp.zeros(self.H.rows, len(self.hidden)))
+            # the columns in the order of ``names`` below: disturbances, hidden nonlinear
+            # terms, then the decoupled faults (the last one is the parent's addition)
+            hid = [sp.Matrix(self.st.C[:, j]) for j in self.hidden]
+            L = sp.Matrix.hstack(self.L0, *hid, *[self.Dcol[f] for f in decoupled])
+            Ly = sp.Matrix.hstack(self.Ly0, sp.zeros(self.H.rows, len(self.hidden)),
+                                  *[self.Dycol[f] for f in decoupled])
             H = self.H
             if extra is not None:
                 H = sp.Matrix.vstack(H, sp.Matrix(extra))
                 Ly = sp.Matrix.vstack(Ly, sp.zeros(1, Ly.cols))
-            self._orders[key] = OrderSpaces(self.ops, self.F, H, L, Ly)
+            if extra is None and self._products is None:
+                self._products = Products(self.ops, self.F, self.H)
+            names = [r.name for r in self.dist] + [("term", j) for j in self.hidden] + \
+                list(decoupled)
+            parent = self.spaces(decoupled[:-1], extra) if decoupled else None
+            products = parent.P if parent is not None else (
+                self._products if extra is None else None)
+            self._orders[key] = OrderSpaces(self.ops, self.F, H, L, Ly, products, names,
+                                            parent)
         return self._orders[key]
 
     def dy(self, f: str, extra=None) -> sp.Matrix:
@@ -219,19 +231,19 @@ class DiagnosisQuestions:
         conds: set = set()
         sp_ = self.spaces(decoupled)
         if order:
-            k = sp_.min_order(self.Dcol[f], self.dy(f), conds, points)
+            k = sp_.min_order(self.Dcol[f], self.dy(f), conds, points, name=f)
             return k is not None, k, frozenset(conds | sp_.conds)
         K = sp_.last
-        ok = all(sp_.gain_at(K, self.Dcol[f], self.dy(f), p, conds) for p in points)
+        ok = all(sp_.gain_at(K, self.Dcol[f], self.dy(f), p, conds, f) for p in points)
         return ok, None, frozenset(conds | sp_.conds)
 
     def _ask_feedthrough(self, f: str, decoupled: tuple, order: bool, extra):
         conds: set = set()
         sp_ = self.spaces(decoupled, extra)
         d = self.Dcol[f]
-        if not sp_.detects_at(sp_.last, d, self.dy(f, extra), conds):
+        if not sp_.detects_at(sp_.last, d, self.dy(f, extra), conds, f):
             return False, None, False, frozenset(conds | sp_.conds)
-        k = sp_.min_order(d, self.dy(f, extra), conds) if order else None
+        k = sp_.min_order(d, self.dy(f, extra), conds, name=f) if order else None
         return True, k, False, frozenset(conds | sp_.conds)
 
     def L(self, decoupled: tuple, nonlinear_decoupled: bool):
