@@ -47,7 +47,11 @@ rational vectors (exact); for e^{jω}, ω ∉ {0, π}, they are not, and the gai
 in floating point with the relative tolerance ``GAIN_RTOL`` (said in the notes).
 
 Every computation goes through one arithmetic strategy (exact over QQ or QQ(parameters)
-with recorded conditions, or float with evidence), as in :mod:`._reach`.
+with recorded conditions, or float with evidence), as in :mod:`._reach`, on the fastest
+type for it (DomainMatrix over QQ, numpy, or sympy). The products H Fⁱ and H Fⁱ x are
+formed once per model (:class:`Products`); the spaces for a set of decoupled inputs are
+those of the set without its last input, cut down by a small left null space
+(V_k(S ∪ {g}) = {y N : y (N c_0 … N c_k) = 0} for a basis N of V_k(S)).
 """
 from __future__ import annotations
 

@@ -257,3 +257,49 @@ def test_cli_frequency_and_json_keys(capsys, models_dir):
     assert "Strong detectability" in out and "f1  strongly detectable" in out
     assert main(["analyze", path, "--frequency", "1e"]) == 2
     assert "observer-cad: error: frequency '1e'" in capsys.readouterr().err
+
+
+@settings(max_examples=12, deadline=None)
+@given(st.integers(0, 10 ** 6))
+def test_random_feedthrough_isolation_through_analyze(seed):
+    """analyze builds each decoupled set's residual generators from its parent's; the
+    isolation orders and strong answers equal those computed from scratch with the
+    other fault moved to the disturbances."""
+    rng = random.Random(seed)
+    n, l, p = rng.randint(1, 4), rng.randint(1, 3), rng.randint(0, 1)
+    F, H = _rand(rng, n, n), _rand(rng, l, n, 0.7)
+    L, Ly = _rand(rng, n, p), _rand(rng, l, p, 0.4)
+    D, Dy = _rand(rng, n, 3), _rand(rng, l, 3, 0.5)
+    for j in range(3):  # every fault enters somewhere (a model declares only those)
+        if not any(D[:, j]) and not any(Dy[:, j]):
+            Dy[rng.randrange(l), j] = 1
+    if p and not any(L[:, 0]) and not any(Ly[:, 0]):
+        Ly[0, 0] = 1
+    s = structure(F, H, D, Dy, L, Ly, name="random_ft")
+    a = analyze(s.model, structure=s, frequencies=[0])
+    for i, j in [(0, 1), (1, 0), (2, 0), (0, 2), (1, 2), (2, 1)]:
+        Lj, Lyj = sp.Matrix.hstack(L, D[:, j]), sp.Matrix.hstack(Ly, Dy[:, j])
+        (weak,), _ = feedthrough_orders(F, H, Lj, Lyj, D[:, i], Dy[:, i])
+        (strong,), _ = feedthrough_orders(F, H, Lj, Lyj, D[:, i], Dy[:, i], frequencies=[0])
+        fi, fj = f"f{i + 1}", f"f{j + 1}"
+        pair = a.pair(fi, fj)
+        assert pair.a_from_b == (weak is not None) and pair.a_from_b_order == weak
+    strong_rows = {r.sensitive for r in a.strong_structure}
+    for row in a.structure:
+        dec = [int(f[1:]) - 1 for f in row.requested]
+        Ls = sp.Matrix.hstack(L, *[D[:, j] for j in dec])
+        Lys = sp.Matrix.hstack(Ly, *[Dy[:, j] for j in dec])
+        kept = all(feedthrough_orders(F, H, Ls, Lys, D[:, i], Dy[:, i], frequencies=[0])[0][0]
+                   is not None for i in (int(f[1:]) - 1 for f in row.sensitive))
+        assert (row.sensitive in strong_rows) == kept, (seed, row)
+
+
+def test_reason_with_feedthrough():
+    """A bias on y1 next to a disturbance entering y1 the same way cannot be detected."""
+    F, H = sp.Matrix([[-1]]), sp.Matrix([[1], [1]])
+    s = structure(F, H, sp.zeros(1, 1), Dy=sp.Matrix([[2], [0]]), L=sp.zeros(1, 1),
+                  Ly=sp.Matrix([[1], [0]]), name="masked")
+    a = analyze(s.model, structure=s)
+    r = a.fault("f1")
+    assert not r.detectable and a.strongly_detectable == {"f1": False}
+    assert "(D(f1); Dy(f1)) is a combination of the columns of rho1" in r.reason
