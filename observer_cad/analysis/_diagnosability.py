@@ -267,9 +267,13 @@ def _with_strong(P, result: Analysis, omegas) -> Analysis:
     if P.work.time != "continuous" and any(w != 0 for w in omegas):
         notes.append(f"gains at e^{{jω}}, ω ≠ 0, decided in floating point (relative"
                      f" tolerance {GAIN_RTOL:.0e})")
+    kept = tuple(n for n in result.notes if "special case" not in n)
+    failing = _failing_at_defaults(conds, P.work.parameters) if result.symbolic else []
+    if failing:  # the strong answers' conditions join the weak ones'
+        notes.append(_special_case_note(failing))
     return dataclasses.replace(
         result, frequencies=omegas, strong=tuple(strong), strong_structure=rows,
-        assumptions=tuple(sorted(conds, key=str)), notes=result.notes + tuple(notes))
+        assumptions=tuple(sorted(conds, key=str)), notes=kept + tuple(notes))
 
 
 def _strong_rows(P, weak_rows, points, all_conds) -> tuple:
@@ -434,12 +438,16 @@ def _notes(P, m, complete, max_enumerated, all_conds, symbolic) -> list:
                  " (design --form canonical) search k < n")
     failing = _failing_at_defaults(all_conds, work.parameters) if symbolic else []
     if failing:
-        notes.append(f"at the parameter defaults {', '.join(str(c) for c in failing)}"
-                     f" fail{'s' if len(failing) == 1 else ''}: the defaults are a special"
-                     " case this generic answer does not cover (analyse without --symbolic"
-                     " for the answer there)")
+        notes.append(_special_case_note(failing))
     if not P.ops.exact:
         notes.append(f"float path: rank decisions by SVD, cut at {P.ops.cut:.0e}·max(σ_1, 1); the"
                      f" closest decision was {P.ops.margin:.1e} times away from its cut"
                      " (exact: method='exact')")
     return notes
+
+
+def _special_case_note(failing) -> str:
+    return (f"at the parameter defaults {', '.join(str(c) for c in failing)}"
+            f" fail{'s' if len(failing) == 1 else ''}: the defaults are a special"
+            " case this generic answer does not cover (analyse without --symbolic"
+            " for the answer there)")
