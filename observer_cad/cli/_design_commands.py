@@ -117,7 +117,7 @@ def cmd_codegen(args) -> int:
     from ..files import staged_directory
     out = Path(args.out)
     fmu = None
-    with staged_directory(out) as stage:  # the files together, or none changed
+    with staged_directory(out, command="codegen") as stage:  # together, or none changed
         paths = export_observer(observer, stage, name=args.name, dt=dt, rule=rule)
         if getattr(args, "fmu", False):
             from ..codegen import export_fmu
