@@ -229,6 +229,9 @@ class PlantModel:
         set_ = lambda k, v: object.__setattr__(self, k, v)  # noqa: E731 (frozen dataclass)
         if not isinstance(self.name, str) or not self.name.strip():
             raise ModelError(f"{where}: name must be a non-empty string")
+        if _has_control_character(self.name):
+            raise ModelError(f"{where}: name {self.name!r} has a control character (a newline,"
+                             " a tab, …)")
         if self.time not in TIME_DOMAINS:
             raise ModelError(f"{where}: time must be 'continuous' or 'discrete', got {self.time!r}")
         set_("states", _symbols(self.states, "states", where))
@@ -400,6 +403,13 @@ def _parameter_defaults(raw: Any, where: str) -> dict:
     return params
 
 
+def _has_control_character(text: str) -> bool:
+    """Whether ``text`` has a character of Unicode category C* other than a plain space's
+    kin (newlines, tabs, escapes, format and private-use characters)."""
+    import unicodedata
+    return any(unicodedata.category(c).startswith("C") for c in text)
+
+
 def _symbol_roles(model: "PlantModel", params: dict, where: str) -> dict:
     """Every symbol in exactly one role, none with a reserved name: symbol → role."""
     roles: dict[sp.Symbol, str] = {}
@@ -412,6 +422,10 @@ def _symbol_roles(model: "PlantModel", params: dict, where: str) -> dict:
                     f"{where}: symbol '{s}' is declared in two roles: {roles[s]} and {role}")
             roles[s] = role
     for s, role in roles.items():
+        if _has_control_character(s.name) or not s.name.strip():
+            raise ModelError(f"{where}: the {role[:-1] if role != 'noise' else role} name"
+                             f" {s.name!r} is empty or has a control character (a newline, a"
+                             " tab, …): such a name cannot head a CSV column or a line")
         if _RESERVED.fullmatch(s.name):
             raise ModelError(
                 f"{where}: the {role[:-1] if role != 'noise' else role} name '{s}' is reserved"
