@@ -115,14 +115,15 @@ def _print_evaluation(model, observer, res, decisions) -> None:
     rule = decisions.rule
     alarm = np.asarray(decisions.alarm)
     t = np.asarray(res["t"])
-    if alarm.any():
-        k = int(np.flatnonzero(alarm)[0])
-        print(f"first alarm at t = {t[k]:g} ({decisions.diagnosis[k]}); alarm in"
-              f" {int(alarm.sum())} of {alarm.size} samples (persistence {rule.persistence})")
-    else:
-        print(f"no alarm in {alarm.size} samples (persistence {rule.persistence})")
     m = evaluate_result(res, decisions)
     o = m.runs_[0]
+    if alarm.any():
+        k = int(np.flatnonzero(alarm)[0])
+        print(f"first alarm at t = {t[k]:g} ({_alarm_label(decisions.diagnosis[k], t[k], o)});"
+              f" alarm in {int(alarm.sum())} of {alarm.size} samples (persistence"
+              f" {rule.persistence})")
+    else:
+        print(f"no alarm in {alarm.size} samples (persistence {rule.persistence})")
     unit = " steps" if model.time == "discrete" else " s"
     if o.onset is not None:
         print(f"fault ({o.label}) from t = {o.onset:g}: " + (
@@ -142,6 +143,14 @@ def _print_evaluation(model, observer, res, decisions) -> None:
               " part of this run / dc gain): " + ", ".join(
                   f"{f} ≥ {v:.3g}" if v is not None else f"{f}: not seen"
                   for f, v in sizes.items()))
+
+
+def _alarm_label(diagnosis: str, when: float, outcome) -> str:
+    """What an alarm at ``when`` is: its diagnosis while a fault is active, else a false
+    alarm (no fault yet, or none in the scenario), with the pattern it matched."""
+    if outcome.onset is not None and when >= outcome.onset:
+        return diagnosis
+    return f"false alarm: no fault is active; pattern {diagnosis!r}"
 
 
 def cmd_ensemble(args) -> int:
@@ -258,11 +267,12 @@ def _run_and_write(args, model, observer, scenario, rule, sim, backend, out: Pat
     # the histograms, the worst runs (an interruption while the worst runs are replayed
     # keeps what is finished)
     with staged_directory(out, command="ensemble") as stage:
-        lines.append(f"wrote {_shown(write_summary_csv(res.accumulator, stage, runs=res.runs, seed=res.seed), stage, out)}"
-                     f" ({res.completed} runs)")
-        lines.append(f"wrote {_shown(write_statistics_json(res.statistics, stage, ensemble=meta), stage, out)}")
+        summary = write_summary_csv(res.accumulator, stage, runs=res.runs, seed=res.seed)
+        lines.append(f"wrote {_shown(summary, stage, out)} ({res.completed} runs)")
+        statistics = write_statistics_json(res.statistics, stage, ensemble=meta)
+        lines.append(f"wrote {_shown(statistics, stage, out)}")
         if not res.interrupted:
-            lines += _statistics_lines(args, res, backend, wall, rule)
+            lines += _statistics_lines(res, backend, wall, model, scenario, rule)
             for fig in plot_ensemble_histograms(res.accumulator, stage / "figures", title=title):
                 lines.append(f"wrote {_shown(fig, stage, out)}")
             try:
@@ -284,12 +294,19 @@ def _run_and_write(args, model, observer, scenario, rule, sim, backend, out: Pat
     return 0
 
 
-def _statistics_lines(args, res, backend, wall, rule) -> list:
-    """The timing line and the statistics' text (with the detection summary)."""
+def _statistics_lines(res, backend, wall, model, scenario, rule) -> list:
+    """The timing line, the statistics' text and, with a decision rule and fault cases,
+    the detection and false-alarm rates and the confusion matrix."""
     rate = res.completed / max(res.seconds, 1e-9)
-    return [f"{res.completed} runs in {res.seconds:.2f} s ({rate:,.0f} runs/s; {res.engine},"
-            f" {backend.kind} × {backend.workers}, chunks of {res.chunk}; wall clock with the"
-            f" design {wall:.2f} s)", "", res.statistics.to_text().rstrip()]
+    lines = [f"{res.completed} runs in {res.seconds:.2f} s ({rate:,.0f} runs/s; {res.engine},"
+             f" {backend.kind} × {backend.workers}, chunks of {res.chunk}; wall clock with the"
+             f" design {wall:.2f} s)", "", res.statistics.to_text().rstrip()]
+    if rule is not None:
+        from ..ensemble import detection_report
+        det = detection_report(res, model, scenario, rule)
+        if det is not None:  # fault cases: rates and the confusion matrix
+            lines += ["", det.to_text()]
+    return lines
 
 
 def _replay_worst_runs(args, res, model, observer, scenario, rule, sim, stage, out, title,
@@ -300,6 +317,12 @@ def _replay_worst_runs(args, res, model, observer, scenario, rule, sim, stage, o
     kept = replay_worst(res, model, observer, scenario, args.keep, worst_by=args.worst_by,
                         engine=args.engine, simulator=sim, settle=args.settle,
                         rule=rule) if args.keep else ()
+    if args.keep and not kept:
+        from ..ensemble import default_worst_field
+        from ..simulation import monitors
+        field = args.worst_by or default_worst_field(monitors(model, observer,
+                                                              settle=args.settle, rule=rule))
+        lines.append(f"no worst run: every run has the same {field} (none replayed)")
     for run, case, k, traj in kept:
         d = stage / "worst" / f"run_{run}"
         lines.append(f"worst run {run} (case {case}, sample {k}; replayed, its summary"

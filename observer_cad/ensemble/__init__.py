@@ -21,11 +21,13 @@ payload, loaded there with :func:`observer_cad.codegen.load_library`.
 """
 from ._backends import (DASK_MISSING, Backend, Interrupted, map_chunks, progress_bar)
 from ._statistics import (EnsembleStatistics, FieldStatistics, GroupStatistics, Statistics, SummaryRow, DEFAULT_QUANTILES)
+from ._detection import CaseDetection, DetectionReport, detection_report
 from ._runner import (Chunk, EnsembleResult, run_ensemble, replay, replay_worst, ReplayError, default_worst_field)
 
 __all__ = [
     "DASK_MISSING", "Backend", "Interrupted", "map_chunks", "progress_bar", "Chunk",
     "EnsembleResult", "run_ensemble", "replay", "replay_worst", "ReplayError",
     "default_worst_field", "EnsembleStatistics", "FieldStatistics", "GroupStatistics",
-    "Statistics", "SummaryRow", "DEFAULT_QUANTILES"
+    "Statistics", "SummaryRow", "DEFAULT_QUANTILES", "CaseDetection", "DetectionReport",
+    "detection_report"
 ]
