@@ -6,7 +6,7 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-from ..errors import UsageError
+from ..errors import FailedConditionError, UsageError
 from ..progress import report
 from ._from_args import design_from_args, observer_options, refuse_failed, threshold_from_args
 
@@ -35,8 +35,12 @@ def cmd_design(args) -> int:
         # be built, or whose observer fails a required condition, is refused now
         from ..observers import build_observer
         report("building the observer", stage=True)
-        observer = build_observer(model, result, **options)
-        observer = threshold_from_args(args, model, observer)
+        try:
+            observer = build_observer(model, result, **options)
+        except FailedConditionError as exc:  # shown with its [FAIL], then refused
+            observer = exc.observer
+        if not observer.failed_conditions:
+            observer = threshold_from_args(args, model, observer)
     elif args.threshold is not None:
         raise UsageError("--threshold needs a numeric, exact design: drop --symbolic"
                          if args.symbolic else "--threshold: approximate designs have no observer")
