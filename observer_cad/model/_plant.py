@@ -27,7 +27,8 @@ from ..errors import DimensionError, ExpressionError, ModelError
 from ._expressions import parse_number
 from ._statespace import statespace_model_arguments
 
-__all__ = ["PlantModel", "load_model", "load_model_module", "model_from_module", "to_rational"]
+__all__ = ["PlantModel", "load_model", "load_model_module", "model_from_module", "to_rational",
+           "MAX_BOUND", "bound_problem"]
 
 TIME_DOMAINS = ("continuous", "discrete")
 
@@ -487,8 +488,31 @@ def _declared_bounds(raw: Any, roles: dict, where: str) -> dict:
         hi = to_rational(hi, f"{where}: upper bound of '{s}'")
         if bool(lo > hi):
             raise ModelError(f"{where}: bounds of '{s}' have low {lo} > high {hi}")
+        problem = bound_problem(lo, hi)
+        if problem:
+            raise ModelError(f"{where}: bounds of '{s}' {problem}")
         bounds[s] = (lo, hi)
     return bounds
+
+
+#: the largest |bound| of a signal: interval arithmetic in double precision with bounds of
+#: 1e15 leaves no significant digit of values of order one (1e15 · 2⁻⁵² ≈ 0.2), so a
+#: band, an interval or a threshold built on them would be noise presented as a result
+MAX_BOUND = 1e12
+
+
+def bound_problem(lo, hi) -> str | None:
+    """What is wrong with bounds (low, high) beyond their order, or None: a magnitude above
+    :data:`MAX_BOUND` is refused (leave the bounds out for a signal that has none)."""
+    try:
+        big = max(abs(float(lo)), abs(float(hi)))
+    except (TypeError, ValueError, OverflowError):
+        return "are not finite numbers"
+    if not big <= MAX_BOUND:
+        return (f"reach {big:.3g}, above {MAX_BOUND:g}: in double precision such an interval"
+                " leaves no significant digit of the values it encloses (declare no bounds for"
+                " a signal that has none)")
+    return None
 
 
 def _state_domain(relations: Any, states, params: dict, where: str) -> tuple:
