@@ -165,3 +165,8 @@ def test_sliding_gains_above_the_limit_are_refused(sliding, name):
     data["parameters"][name] = "1e7"
     with pytest.raises(UsageError, match="above 1e\\+06"):
         build_observer(m, Design.from_json(data, m), allow_failed=True)
+
+
+def test_a_name_with_a_newline_on_the_command_line_is_shown_escaped(capsys):
+    rc = main(["design", str(DRIVE), "--observer", "unknown-input", "--fault", "d\nx"])
+    _one_line(rc, capsys.readouterr().err, "unknown fault or disturbance 'd\\nx'")
