@@ -24,8 +24,12 @@ expression node by node from a whitelist grammar::
 Conditions are allowed only where the caller asks for them (piecewise scenario
 segments) and inside ``Piecewise``. Anything else — attribute access, subscripts,
 calls of other names, keyword arguments, lambdas, strings, comprehensions, ``1j``
-literals, numbers outside the floating-point range, exponents above
-:data:`MAX_EXPONENT`, text longer than :data:`MAX_LENGTH` characters — raises
+literals, numbers outside the floating-point range, nonzero decimals below the smallest
+normal double (read exactly they would be rationals of hundreds of digits), exponents above
+:data:`MAX_EXPONENT`, text longer than :data:`MAX_LENGTH` characters, an expression that
+expanded would exceed :data:`MAX_EXPANDED_TERMS` terms, degree :data:`MAX_DEGREE` or
+:data:`MAX_DIGITS` digits (estimated from its tree by :func:`expansion_size`, before
+anything is expanded) — raises
 :class:`~observer_cad.errors.ExpressionError` (a :class:`UsageError`: one line naming
 ``where`` and what was rejected). Nothing is executed: no ``eval``, no ``sympify``,
 no ``parse_expr`` on the text.
