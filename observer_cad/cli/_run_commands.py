@@ -189,6 +189,12 @@ def _backend(args):
     kind = args.backend or ("dask" if args.dask else "threads")
     if args.dask and kind != "dask":
         raise UsageError(f"--dask ADDRESS runs on Dask: drop --backend {kind}")
+    if args.dask is not None:
+        from ..ensemble import dask_address_problem
+        problem = dask_address_problem(args.dask)
+        if problem is not None:
+            raise UsageError(f"--dask {args.dask!r} is not an address such as"
+                             f" tcp://host:8786: {problem}")
     return Backend(kind, address=args.dask) if args.workers is None else \
         Backend(kind, workers=args.workers, address=args.dask)
 

@@ -90,10 +90,10 @@ class Backend:
             if self.kind != "dask":
                 raise UsageError(f"a scheduler address ({self.address!r}) needs the dask"
                                  f" backend, not {self.kind!r}")
-            problem = dask_address_problem(self.address)
+            problem = dask_address_problem(self.address, in_process=True)
             if problem is not None:
-                raise UsageError(f"Dask scheduler address {self.address!r}: {problem} (an"
-                                 " address such as tcp://host:8786 is needed)")
+                raise UsageError(f"Dask scheduler address {self.address!r} is not an address"
+                                 f" such as tcp://host:8786: {problem}")
         if self.kind == "dask" and not _have_dask():
             raise UsageError(DASK_MISSING)
 
@@ -103,15 +103,19 @@ _DASK_SCHEMES = ("tcp", "tls", "ws", "wss", "ucx")
 _HOST = re.compile(r"(?:\[[0-9A-Fa-f:.]+\]|[A-Za-z0-9](?:[A-Za-z0-9.-]{0,252}))")
 
 
-def dask_address_problem(address) -> str | None:
+def dask_address_problem(address, *, in_process: bool = False) -> str | None:
     """What is wrong with a Dask scheduler address (``[scheme://]host:port``, ``scheme``
     one of tcp tls ws wss ucx, ``host`` a name, an IPv4 address or an IPv6 address in
-    brackets, ``port`` 1–65535), or None: checked before any connection is tried."""
+    brackets, ``port`` 1–65535), or None: checked before any connection is tried.
+    ``in_process``: an ``inproc://`` address (a cluster of this process, made from Python)
+    is allowed too; from the command line it cannot name anything."""
     if not isinstance(address, str) or not address.strip():
         return "empty"
     if any(c.isspace() or ord(c) < 32 or ord(c) == 127 for c in address):
         return "white space or a control character"
     scheme, sep, rest = address.partition("://")
+    if in_process and scheme == "inproc" and sep and rest:
+        return None
     if not sep:
         scheme, rest = "tcp", address
     if scheme not in _DASK_SCHEMES:

@@ -59,10 +59,13 @@ def test_cli_dask_garbage_is_one_line(tmp_path, capsys, address):
     assert not (tmp_path / "out").exists()
 
 
-def test_backend_refuses_a_bad_address():
+def test_backend_refuses_a_bad_address_but_takes_its_own_processes_inproc():
     pytest.importorskip("distributed")
-    with pytest.raises(UsageError, match="Dask scheduler address"):
-        Backend("dask", address="inproc://x")
+    with pytest.raises(UsageError, match="Dask scheduler address 'tcp://' is not an address"):
+        Backend("dask", address="tcp://")
+    # (a LocalCluster(processes=False) made from Python has an inproc:// address)
+    assert Backend("dask", address="inproc://10.0.0.1/123/1").address.startswith("inproc")
+    assert dask_address_problem("inproc://x") is not None
 
 
 # ------------------------------------------------------------------------------ threshold
