@@ -15,7 +15,7 @@ from observer_cad.cli import main
 from observer_cad.ensemble._backends import Backend, dask_address_problem
 from observer_cad.errors import FailedConditionError, ModelError, UsageError
 from observer_cad.model import MAX_BOUND, PlantModel, load_model
-from observer_cad.observers import build_observer, unknown_input_applicable
+from observer_cad.observers import build_observer
 from observer_cad.synthesis import Design, design
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -108,23 +108,23 @@ def test_names_with_control_characters_are_refused_at_load(tmp_path, capsys, old
 
 
 # ------------------------------------------------------------------------------ unknown input
-def test_unknown_input_applicable():
-    assert unknown_input_applicable(load_model(DRIVE)) is None
-    why = unknown_input_applicable(load_model(MODELS / "sliding_example.py"))
-    assert "discrete-time" in why and "continuous-time" in why and "\n" not in why
-
-
 @pytest.mark.parametrize("extra", [["--method", "exact"], []])
-def test_continuous_unknown_input_is_refused_before_any_design_work(capsys, monkeypatch, extra):
-    import observer_cad.synthesis as synthesis
+def test_unservable_continuous_estimation_is_refused_before_any_design_work(capsys, monkeypatch,
+                                                                          extra):
+    """f1 of the continuous three-tank does not reach a measured output directly: no
+    continuous-time estimator can serve it, and that is said before any designer runs."""
+    import observer_cad.synthesis.jordan as jordan
+    import observer_cad.synthesis.canonical as canonical
 
     def never(*args, **kwargs):  # pragma: no cover - the point: not reached
-        raise AssertionError("the design ran")
+        raise AssertionError("a designer ran")
 
-    monkeypatch.setattr(synthesis, "design", never)
-    rc = main(["design", str(MODELS / "sliding_example.py"), "--observer", "unknown-input",
-               "--fault", "d", *extra])
-    _one_line(rc, capsys.readouterr().err, "continuous-time")
+    for mod in (jordan, canonical):
+        for name in [n for n in getattr(mod, "__all__", ()) if n.startswith("design")]:
+            monkeypatch.setattr(mod, name, never, raising=False)
+    rc = main(["design", str(MODELS / "three_tank_faults.py"), "--observer", "unknown-input",
+               "--fault", "f1", *extra])
+    _one_line(rc, capsys.readouterr().err, "continuous-time estimation of 'f1'")
 
 
 # ------------------------------------------------------------------------------ bounds
