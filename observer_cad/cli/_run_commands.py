@@ -318,17 +318,18 @@ def _statistics_lines(res, backend, wall, model, scenario, rule) -> list:
 def _replay_worst_runs(args, res, model, observer, scenario, rule, sim, stage, out, title,
                        lines) -> None:
     """The worst runs replayed into ``stage``/worst (their lines appended to ``lines``)."""
-    from ..ensemble import replay_worst
+    from ..ensemble import default_worst_field, replay_worst
     from ..reporting import plot_simulation, write_signals_csv
-    kept = replay_worst(res, model, observer, scenario, args.keep, worst_by=args.worst_by,
-                        engine=args.engine, simulator=sim, settle=args.settle,
-                        rule=rule) if args.keep else ()
-    if args.keep and not kept:
-        from ..ensemble import default_worst_field
-        from ..simulation import monitors
-        field = args.worst_by or default_worst_field(monitors(model, observer,
-                                                              settle=args.settle, rule=rule))
+    from ..simulation import monitors
+    if not args.keep:
+        return
+    field = args.worst_by or default_worst_field(monitors(model, observer, settle=args.settle,
+                                                          rule=rule))
+    if res.statistics.overall.fields[field].worst_run is None:
         lines.append(f"no worst run: every run has the same {field} (none replayed)")
+        return
+    kept = replay_worst(res, model, observer, scenario, args.keep, worst_by=field,
+                        engine=args.engine, simulator=sim, settle=args.settle, rule=rule)
     for run, case, k, traj in kept:
         d = stage / "worst" / f"run_{run}"
         lines.append(f"worst run {run} (case {case}, sample {k}; replayed, its summary"

@@ -397,14 +397,13 @@ def replay_worst(result: EnsembleResult, model: PlantModel, observer: Observer,
                  settle: float = 0.0, rule: DecisionRule | None = None) -> tuple:
     """The ``k`` worst runs of ``result`` by ``worst_by`` (default
     :func:`default_worst_field`), replayed: tuples (run, case, sample, SimulationResult),
-    each checked to reproduce its recorded summary bit for bit (:class:`ReplayError`);
-    none when every run has the same value of the field (no run is worse)."""
+    each checked to reproduce its recorded summary bit for bit (:class:`ReplayError`).
+    Where every run has the same value of the field, these are the first runs (ties go
+    to the lower index); ``result.statistics`` then names no worst run."""
     mon = monitors_ or monitors(model, observer, settle=settle, rule=rule)
     field = worst_by or default_worst_field(mon)
     mon.field(field)
     kept = []
-    if result.statistics.overall.fields[field].worst_run is None:
-        return ()  # every run has the same value of the field: no run is the worst
     for run in result.accumulator.worst(field, min(int(k), result.completed)):
         case, sample = result.locate(run)
         res = replay(model, observer, scenario, run, runs=result.runs, engine=engine,
