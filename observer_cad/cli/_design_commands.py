@@ -137,7 +137,8 @@ def cmd_codegen(args) -> int:
     from ..files import staged_directory
     out = Path(args.out)
     fmu = None
-    with staged_directory(out, command="codegen") as stage:  # together, or none changed
+    # several observers (--name) may share a folder: each name's files are its own
+    with staged_directory(out, command=f"codegen --name {args.name or observer.name}") as stage:
         paths = export_observer(observer, stage, name=args.name, dt=dt, rule=rule)
         if getattr(args, "fmu", False):
             from ..codegen import export_fmu

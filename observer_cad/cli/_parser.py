@@ -214,7 +214,8 @@ def _add_demo(sub) -> None:
                                     "simulate the papers' scenarios and write DIR/report.md (LaTeX equations, "
                                     "matrices, conditions, assumptions, certificates, timings), PNG figures in "
                                     "DIR/figures and every design as JSON and LaTeX in DIR/designs.")
-    dm.add_argument("--out", metavar="DIR", type=_out_dir, default="out", help="output directory (default: out)")
+    dm.add_argument("--out", metavar="DIR", type=_out_dir, default="out",
+                    help="output directory (default: out)")
     dm.add_argument("--no-compile", action="store_true",
                     help="simulate with the reference simulator (numpy) instead of compiled C")
 

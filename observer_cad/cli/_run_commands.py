@@ -332,8 +332,9 @@ def _replay_worst_runs(args, res, model, observer, scenario, rule, sim, stage, o
                         engine=args.engine, simulator=sim, settle=args.settle, rule=rule)
     for run, case, k, traj in kept:
         d = stage / "worst" / f"run_{run}"
+        csv_path = _shown(write_signals_csv(traj, d), stage, out)
         lines.append(f"worst run {run} (case {case}, sample {k}; replayed, its summary"
-                     f" reproduced exactly): wrote {_shown(write_signals_csv(traj, d), stage, out)}")
+                     f" reproduced exactly): wrote {csv_path}")
         for fig in plot_simulation(traj, d, time=model.time, title=f"{title}, worst run {run}"):
             lines.append(f"wrote {_shown(fig, stage, out)}")
 

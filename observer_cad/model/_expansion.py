@@ -98,7 +98,8 @@ def expansion_size(expr) -> tuple[int, int, int]:
 
 def _check_size(terms: int, degree: int, digits: int) -> None:
     if terms > MAX_EXPANDED_TERMS:
-        raise ValueError(f"expanded it would have {'more than' if terms >= _TERMS_CEILING else 'about'}"
+        how = "more than" if terms >= _TERMS_CEILING else "about"
+        raise ValueError(f"expanded it would have {how}"
                          f" {terms:,} terms (at most {MAX_EXPANDED_TERMS:,} are read)")
     if degree > MAX_DEGREE:
         raise ValueError(f"its degree would be {degree:,} (at most {MAX_DEGREE:,} is read)")

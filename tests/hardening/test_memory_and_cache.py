@@ -57,7 +57,8 @@ def test_the_ensemble_asks_for_the_memory_of_the_runs_there_are(monkeypatch):
                              "cases": {"a": {}, "b": {}}})
     for chunk, workers in ((2147483647, 2), (1, 1000), (5, 3)):
         with pytest.raises(Stop):
-            run_ensemble(m, o, sc, runs=20, chunk=chunk, backend=Backend("threads", workers=workers))
+            run_ensemble(m, o, sc, runs=20, chunk=chunk,
+                         backend=Backend("threads", workers=workers))
         assert seen["runs"] == min(40, min(chunk, 20) * workers)
 
 

@@ -196,3 +196,17 @@ def test_sighup_and_sigquit_leave_out_as_it_was(tmp_path, signame, status):
     p.communicate(timeout=120)
     assert p.returncode == status
     assert snapshot(out) == before
+
+
+@needs_cc
+def test_codegen_names_share_a_folder_and_each_replaces_its_own(tmp_path, capsys):
+    out = tmp_path / "out"
+    base = ["codegen", str(DRIVE), "--observer", "unknown-input", "--fault", "d", "--out",
+            str(out)]
+    assert main(base + ["--name", "first"]) == 0
+    assert main(base + ["--name", "second"]) == 0
+    capsys.readouterr()
+    names = {p.name for p in out.iterdir()}
+    assert {"first.c", "first.h", "second.c", "second.h"} <= names
+    manifest = json.loads((out / MANIFEST).read_text())
+    assert set(manifest) == {"codegen --name first", "codegen --name second"}
