@@ -40,6 +40,15 @@ class UsageError(ObserverCadError):
     """An option given to the CLI or a public function is invalid."""
 
 
+class FailedConditionError(UsageError):
+    """An observer was built but fails a required condition (e.g. an unstable gain): it
+    must not be used. ``observer`` is what was built (to show its conditions)."""
+
+    def __init__(self, message: str, observer=None):
+        super().__init__(message)
+        self.observer = observer
+
+
 class ExpressionError(UsageError):
     """Text that should denote an expression (a scenario signal, a CLI value) is not one
     the whitelist grammar accepts; ``reason`` says what was rejected."""

@@ -12,7 +12,13 @@ from pathlib import Path
 from .errors import UsageError
 
 __all__ = ["atomic_write_text", "atomic_write_bytes", "atomic_writer", "read_json_file",
-           "staged_directory", "new_file_mode"]
+           "staged_directory", "new_file_mode", "check_output_targets", "MANIFEST"]
+
+#: the hidden file in an output folder that lists, per command, the files the last run of
+#: that command wrote there: the next run of the command removes those it does not write
+#: again (a folder's files are its last run's); files observer-cad did not write (not
+#: listed) are never touched
+MANIFEST = ".observer-cad-files.json"
 
 
 def new_file_mode() -> int:
@@ -85,15 +91,89 @@ def read_json_file(path, what: str):
                          f" {getattr(exc, 'strerror', None) or type(exc).__name__}") from None
 
 
+def _blocked(out: Path, dst: Path, *, folder: bool = False) -> Path | None:
+    """The path in ``out`` that stops ``dst`` being written (a directory where a file goes,
+    a file where a folder goes, a file where one of its parent folders goes), or None."""
+    for q in [dst, *dst.parents]:
+        if q == out or not q.is_relative_to(out):
+            continue
+        if q == dst:
+            if (q.exists() and not q.is_dir()) if folder else q.is_dir():
+                return q
+        elif q.exists() and not q.is_dir():
+            return q
+    return None
+
+
+def _obstacle(out: Path, blocked: Path, dst: Path, folder: bool) -> UsageError:
+    what = "a directory" if blocked == dst and not folder else "a file"
+    return UsageError(f"{blocked}: cannot write {dst.name} there ({what} is in the way); {out}"
+                      " is left as it was")
+
+
+def check_output_targets(out_dir, files=(), folders=()) -> None:
+    """A one-line :class:`UsageError` when something in ``out_dir`` stands where one of
+    ``files`` or ``folders`` (paths relative to it) is to be written: checked before a
+    command's work, so that an obstacle is met before anything is computed or written."""
+    out = Path(out_dir)
+    for rel, folder in [*((f, False) for f in files), *((d, True) for d in folders)]:
+        blocked = _blocked(out, out / rel, folder=folder)
+        if blocked is not None:
+            raise _obstacle(out, blocked, out / rel, folder)
+
+
+def _safe_relative(rel) -> Path | None:
+    """``rel`` (from a manifest: data, not trusted) as a plain relative path, or None."""
+    if not isinstance(rel, str) or not rel or "\x00" in rel:
+        return None
+    p = Path(rel)
+    if p.is_absolute() or any(part in ("..", ".", "") for part in p.parts):
+        return None
+    return p
+
+
+def _read_manifest(out: Path) -> dict:
+    try:
+        data = json.loads((out / MANIFEST).read_text(encoding="utf-8"))
+    except (OSError, ValueError, RecursionError):
+        return {}
+    return data if isinstance(data, dict) else {}
+
+
+def _remove_stale(out: Path, command: str, written: set) -> None:
+    """Remove the files the last ``command`` listed in the manifest and this run did not
+    write (no symlinked folder followed: only files inside ``out``), then record
+    ``written``."""
+    manifest = _read_manifest(out)
+    old = manifest.get(command, [])
+    for rel in old if isinstance(old, list) else []:
+        p = _safe_relative(rel)
+        if p is None or str(p) in written:
+            continue
+        target = out / p
+        if any((out / q).is_symlink() for q in list(p.parents)[:-1]) or \
+                not (target.is_file() or target.is_symlink()):
+            continue
+        try:
+            target.unlink()
+            for parent in list(p.parents)[:-1]:  # folders it leaves empty
+                (out / parent).rmdir()
+        except OSError:
+            pass
+    manifest[command] = sorted(written)
+    atomic_write_text(out / MANIFEST, json.dumps(manifest, indent=1) + "\n")
+
+
 @contextlib.contextmanager
-def staged_directory(out_dir):
+def staged_directory(out_dir, *, command: str | None = None):
     """A hidden staging folder inside ``out_dir`` to write a command's files into; when
     the block ends without an exception each file is moved into place (``os.replace``,
     subfolders kept) once every target has been checked (no directory where a file goes,
     no file where a folder goes); otherwise the staging folder is removed — and
     ``out_dir`` too if this call created it and it is still empty. So an error while
     writing (a full disk, a plot that fails, an obstacle) leaves ``out_dir`` as it was,
-    never half old and half new."""
+    never half old and half new. With ``command``, the files the last run of that command
+    wrote there (:data:`MANIFEST`) and this one does not are removed afterwards."""
     out = Path(out_dir)
     created = not out.exists()
     try:
@@ -108,18 +188,16 @@ def staged_directory(out_dir):
         files = sorted(p for p in stage.rglob("*") if p.is_file())
         for src in files:  # every target checked before the first is replaced
             dst = out / src.relative_to(stage)
-            blocked = next((q for q in [dst, *dst.parents] if q != out and q.is_relative_to(out)
-                            and (q.is_dir() if q == dst else (q.exists() and not q.is_dir()))),
-                           None)
+            blocked = _blocked(out, dst)
             if blocked is not None:
-                raise UsageError(f"{blocked}: cannot write {dst.name} there ("
-                                 f"{'a directory' if blocked == dst else 'a file'} is in the"
-                                 f" way); {out} is left as it was")
+                raise _obstacle(out, blocked, dst, False)
         for src in files:
             dst = out / src.relative_to(stage)
             dst.parent.mkdir(parents=True, exist_ok=True)
             os.replace(src, dst)
         done = True
+        if command is not None:
+            _remove_stale(out, command, {str(src.relative_to(stage)) for src in files})
     finally:
         shutil.rmtree(stage, ignore_errors=True)
         if not done and created:

@@ -27,6 +27,6 @@ def cmd_demo(args) -> int:
     from ..files import staged_directory
     from ..demo import EXAMPLES_DIR, run_demo
     out = Path(args.out)
-    with staged_directory(out) as stage:  # an error leaves an existing --out as it was
+    with staged_directory(out, command="demo") as stage:  # an error leaves --out as it was
         return run_demo(EXAMPLES_DIR, stage, compile=not args.no_compile,
                         stream=_ShownAs(sys.stdout, stage, out))

@@ -6,7 +6,7 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-from ..errors import UsageError
+from ..errors import FailedConditionError, UsageError
 from ..progress import report
 from ._from_args import design_or_load, observer_options, refuse_failed, threshold_from_args
 
@@ -35,21 +35,31 @@ def cmd_design(args) -> int:
         # be built, or whose observer fails a required condition, is refused now
         from ..observers import build_observer
         report("building the observer", stage=True)
-        observer = build_observer(model, result, **options)
-        observer = threshold_from_args(args, model, observer)
+        try:
+            observer = build_observer(model, result, **options)
+        except FailedConditionError as exc:  # shown with its [FAIL], then refused
+            observer = exc.observer
+        if not observer.failed_conditions:
+            observer = threshold_from_args(args, model, observer)
     elif args.threshold is not None:
         raise UsageError("--threshold needs a numeric, exact design: drop --symbolic"
                          if args.symbolic else "--threshold: approximate designs have no observer")
+    why_not = None if observer is not None else _no_observer_reason(args, result)
     if args.json:
         out = result.to_json()
         if observer is not None:  # the design's own states/equations/outputs stay (what
             # Design.from_json reads back); the built observer's are beside them
             out["observer_equations"] = observer.to_json()
             out["observer_conditions"] = [c.to_json() for c in observer.own_conditions]
+        else:
+            out["observer_equations"] = None
+            out["observer_not_built"] = why_not
         print(json.dumps(out, indent=2))
     else:
         report("formatting the design", stage=True)
         print(format_design(result))
+        if why_not is not None:
+            print(f"\nObserver: not built ({why_not})")
         if observer is not None and (observer.kind in ("interval", "unknown-input", "sliding-mode")
                                      or observer.threshold is not None):
             print(format_observer(observer))
@@ -57,6 +67,16 @@ def cmd_design(args) -> int:
             print(format_observer_conditions(observer))
     refuse_failed(observer)
     return 0
+
+
+def _no_observer_reason(args, result) -> str:
+    """Why ``design`` built no observer for ``result`` (one line)."""
+    if args.symbolic:
+        return ("a symbolic design: its parameters have no values, and the observer's"
+                " equations, conditions and simulation need numbers; drop --symbolic to"
+                " build it")
+    return ("an approximate design (--robust: the disturbance is not decoupled exactly):"
+            " observers are built from exact designs")
 
 
 def _cmd_bank(args, model, bank) -> int:
@@ -117,7 +137,8 @@ def cmd_codegen(args) -> int:
     from ..files import staged_directory
     out = Path(args.out)
     fmu = None
-    with staged_directory(out) as stage:  # the files together, or none changed
+    # several observers (--name) may share a folder: each name's files are its own
+    with staged_directory(out, command=f"codegen --name {args.name or observer.name}") as stage:
         from ..simulation import declared_envelope
         paths = export_observer(observer, stage, name=args.name, dt=dt, rule=rule,
                                 envelope=declared_envelope(model))

@@ -185,7 +185,7 @@ def _drem_from_file(args, path):
 
 def _parse_bounds(model, items):
     import dataclasses
-    from ..model import parse_number
+    from ..model import bound_problem, parse_number
     if not items:
         return model
     bounds = dict(model.bounds)
@@ -200,6 +200,9 @@ def _parse_bounds(model, items):
         lo_v, hi_v = (parse_number(v.strip(), where=f"--bound {item!r}") for v in (lo, hi))
         if bool(lo_v > hi_v):
             raise UsageError(f"--bound {item!r}: low {lo_v} > high {hi_v}")
+        problem = bound_problem(lo_v, hi_v)
+        if problem:
+            raise UsageError(f"--bound {item!r}: the bounds {problem}")
         bounds[sym] = (lo_v, hi_v)
     return dataclasses.replace(model, bounds=bounds)
 

@@ -27,22 +27,30 @@ __all__ = ["main"]
 
 
 def _terminate(signum, frame):  # pragma: no cover - exercised by a subprocess test
-    """SIGTERM as an exception (exit 143): clean-up code runs (staging folders, temporary
-    files), as for Ctrl-C; Python's default would end the process on the spot."""
+    """SIGTERM, SIGHUP (the terminal closed) and SIGQUIT as an exception (exit 128 + the
+    signal's number): clean-up code runs (staging folders, temporary files), as for
+    Ctrl-C; Python's default would end the process on the spot."""
     raise SystemExit(128 + signum)
 
 
 def main(argv=None) -> int:
-    """The ``observer-cad`` command (SIGTERM handled as an exit while it runs)."""
+    """The ``observer-cad`` command (SIGTERM, SIGHUP and SIGQUIT handled as an exit while
+    it runs)."""
     import signal
     import threading
     if threading.current_thread() is not threading.main_thread():
         return _main(argv)
-    old = signal.signal(signal.SIGTERM, _terminate)
+    caught = [getattr(signal, n) for n in _TERMINATING if hasattr(signal, n)]
+    old = {s: signal.signal(s, _terminate) for s in caught}
     try:
         return _main(argv)
     finally:
-        signal.signal(signal.SIGTERM, old)
+        for s, handler in old.items():
+            signal.signal(s, handler)
+
+
+#: the signals that end a command like SIGTERM (those the platform has)
+_TERMINATING = ("SIGTERM", "SIGHUP", "SIGQUIT")
 
 
 def _main(argv=None) -> int:

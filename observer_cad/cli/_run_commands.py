@@ -41,7 +41,7 @@ def cmd_simulate(args) -> int:
     from ..files import staged_directory
     from ..reporting import UNITS_FILE, plot_simulation
     out, lines = Path(args.out), []
-    with staged_directory(out) as stage:  # an error while writing leaves --out as it was
+    with staged_directory(out, command="simulate") as stage:  # an error: --out as it was
         path = write_signals_csv(res if decisions is None else written, stage)
         order = res.order if decisions is None else written.order
         lines.append(f"wrote {out / path.name} ({len(res['t'])} rows, columns:"
@@ -144,14 +144,15 @@ def _print_evaluation(model, observer, res, decisions) -> None:
     rule = decisions.rule
     alarm = np.asarray(decisions.alarm)
     t = np.asarray(res["t"])
-    if alarm.any():
-        k = int(np.flatnonzero(alarm)[0])
-        print(f"first alarm at t = {t[k]:g} ({decisions.diagnosis[k]}); alarm in"
-              f" {int(alarm.sum())} of {alarm.size} samples (persistence {rule.persistence})")
-    else:
-        print(f"no alarm in {alarm.size} samples (persistence {rule.persistence})")
     m = evaluate_result(res, decisions)
     o = m.runs_[0]
+    if alarm.any():
+        k = int(np.flatnonzero(alarm)[0])
+        print(f"first alarm at t = {t[k]:g} ({_alarm_label(decisions.diagnosis[k], t[k], o)});"
+              f" alarm in {int(alarm.sum())} of {alarm.size} samples (persistence"
+              f" {rule.persistence})")
+    else:
+        print(f"no alarm in {alarm.size} samples (persistence {rule.persistence})")
     unit = " steps" if model.time == "discrete" else " s"
     if o.onset is not None:
         print(f"fault ({o.label}) from t = {o.onset:g}: " + (
@@ -173,6 +174,14 @@ def _print_evaluation(model, observer, res, decisions) -> None:
                   for f, v in sizes.items()))
 
 
+def _alarm_label(diagnosis: str, when: float, outcome) -> str:
+    """What an alarm at ``when`` is: its diagnosis while a fault is active, else a false
+    alarm (no fault yet, or none in the scenario), with the pattern it matched."""
+    if outcome.onset is not None and when >= outcome.onset:
+        return diagnosis
+    return f"false alarm: no fault is active; pattern {diagnosis!r}"
+
+
 def cmd_ensemble(args) -> int:
     from ..simulation import load_scenario
     if args.symbolic:
@@ -182,6 +191,12 @@ def cmd_ensemble(args) -> int:
     model, observer, rule = _ensemble_observer(args, scenario)
     out = Path(args.out)
     _check_writable(out)  # before the runs, not after them
+    from ..files import check_output_targets
+    if args.replay is not None:
+        check_output_targets(out, folders=[f"run_{args.replay}"])
+    else:
+        check_output_targets(out, files=["summary.csv", "statistics.json"],
+                             folders=["figures", "worst"])
     title = f"{model.name}, {observer.kind}"
     sim = None
     if args.engine == "compiled":
@@ -203,6 +218,12 @@ def _backend(args):
     kind = args.backend or ("dask" if args.dask else "threads")
     if args.dask and kind != "dask":
         raise UsageError(f"--dask ADDRESS runs on Dask: drop --backend {kind}")
+    if args.dask is not None:
+        from ..ensemble import dask_address_problem
+        problem = dask_address_problem(args.dask)
+        if problem is not None:
+            raise UsageError(f"--dask {args.dask!r} is not an address such as"
+                             f" tcp://host:8786: {problem}")
     return Backend(kind, address=args.dask) if args.workers is None else \
         Backend(kind, workers=args.workers, address=args.dask)
 
@@ -234,7 +255,6 @@ def _replay_one(args, model, observer, scenario, rule, sim, out: Path, title: st
     res = replay(model, observer, scenario, args.replay, runs=args.runs, engine=args.engine,
                  simulator=sim)
     case, k = divmod(args.replay, args.runs)
-    d = out / f"run_{args.replay}"
     print(f"run {args.replay}: case {scenario.case_names[case]}, sample {k}")
     from ..simulation import monitors, summarise
     mon = monitors(model, observer, settle=args.settle, rule=rule)
@@ -242,10 +262,20 @@ def _replay_one(args, model, observer, scenario, rule, sim, out: Path, title: st
     for f in summ.fields:
         print(f"  {f.name} = {float(summ.values[f.name][0]):.6g}"
               + (f" {f.unit}" if f.unit else ""))
-    print(f"wrote {write_signals_csv(res, d)}")
-    for fig in plot_simulation(res, d, time=model.time, title=f"{title}, run {args.replay}"):
-        print(f"wrote {fig}")
+    from ..files import staged_directory
+    lines = []
+    with staged_directory(out, command=f"ensemble --replay {args.replay}") as stage:
+        d = stage / f"run_{args.replay}"
+        lines.append(f"wrote {_shown(write_signals_csv(res, d), stage, out)}")
+        for fig in plot_simulation(res, d, time=model.time, title=f"{title}, run {args.replay}"):
+            lines.append(f"wrote {_shown(fig, stage, out)}")
+    print("\n".join(lines))
     return 0
+
+
+def _shown(path, stage: Path, out: Path) -> Path:
+    """Where ``path``, written in the staging folder, is once moved into ``out``."""
+    return out / Path(path).relative_to(stage)
 
 
 def _run_and_write(args, model, observer, scenario, rule, sim, backend, out: Path,
@@ -253,10 +283,10 @@ def _run_and_write(args, model, observer, scenario, rule, sim, backend, out: Pat
     """The ensemble's runs, then summary.csv, statistics.json, the statistics, the
     histograms and the worst runs replayed; 130 when interrupted."""
     import time as _time
-    from ..ensemble import progress_bar, replay_worst, run_ensemble
+    from ..ensemble import progress_bar, run_ensemble
     from ..progress import silenced
-    from ..reporting import (plot_ensemble_histograms, plot_simulation, write_signals_csv,
-                             write_statistics_json, write_summary_csv)
+    from ..reporting import (plot_ensemble_histograms, write_statistics_json,
+                             write_summary_csv)
     total = args.runs * len(scenario.case_names)
     t0 = _time.perf_counter()
     with silenced(), progress_bar(total, desc="runs") as bar:
@@ -266,33 +296,76 @@ def _run_and_write(args, model, observer, scenario, rule, sim, backend, out: Pat
                            simulator=sim)
     wall = _time.perf_counter() - t0
     meta = _metadata(args, model, observer, res, backend)
-    print(f"wrote {write_summary_csv(res.accumulator, out, runs=res.runs, seed=res.seed)}"
-          f" ({res.completed} runs)")
-    print(f"wrote {write_statistics_json(res.statistics, out, ensemble=meta)}")
-    _clear_stale(out)  # figures and worst runs of an earlier ensemble in DIR
+    from ..files import staged_directory
+    lines, stopped = [], None
+    # everything staged and moved into place together: summary.csv and statistics.json,
+    # the histograms, the worst runs (an interruption while the worst runs are replayed
+    # keeps what is finished)
+    with staged_directory(out, command="ensemble") as stage:
+        summary = write_summary_csv(res.accumulator, stage, runs=res.runs, seed=res.seed)
+        lines.append(f"wrote {_shown(summary, stage, out)} ({res.completed} runs)")
+        statistics = write_statistics_json(res.statistics, stage, ensemble=meta)
+        lines.append(f"wrote {_shown(statistics, stage, out)}")
+        if not res.interrupted:
+            lines += _statistics_lines(res, backend, wall, model, scenario, rule)
+            for fig in plot_ensemble_histograms(res.accumulator, stage / "figures", title=title):
+                lines.append(f"wrote {_shown(fig, stage, out)}")
+            try:
+                _replay_worst_runs(args, res, model, observer, scenario, rule, sim, stage, out,
+                                   title, lines)
+            except (KeyboardInterrupt, SystemExit) as exc:
+                stopped = exc
+    print("\n".join(lines))
     if res.interrupted:
         print(f"{PROG}: interrupted after {res.completed} of {res.total} runs; summary.csv and"
               " statistics.json hold the finished runs", file=sys.stderr)
         return 130
-    print(f"{res.completed} runs in {res.seconds:.2f} s ({res.completed / max(res.seconds, 1e-9):,.0f}"
-          f" runs/s; {res.engine}, {backend.kind} × {backend.workers}, chunks of {res.chunk}; wall"
-          f" clock with the design {wall:.2f} s)")
-    print()
-    print(res.statistics.to_text().rstrip())
-    for fig in plot_ensemble_histograms(res.accumulator, out / "figures", title=title):
-        print(f"wrote {fig}")
-    # the worst runs, replayed after summary.csv and statistics.json are written (a
-    # failing replay or a Ctrl-C here loses nothing of the ensemble)
-    kept = replay_worst(res, model, observer, scenario, args.keep, worst_by=args.worst_by,
-                        engine=args.engine, simulator=sim, settle=args.settle,
-                        rule=rule) if args.keep else ()
-    for run, case, k, traj in kept:
-        d = out / "worst" / f"run_{run}"
-        print(f"worst run {run} (case {case}, sample {k}; replayed, its summary reproduced"
-              f" exactly): wrote {write_signals_csv(traj, d)}")
-        for fig in plot_simulation(traj, d, time=model.time, title=f"{title}, worst run {run}"):
-            print(f"wrote {fig}")
+    if isinstance(stopped, SystemExit):
+        raise stopped
+    if stopped is not None:
+        print(f"{PROG}: interrupted while replaying the worst runs; the ensemble's files are"
+              " written", file=sys.stderr)
+        return 130
     return 0
+
+
+def _statistics_lines(res, backend, wall, model, scenario, rule) -> list:
+    """The timing line, the statistics' text and, with a decision rule and fault cases,
+    the detection and false-alarm rates and the confusion matrix."""
+    rate = res.completed / max(res.seconds, 1e-9)
+    lines = [f"{res.completed} runs in {res.seconds:.2f} s ({rate:,.0f} runs/s; {res.engine},"
+             f" {backend.kind} × {backend.workers}, chunks of {res.chunk}; wall clock with the"
+             f" design {wall:.2f} s)", "", res.statistics.to_text().rstrip()]
+    if rule is not None:
+        from ..ensemble import detection_report
+        det = detection_report(res, model, scenario, rule)
+        if det is not None:  # fault cases: rates and the confusion matrix
+            lines += ["", det.to_text()]
+    return lines
+
+
+def _replay_worst_runs(args, res, model, observer, scenario, rule, sim, stage, out, title,
+                       lines) -> None:
+    """The worst runs replayed into ``stage``/worst (their lines appended to ``lines``)."""
+    from ..ensemble import default_worst_field, replay_worst
+    from ..reporting import plot_simulation, write_signals_csv
+    from ..simulation import monitors
+    if not args.keep:
+        return
+    field = args.worst_by or default_worst_field(monitors(model, observer, settle=args.settle,
+                                                          rule=rule))
+    if res.statistics.overall.fields[field].worst_run is None:
+        lines.append(f"no worst run: every run has the same {field} (none replayed)")
+        return
+    kept = replay_worst(res, model, observer, scenario, args.keep, worst_by=field,
+                        engine=args.engine, simulator=sim, settle=args.settle, rule=rule)
+    for run, case, k, traj in kept:
+        d = stage / "worst" / f"run_{run}"
+        csv_path = _shown(write_signals_csv(traj, d), stage, out)
+        lines.append(f"worst run {run} (case {case}, sample {k}; replayed, its summary"
+                     f" reproduced exactly): wrote {csv_path}")
+        for fig in plot_simulation(traj, d, time=model.time, title=f"{title}, worst run {run}"):
+            lines.append(f"wrote {_shown(fig, stage, out)}")
 
 
 def _metadata(args, model, observer, res, backend) -> dict:
@@ -332,13 +405,3 @@ def _check_writable(out: Path) -> None:
     except OSError as exc:
         raise UsageError(f"{out}: cannot write the output directory:"
                          f" {exc.strerror or type(exc).__name__}") from None
-
-
-def _clear_stale(out: Path) -> None:
-    """Remove the histograms and worst runs an earlier ensemble wrote in ``out``."""
-    import shutil
-    for f in (out / "figures").glob("hist_*.png"):
-        f.unlink(missing_ok=True)
-    for d in (out / "worst").glob("run_*"):
-        if d.is_dir():
-            shutil.rmtree(d, ignore_errors=True)

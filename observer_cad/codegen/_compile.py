@@ -17,12 +17,19 @@
 * A missing compiler or a compiler error raises :class:`CodegenError` (one line, with
   the compiler's first error); the interpreted casadi Function is untouched and usable.
 
-**Integrity (nothing on disk is trusted).**  Every library has a checksum file
-``NAME-KEY.so.sha256`` (``sha256sum -c`` format), written atomically after it.  Before
-a library is loaded (``casadi.external`` or ctypes) its SHA-256 is computed and compared
-— so a truncated or replaced library is never mapped (no SIGBUS, no foreign code); a
-missing, mismatched or unreadable checksum makes the entry be rebuilt atomically (entries
-of earlier versions, which had no checksum, are rebuilt once).  Entries (library,
+**Integrity: what the checksum detects, and what it does not.**  Every library has a
+checksum file ``NAME-KEY.so.sha256`` (``sha256sum -c`` format), written atomically after
+it.  Before a library is loaded (``casadi.external`` or ctypes) its SHA-256 is computed
+and compared — so a truncated, corrupted or partly overwritten library is never mapped
+(no SIGBUS); a missing, mismatched or unreadable checksum makes the entry be rebuilt
+atomically (entries of earlier versions, which had no checksum, are rebuilt once).  The
+checksum lives in the same folder as the library, so it detects *corruption*, not
+*forgery*: whoever can write the cache folder can replace a library together with its
+``.sha256`` (and a ``.ref``), and a later process loads it.  Only the libraries this
+process compiled itself are checked against a hash kept in memory (:data:`_BUILT`), which
+no writer of the folder can change.  Protection from other users comes from the
+ownership and permission checks below; the cache folder is to be trusted like the
+installed package.  Entries (library,
 checksum, ``.ref``) must be regular files owned by the current user and not writable by
 group or others, else they are refused and rebuilt (one warning line on stderr).  The
 cache directory itself must be owned by the current user, not writable by group or
@@ -45,7 +52,10 @@ docstring, so a hit reads one small file and loads the library: no translation, 
 generation, no compiler run.  The content hash stays the artefact key: a changed model
 changes the fingerprint, misses, is translated, and recompiles only if its C changed.
 A ``.ref`` whose library is missing or does not load is ignored (and replaced after the
-rebuild).
+rebuild), and so is one whose library name does not agree with its own function name and
+key (``NAME-KEY.so``) or, in the process that wrote it, differs from what it recorded: a
+``.ref`` is a shortcut, believed only as far as these checks go (a writer of the folder
+can still point it at another valid library of the same name and key prefix it made).
 """
 from __future__ import annotations
 
@@ -248,7 +258,19 @@ def verify_library(library) -> str | None:
     actual = _sha256_file(library)
     if actual is None or actual != recorded:
         return f"{library.name} does not match its recorded SHA-256"
+    built = _BUILT.get(str(library))
+    if built is not None and built != actual:  # this process compiled it: its own record
+        return f"{library.name} is not the library this process compiled"
     return None
+
+
+#: SHA-256 of every library this process compiled, by path: kept in memory, where a
+#: writer of the cache folder cannot change it (a library replaced together with its
+#: ``.sha256`` after this process built it is refused; one built by an earlier process
+#: is only checked against its ``.sha256``, which detects corruption, not forgery)
+_BUILT: dict = {}
+#: the library each fingerprint this process recorded maps to (the same, for ``.ref``)
+_REFS: dict = {}
 
 
 def _refuse(path: Path, reason: str) -> None:
@@ -404,7 +426,14 @@ def lookup_fingerprint(fp: str, name: str, *, cache=None) -> dict | None:
     lib = rec.get("library")
     if not isinstance(lib, str) or "/" in lib or os.sep in lib or lib.startswith("."):
         return None
+    key, function = rec.get("key"), rec.get("function") or name
+    if not (isinstance(key, str) and len(key) == 64 and all(c in "0123456789abcdef" for c in key)
+            and isinstance(function, str)
+            and lib in (f"{name}-{key[:32]}.so", f"{function}-{key[:32]}.so")):
+        return None  # a redirect to a library of another name or key: translated again
     path = d / lib
+    if _REFS.get((str(d), name, fp), path) != path:
+        return None  # this process recorded another library for this fingerprint
     bad = verify_library(path)
     if bad:
         _refuse(path, bad)
@@ -420,6 +449,7 @@ def record_fingerprint(fp: str, name: str, library: Path, *, cache=None, functio
     """Write ``CACHE/NAME-FP.ref`` atomically (a temporary file, then os.replace).
     Failure to write is not an error (the next call just translates again)."""
     d = usable_cache_dir(cache)
+    _REFS[(str(d), name, fp)] = d / Path(library).name
     rec = {"fingerprint": fp, "library": Path(library).name, "function": function,
            "doc": doc, "key": key, "casadi": ca.__version__,
            "flags": list(flags) if flags is not None else None}
@@ -544,6 +574,7 @@ def _compile_into(d: Path, source, name, key, ccpath, flags, check, t0) -> Compi
             if digest is None:
                 raise OSError(0, "the compiled library cannot be read")
             os.replace(tmp_so, final)
+            _BUILT[str(final)] = digest
             _write_sum(final, digest)
             # keep the source next to the library for inspection (also atomic)
             os.chmod(csrc, 0o644)

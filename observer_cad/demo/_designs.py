@@ -56,6 +56,20 @@ def _mark(c) -> str:
     return "[ ok ]" if c.holds else ("[FAIL]" if c.required else "[ -- ]")
 
 
+def _observer_summary(extra, short) -> str:
+    """The observer's own conditions: how many hold, then each one that does not, counted
+    as shown (required ones first are [FAIL], optional ones [ -- ])."""
+    failing = [c for c in extra if not c.holds]
+    head = f"          observer: {len(extra) - len(failing)} of {len(extra)} conditions hold"
+    if failing:
+        req = sum(1 for c in failing if c.required)
+        kinds = ", ".join(p for p in (f"{req} required" if req else "",
+                                      f"{len(failing) - req} optional" if len(failing) > req
+                                      else "") if p)
+        head += f"; the {len(failing)} that do not ({kinds}):"
+    return head + "".join(f"\n          {_mark(c)} {short(c.name, 90)}" for c in failing)
+
+
 def _model(models_dir: Path, case: Case, cache: dict):
     if case.model not in cache:
         cache[case.model] = load_model(models_dir / case.model)
@@ -137,9 +151,7 @@ def run_case(i: int, n: int, case: Case, models_dir: Path, models: dict, engine:
         out.full_text = format_design(d) + "\n" + format_observer(ob)
         extra = [c for c in ob.conditions if c not in d.conditions]
         if extra:
-            held = sum(1 for c in extra if c.holds)
-            log(f"          observer: {held} of {len(extra)} conditions hold"
-                + "".join(f"\n          {_mark(c)} {short(c.name, 90)}" for c in extra if not c.holds))
+            log(_observer_summary(extra, short))
         sim, out.engine = engine.prepare_logged(model, ob, out.timings)
         t0 = time.perf_counter()
         for run in case.runs:

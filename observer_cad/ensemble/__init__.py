@@ -19,13 +19,16 @@ The lower level::
 Compiled code reaches the workers as a :class:`observer_cad.codegen.LibrarySpec` in the
 payload, loaded there with :func:`observer_cad.codegen.load_library`.
 """
-from ._backends import (DASK_MISSING, Backend, Interrupted, map_chunks, progress_bar)
+from ._backends import (DASK_MISSING, Backend, Interrupted, dask_address_problem, map_chunks,
+                        progress_bar)
 from ._statistics import (EnsembleStatistics, FieldStatistics, GroupStatistics, Statistics, SummaryRow, DEFAULT_QUANTILES)
+from ._detection import CaseDetection, DetectionReport, detection_report
 from ._runner import (Chunk, EnsembleResult, run_ensemble, replay, replay_worst, ReplayError, default_worst_field)
 
 __all__ = [
-    "DASK_MISSING", "Backend", "Interrupted", "map_chunks", "progress_bar", "Chunk",
+    "DASK_MISSING", "Backend", "dask_address_problem", "Interrupted", "map_chunks", "progress_bar", "Chunk",
     "EnsembleResult", "run_ensemble", "replay", "replay_worst", "ReplayError",
     "default_worst_field", "EnsembleStatistics", "FieldStatistics", "GroupStatistics",
-    "Statistics", "SummaryRow", "DEFAULT_QUANTILES"
+    "Statistics", "SummaryRow", "DEFAULT_QUANTILES", "CaseDetection", "DetectionReport",
+    "detection_report"
 ]

@@ -40,6 +40,7 @@ import importlib.util
 import logging
 import os
 import pickle
+import re
 import signal
 import sys
 import threading
@@ -49,7 +50,7 @@ from ..errors import UsageError
 from ..progress import PROGRESS_ENV
 
 __all__ = ["Backend", "BACKEND_KINDS", "Interrupted", "map_chunks", "progress_bar",
-           "DASK_MISSING"]
+           "DASK_MISSING", "dask_address_problem"]
 
 BACKEND_KINDS = ("serial", "threads", "processes", "dask")
 DASK_MISSING = "Dask is not installed: pip install 'observer_cad[cluster]'"
@@ -89,12 +90,47 @@ class Backend:
             if self.kind != "dask":
                 raise UsageError(f"a scheduler address ({self.address!r}) needs the dask"
                                  f" backend, not {self.kind!r}")
-            if not isinstance(self.address, str) or not self.address.strip() \
-                    or any(c.isspace() for c in self.address):
-                raise UsageError(f"Dask scheduler address {self.address!r} is not an"
-                                 " address such as tcp://host:8786")
+            problem = dask_address_problem(self.address, in_process=True)
+            if problem is not None:
+                raise UsageError(f"Dask scheduler address {self.address!r} is not an address"
+                                 f" such as tcp://host:8786: {problem}")
         if self.kind == "dask" and not _have_dask():
             raise UsageError(DASK_MISSING)
+
+
+#: the schemes of a scheduler another process can reach
+_DASK_SCHEMES = ("tcp", "tls", "ws", "wss", "ucx")
+_HOST = re.compile(r"(?:\[[0-9A-Fa-f:.]+\]|[A-Za-z0-9](?:[A-Za-z0-9.-]{0,252}))")
+
+
+def dask_address_problem(address, *, in_process: bool = False) -> str | None:
+    """What is wrong with a Dask scheduler address (``[scheme://]host:port``, ``scheme``
+    one of tcp tls ws wss ucx, ``host`` a name, an IPv4 address or an IPv6 address in
+    brackets, ``port`` 1–65535), or None: checked before any connection is tried.
+    ``in_process``: an ``inproc://`` address (a cluster of this process, made from Python)
+    is allowed too; from the command line it cannot name anything."""
+    if not isinstance(address, str) or not address.strip():
+        return "empty"
+    if any(c.isspace() or ord(c) < 32 or ord(c) == 127 for c in address):
+        return "white space or a control character"
+    scheme, sep, rest = address.partition("://")
+    if in_process and scheme == "inproc" and sep and rest:
+        return None
+    if not sep:
+        scheme, rest = "tcp", address
+    if scheme not in _DASK_SCHEMES:
+        return (f"scheme {scheme!r} (allowed: {', '.join(_DASK_SCHEMES)}; inproc:// is this"
+                " process's own)")
+    if rest.startswith("[") and "]" not in rest:
+        return "an IPv6 address without its closing ']'"
+    host, colon, port = rest.rpartition(":")
+    if not colon or not host:
+        return "no host:port"
+    if not _HOST.fullmatch(host):
+        return f"host {host!r} is not a host name or address"
+    if not (port.isdigit() and 1 <= int(port) <= 65535):
+        return f"port {port!r} is not a number in 1–65535"
+    return None
 
 
 def _have_dask() -> bool:
@@ -421,9 +457,10 @@ def _dask(task, payload, chunks, backend, progress, guard):
             try:
                 client = stack.enter_context(distributed.Client(backend.address,
                                                                 timeout="30s"))
-            except (OSError, TimeoutError) as exc:
+            except (OSError, TimeoutError, ValueError, TypeError) as exc:
+                first = (str(exc).splitlines() or [type(exc).__name__])[0]
                 raise UsageError(f"cannot connect to the Dask scheduler at"
-                                 f" {backend.address}: {exc}") from None
+                                 f" {backend.address}: {first}") from None
         blob = pickle.dumps(payload, protocol=pickle.HIGHEST_PROTOCOL)
         token = _token(blob)
         remote = client.scatter(blob, broadcast=True)

@@ -36,7 +36,7 @@ from ._backends import Backend, Interrupted, map_chunks
 from ._statistics import EnsembleStatistics
 
 __all__ = ["Chunk", "EnsembleResult", "run_ensemble", "replay", "replay_worst", "ReplayError", "ENGINES",
-           "default_chunk", "CHUNK_BYTES", "default_worst_field"]
+           "default_chunk", "CHUNK_BYTES", "default_worst_field", "held_runs"]
 
 ENGINES = ("compiled", "reference")
 #: the default chunk keeps a worker's trajectory buffers near this size (they are reused;
@@ -277,6 +277,12 @@ def _whole(what, v, low):
 _SUMMARY_BYTES = 16
 
 
+def held_runs(total: int, chunk: int, workers: int) -> int:
+    """Runs whose trajectories are in memory at once: one chunk per worker, never more
+    than the runs there are (``--runs 20 --workers 1000`` holds 20, not 1000 chunks)."""
+    return max(1, min(total, chunk * workers))
+
+
 def _check_summary_memory(total: int, fields: int, scenario) -> None:
     """Refuse an ensemble whose per-run summaries (kept for summary.csv and the
     statistics: runs × fields values) would exceed :func:`memory_limit` — before any run,
@@ -329,9 +335,11 @@ def run_ensemble(model: PlantModel, observer: Observer, scenario: Scenario, *, r
     field = worst_by or default_worst_field(mon)
     mon.field(field)  # an unknown field is refused before anything runs
     _check_summary_memory(runs * len(cases), len(mon.fields), scenario)
-    # the trajectory buffers every worker holds (one chunk each), like a simulation's
+    # the trajectory buffers every worker holds (one chunk each, of at most the runs
+    # there are), like a simulation's
     ncols = _columns_per_run(model, observer)
-    check_memory(scenario, model.time, runs=chunk * (1 if backend.kind == "serial" else
+    check_memory(scenario, model.time, runs=held_runs(runs * len(cases), min(chunk, runs),
+                                                      1 if backend.kind == "serial" else
                                                       backend.workers), columns=ncols)
     if engine == "compiled":
         from ..codegen import CompiledSimulator
@@ -389,7 +397,9 @@ def replay_worst(result: EnsembleResult, model: PlantModel, observer: Observer,
                  settle: float = 0.0, rule: DecisionRule | None = None) -> tuple:
     """The ``k`` worst runs of ``result`` by ``worst_by`` (default
     :func:`default_worst_field`), replayed: tuples (run, case, sample, SimulationResult),
-    each checked to reproduce its recorded summary bit for bit (:class:`ReplayError`)."""
+    each checked to reproduce its recorded summary bit for bit (:class:`ReplayError`).
+    Where every run has the same value of the field, these are the first runs (ties go
+    to the lower index); ``result.statistics`` then names no worst run."""
     mon = monitors_ or monitors(model, observer, settle=settle, rule=rule)
     field = worst_by or default_worst_field(mon)
     mon.field(field)

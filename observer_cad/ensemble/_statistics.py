@@ -53,7 +53,8 @@ class FieldStatistics:
     not NaN (±inf included: a diverged run shows); ``mean`` and ``std`` (sample standard
     deviation, ddof = 1) over the finite values; ``worst_run``/``worst_value``: the
     worst run (:meth:`EnsembleStatistics.worst`; None/NaN when every run is finite and
-    its value NaN: no run had the event); ``positive``/``positive_fraction``: for
+    its value NaN — no run had the event — or when every run is finite with the same
+    value: no run differs); ``positive``/``positive_fraction``: for
     ``count`` fields, the runs with a value > 0 and their fraction of ``count`` (else
     None); ``histogram``: for ``code`` fields, (value, runs) pairs (else None). NaN where
     a statistic has no value.
@@ -372,7 +373,8 @@ class EnsembleStatistics:
             mean = float(np.mean(fin)) if fin.size else math.nan
             std = float(np.std(fin, ddof=1)) if fin.size > 1 else math.nan
             wr, wv = None, math.nan
-            if n:
+            same = not broken.any() and defined.size == n and lo == hi
+            if n and not same:  # no worst run where every run has the same value
                 w = int(_rank_order(v, f.worse, runs, broken)[0])
                 if broken[w] or not math.isnan(v[w]):   # else: no run had the event
                     wr, wv = int(runs[w]), float(v[w])

@@ -24,8 +24,12 @@ expression node by node from a whitelist grammar::
 Conditions are allowed only where the caller asks for them (piecewise scenario
 segments) and inside ``Piecewise``. Anything else — attribute access, subscripts,
 calls of other names, keyword arguments, lambdas, strings, comprehensions, ``1j``
-literals, numbers outside the floating-point range, exponents above
-:data:`MAX_EXPONENT`, text longer than :data:`MAX_LENGTH` characters — raises
+literals, numbers outside the floating-point range, nonzero decimals below the smallest
+normal double (read exactly they would be rationals of hundreds of digits), exponents above
+:data:`MAX_EXPONENT`, text longer than :data:`MAX_LENGTH` characters, an expression that
+expanded would exceed :data:`MAX_EXPANDED_TERMS` terms, degree :data:`MAX_DEGREE` or
+:data:`MAX_DIGITS` digits (estimated from its tree by :func:`expansion_size`, before
+anything is expanded) — raises
 :class:`~observer_cad.errors.ExpressionError` (a :class:`UsageError`: one line naming
 ``where`` and what was rejected). Nothing is executed: no ``eval``, no ``sympify``,
 no ``parse_expr`` on the text.
@@ -64,9 +68,11 @@ from typing import Mapping
 import sympy as sp
 
 from ..errors import ExpressionError
+from ._expansion import MAX_DEGREE, MAX_DIGITS, MAX_EXPANDED_TERMS, expansion_size
 
 __all__ = ["parse_expression", "parse_number", "FUNCTIONS", "MAX_LENGTH", "MAX_EXPONENT",
-           "MAX_CROOTOF_DEGREE"]
+           "MAX_CROOTOF_DEGREE", "MAX_EXPANDED_TERMS", "MAX_DEGREE", "MAX_DIGITS",
+           "expansion_size"]
 
 #: longest text accepted (characters)
 MAX_LENGTH = 2000
@@ -78,6 +84,9 @@ MAX_EXPONENT = 1000
 #: ``FLOAT_AUTO_N`` = 20 states), below where sympy's root isolation gets slow for
 #: ordinary coefficients
 MAX_CROOTOF_DEGREE = 32
+#: smallest nonzero |decimal| read exactly: below it (5e-324, a subnormal float) the
+#: exact rational would carry hundreds of digits for a value no float arithmetic keeps
+MIN_NORMAL = 2.2250738585072014e-308
 _MAX_DEPTH = 100
 _FLOAT_MAX_LOG10 = math.log10(1.7976931348623157e308)
 
@@ -192,6 +201,16 @@ def _narrow_isolating_interval(root) -> None:
         return
 
 
+def _check_expansion(expr) -> None:
+    """Refuse what would be too large to expand (terms, degree, digits) in one line."""
+    if not isinstance(expr, sp.Basic) or expr.is_Atom:
+        return
+    try:
+        expansion_size(expr)
+    except ValueError as exc:
+        raise _Reject(str(exc)) from None
+
+
 class _Reject(Exception):
     """Internal: what was rejected (becomes the ExpressionError's reason)."""
 
@@ -296,6 +315,10 @@ class _Builder:
                 raise _Reject(f"number {seg} outside the floating-point range")
             if not self.exact_floats:
                 return sp.Float(seg.replace("_", ""))
+            if dec != 0 and abs(dec) < Decimal(repr(MIN_NORMAL)):
+                raise _Reject(f"number {seg} is below the smallest normal floating-point"
+                              f" number {MIN_NORMAL:.3g} in magnitude (write 0 or a larger"
+                              " value)")
             p, q = dec.as_integer_ratio()
             return sp.Rational(p, q)
         if isinstance(v, complex):
@@ -665,6 +688,10 @@ def parse_expression(text, names=None, *, where: str, allow_complex: bool = Fals
     except (TypeError, ValueError, ArithmeticError) as exc:  # sympy refusing an operand
         detail = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
         raise fail(f"not a valid expression ({detail})") from None
+    try:
+        _check_expansion(out)  # before anyone expands it
+    except _Reject as exc:
+        raise fail(str(exc)) from None
     if not condition:
         if out.has(*_NONFINITE):
             raise fail("not finite (division by zero or an infinite value)")

@@ -27,7 +27,8 @@ from ..errors import DimensionError, ExpressionError, ModelError
 from ._expressions import parse_number
 from ._statespace import statespace_model_arguments
 
-__all__ = ["PlantModel", "load_model", "load_model_module", "model_from_module", "to_rational"]
+__all__ = ["PlantModel", "load_model", "load_model_module", "model_from_module", "to_rational",
+           "MAX_BOUND", "bound_problem"]
 
 TIME_DOMAINS = ("continuous", "discrete")
 
@@ -229,6 +230,9 @@ class PlantModel:
         set_ = lambda k, v: object.__setattr__(self, k, v)  # noqa: E731 (frozen dataclass)
         if not isinstance(self.name, str) or not self.name.strip():
             raise ModelError(f"{where}: name must be a non-empty string")
+        if _has_control_character(self.name):
+            raise ModelError(f"{where}: name {self.name!r} has a control character (a newline,"
+                             " a tab, …)")
         if self.time not in TIME_DOMAINS:
             raise ModelError(f"{where}: time must be 'continuous' or 'discrete', got {self.time!r}")
         set_("states", _symbols(self.states, "states", where))
@@ -400,6 +404,13 @@ def _parameter_defaults(raw: Any, where: str) -> dict:
     return params
 
 
+def _has_control_character(text: str) -> bool:
+    """Whether ``text`` has a character of Unicode category C* other than a plain space's
+    kin (newlines, tabs, escapes, format and private-use characters)."""
+    import unicodedata
+    return any(unicodedata.category(c).startswith("C") for c in text)
+
+
 def _symbol_roles(model: "PlantModel", params: dict, where: str) -> dict:
     """Every symbol in exactly one role, none with a reserved name: symbol → role."""
     roles: dict[sp.Symbol, str] = {}
@@ -412,6 +423,10 @@ def _symbol_roles(model: "PlantModel", params: dict, where: str) -> dict:
                     f"{where}: symbol '{s}' is declared in two roles: {roles[s]} and {role}")
             roles[s] = role
     for s, role in roles.items():
+        if _has_control_character(s.name) or not s.name.strip():
+            raise ModelError(f"{where}: the {role[:-1] if role != 'noise' else role} name"
+                             f" {s.name!r} is empty or has a control character (a newline, a"
+                             " tab, …): such a name cannot head a CSV column or a line")
         if _RESERVED.fullmatch(s.name):
             raise ModelError(
                 f"{where}: the {role[:-1] if role != 'noise' else role} name '{s}' is reserved"
@@ -473,8 +488,31 @@ def _declared_bounds(raw: Any, roles: dict, where: str) -> dict:
         hi = to_rational(hi, f"{where}: upper bound of '{s}'")
         if bool(lo > hi):
             raise ModelError(f"{where}: bounds of '{s}' have low {lo} > high {hi}")
+        problem = bound_problem(lo, hi)
+        if problem:
+            raise ModelError(f"{where}: bounds of '{s}' {problem}")
         bounds[s] = (lo, hi)
     return bounds
+
+
+#: the largest |bound| of a signal: interval arithmetic in double precision with bounds of
+#: 1e15 leaves no significant digit of values of order one (1e15 · 2⁻⁵² ≈ 0.2), so a
+#: band, an interval or a threshold built on them would be noise presented as a result
+MAX_BOUND = 1e12
+
+
+def bound_problem(lo, hi) -> str | None:
+    """What is wrong with bounds (low, high) beyond their order, or None: a magnitude above
+    :data:`MAX_BOUND` is refused (leave the bounds out for a signal that has none)."""
+    try:
+        big = max(abs(float(lo)), abs(float(hi)))
+    except (TypeError, ValueError, OverflowError):
+        return "are not finite numbers"
+    if not big <= MAX_BOUND:
+        return (f"reach {big:.3g}, above {MAX_BOUND:g}: in double precision such an interval"
+                " leaves no significant digit of the values it encloses (declare no bounds for"
+                " a signal that has none)")
+    return None
 
 
 def _state_domain(relations: Any, states, params: dict, where: str) -> tuple:

@@ -216,7 +216,8 @@ def resolve_task(model: PlantModel, *, observer, faults: Sequence[str] | str | N
         sym = model.symbol(name)
         if sym is None or sym not in allowed:
             pool = ", ".join(s.name for s in allowed) or "none"
-            raise ModelError(f"{where}: unknown {role} '{name}'; declared: {pool}")
+            shown = repr(name) if not str(name).isprintable() else f"'{name}'"
+            raise ModelError(f"{where}: unknown {role} {shown}; declared: {pool}")
         return sym
 
     targets: list = []

@@ -12,7 +12,7 @@ import sympy as sp
 
 from ..synthesis import Design, DesignMatrices
 from ..analysis import ResidualBank
-from ..errors import UsageError
+from ..errors import FailedConditionError, UsageError
 from ..model import PlantModel
 from ._drem import DremDesign
 from ._interval import interval_observer_nonlinear
@@ -110,9 +110,26 @@ def interval_observer(model: PlantModel, design: Design, **options) -> Observer:
     return interval_observer_nonlinear(model, design, **options)
 
 
-def build_observer(model: PlantModel, design: Design, **options) -> Observer:
+def build_observer(model: PlantModel, design: Design, *, allow_failed: bool = False,
+                   **options) -> Observer:
     """The observer for a design (or a :class:`ResidualBank`: one observer with outputs
-    r1 … rm); ``options`` go to the kind's builder (gains, bounds)."""
+    r1 … rm); ``options`` go to the kind's builder (gains, bounds).
+
+    An observer that fails a required condition (an unstable gain, a sliding gain below
+    its bound) must not be used: :class:`~observer_cad.errors.FailedConditionError` (one
+    line naming the condition; its ``observer`` is what was built), unless
+    ``allow_failed`` (then check ``failed_conditions`` yourself)."""
+    observer = _build(model, design, **options)
+    failed = observer.failed_conditions
+    if failed and not allow_failed:
+        c = failed[0]
+        more = f"; and {len(failed) - 1} more" if len(failed) > 1 else ""
+        raise FailedConditionError(f"the observer fails a required condition: {c.name}"
+                                   f" ({c.detail}){more}", observer=observer)
+    return observer
+
+
+def _build(model: PlantModel, design: Design, **options) -> Observer:
     if isinstance(design, DremDesign):  # DREM designs carry their observer
         return design.observer
     if isinstance(design, ResidualBank):  # r1 … rm side by side

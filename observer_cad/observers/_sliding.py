@@ -11,7 +11,14 @@ from ..model import PlantModel
 from ..synthesis import EPS, K1, TAU, Condition, Design, gain_bound
 from ._observer import Observer
 
-__all__ = ["sliding_observer"]
+__all__ = ["sliding_observer", "MAX_SLIDING_PARAMETER"]
+
+
+#: the largest k_sm (k1), eps_sm (ε) and tau_sm (τ) a sliding-mode observer is built with
+#: (a design file can carry any number): k1·sign(e) of 1e6 moves the estimate by 1e4 in a
+#: step of 0.01, and e/(|e| + ε) with ε above 1e6 is zero to double precision for any
+#: error a plant of these examples has
+MAX_SLIDING_PARAMETER = 1e6
 
 
 def sliding_observer(model: PlantModel, design: Design) -> Observer:
@@ -35,6 +42,11 @@ def sliding_observer(model: PlantModel, design: Design) -> Observer:
         if not ok:
             raise UsageError(f"the sliding-mode design's parameter {sym} must be a finite"
                              f" positive number, got {v}")
+        if float(v) > MAX_SLIDING_PARAMETER:
+            raise UsageError(f"the sliding-mode design's parameter {sym} = {float(v):.6g} is"
+                             f" above {MAX_SLIDING_PARAMETER:g}: a gain that large makes the"
+                             " step function meaningless in double precision, and ε or τ"
+                             " that large switches the injection off")
     k1v = float(params[K1])
     inputs = design.sliding_inputs
     if inputs is not None:

@@ -72,12 +72,23 @@ def _spans(mask: np.ndarray):
     return list(zip(d[::2], d[1::2]))
 
 
+#: values drawn are clipped to ±this: matplotlib computes axis limits as differences,
+#: which overflow for bands near the floating-point range (``--threshold 1e308``); the
+#: CSV keeps the values as they are
+PLOT_LIMIT = 1e150
+
+
+def _plottable(values) -> "np.ndarray":
+    """``values`` as floats clipped to ±:data:`PLOT_LIMIT` (nan stays nan)."""
+    return np.clip(np.asarray(values, dtype=float), -PLOT_LIMIT, PLOT_LIMIT)
+
+
 def _residual_axes(ax, t, result, name, *, alarm=None, ylabel="", xl=""):
     """One residual with its threshold band, the samples out of it (x) and, when
     ``alarm`` is given, the alarm spans (shaded)."""
-    r = _run0(result[name]).astype(float)
-    lo = _run0(result[f"{name}_lower"]).astype(float)
-    hi = _run0(result[f"{name}_upper"]).astype(float)
+    r = _plottable(_run0(result[name]))
+    lo = _plottable(_run0(result[f"{name}_lower"]))
+    hi = _plottable(_run0(result[f"{name}_upper"]))
     ax.fill_between(t, lo, hi, color="tab:green", alpha=0.18, step="mid",
                     label="threshold band (fault-free)")
     ax.plot(t, r, color="tab:purple", lw=1.1, label=name)
@@ -239,8 +250,8 @@ def plot_simulation(result, out_dir, *, time: str, title: str = "", units: dict 
                 paths.append(save_figure(fig, out / f"{s}_error.png"))
         elif name.endswith("_lower") and name[:-6] + "_upper" in names:
             s = name[:-6]
-            lo = np.asarray(result[name], dtype=float)
-            hi = np.asarray(result[s + "_upper"], dtype=float)
+            lo = _plottable(result[name])
+            hi = _plottable(result[s + "_upper"])
             fig, ax = plt.subplots(figsize=(7, 3.6))
             ax.fill_between(t, lo, hi, color="tab:blue", alpha=0.18, label="interval")
             ax.plot(t, lo, color="tab:blue", lw=1.0, label=f"{s} lower bound")
