@@ -100,7 +100,9 @@ class Threshold:
     user value) or ``"quantile"`` (a Monte-Carlo quantile, :func:`observer_cad.simulation.
     quantile_threshold`); ``values`` the constant half-widths (constant and quantile);
     ``conditions`` what the band rests on; ``error_system`` (guaranteed) the error system used,
-    ``margin`` the roundoff allowance added to both ends."""
+    ``margin`` the roundoff allowance added to both ends; ``sample_time`` and
+    ``discretisation`` (sampled-data bands, :func:`sampled_threshold`): the step h and how
+    the observer must be stepped ("rk4", "zoh", or "discrete" for a discrete-time model)."""
 
     kind: str
     residuals: tuple
@@ -109,8 +111,15 @@ class Threshold:
     error_system: ErrorSystem | None = None
     margin: float = 0.0
     description: str = ""
+    sample_time: float | None = None
+    discretisation: str = ""
 
     def text(self) -> str:
+        if self.kind == "guaranteed" and self.discretisation:
+            how = {"rk4": "RK4", "zoh": "exact ZOH"}.get(self.discretisation, "")
+            at = f" at h = {self.sample_time:g} ({how})" if self.sample_time else ""
+            return (f"guaranteed threshold of the sampled algorithm{at} (worst-case bounds of"
+                    f" the fault-free residual, margin ≤ {self.margin:.3g})")
         if self.kind == "guaranteed":
             return (f"guaranteed adaptive threshold (interval bounds of the fault-free residual,"
                     f" margin {self.margin:g})")
