@@ -1,6 +1,6 @@
 """Sampled-data guaranteed thresholds: the band of the fault-free residual of the discrete
 algorithm that actually runs (METHOD §3, residual evaluation; the L1 norm of an impulse
-response as the exact worst case of a bounded input: Dahleh & Diaz-Bobillo 1995, §4).
+response as the exact worst case of a bounded input: Dahleh & Diaz-Bobillo 1995).
 
 Deployed, a continuous-time residual generator ξ' = A ξ + G y + G_u u + c0, r = C_r ξ + G_r y
 + G_ru u + c_r is stepped at the sample time h with y(k) and u(k) held over the step
@@ -52,7 +52,7 @@ SAMPLED_DISCRETISATIONS = ("rk4", "zoh")
 ROUNDOFF_FACTOR = 4096.0
 
 _REF = "METHOD §3 (residual evaluation)"
-_L1REF = "Dahleh & Diaz-Bobillo 1995, §4"
+_L1REF = "Dahleh & Diaz-Bobillo 1995"
 _DPS = 40
 
 
