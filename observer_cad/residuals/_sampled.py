@@ -244,58 +244,77 @@ def _envelope(model: PlantModel, box: dict, where: str) -> dict:
     return full
 
 
-def _inputs(g: dict, dyn: _Affine, out: _Affine, hold: dict, full: dict, where: str) -> tuple:
-    """The bounded scalar inputs of the error system: columns into e (B), into r (Cd) and
-    their ranges (the module docstring's terms)."""
+def _inputs(g: dict, dyn: _Affine, out: _Affine, hold: dict, full: dict, where: str) -> dict:
+    """The error system the band sums over, with its bounded scalar inputs (the module
+    docstring's terms). With a stable plant step (ρ(e^{A0 h}) < 1) the state is z = [x; e]
+    (the plant moves the held terms K_x x: exact); otherwise z = e and x(k) is an input
+    bounded by the envelope. Returns dict(F, N, B, Cd, lo, hi, labels, joint, n)."""
     Phi, G, Gr = g["Phi"], g["G"], g["Gr"]
     F, Q, E0, G0, h = hold["F"], hold["Q"], hold["E0"], hold["G0"], hold["h"]
     sampled = hold["sampled"]
     Phim, Gm, Hm = _mp(Phi), _mp(G), _mp(out.Mx)
+    k, m, n = Phi.rows, Gr.rows, Phi.cols
+    E0n = _mpn(E0)
+    joint = bool(n) and float(max(np.abs(np.linalg.eigvals(E0n)))) < 1 - 1e-9
     cols, labels = [], []
-    k, m = Phi.rows, Gr.rows
+    Phin = _mpn(Phi)
 
-    def add(b, c, lo, hi, label):
-        b = [float(v) for v in b]
-        c = [float(v) for v in c]
-        if any(b) or any(c):
-            cols.append((b, c, float(lo), float(hi)))
+    def add(bx, be, c, lo, hi, label):
+        bx = [float(v) for v in bx] if joint else []
+        be, c = [float(v) for v in be], [float(v) for v in c]
+        if any(bx) or any(be) or any(c):
+            cols.append((bx + be, c, float(lo), float(hi)))
             labels.append(label)
     with mpmath.workdps(_DPS):
         Kx = Phim * E0 - F * Phim - Q * Gm * Hm
         Ku = Phim * G0 * _mp(dyn.Mu) - Q * (Gm * _mp(out.Mu) + _mp(g["Gu"]))
         K1 = Phim * G0 * _mp(dyn.m0) - Q * (Gm * _mp(out.m0) + _mp(g["c0"]))
-        for j, x in enumerate(full["__states"]):
-            add(Kx[:, j], [0] * m, *full[x], f"{x} (hold)")
+        Bx, b0 = G0 * _mp(dyn.Mu), G0 * _mp(dyn.m0)
+        if not joint:
+            for j, x in enumerate(full["__states"]):
+                add([], Kx[:, j], [0] * m, *full[x], f"{x} (hold)")
         for j, u in enumerate(full["__inputs"]):
-            add(Ku[:, j], [0] * m, *full[u], f"{u} (hold)")
-        add(K1[:, 0], [0] * m, 1, 1, "constant (hold)")
+            add(Bx[:, j], Ku[:, j], [0] * m, *full[u], f"{u} (hold)")
+        add(b0[:, 0], K1[:, 0], [0] * m, 1, 1, "constant (hold)")
         for phi, w in out.rest:  # sampled output terms: noise, uncertain sensors
             b = -(Q * Gm * _mp(w))
-            add(b[:, 0], list(Gr * w), *_box_of(phi, full, where), f"{phi} (sampled output)")
-        R = np.zeros(k)
-        A0 = _mpn(dyn.Mx)
+            add([0] * n, b[:, 0], list(Gr * w), *_box_of(phi, full, where), f"{phi} (sampled output)")
+    Rx, Re = np.zeros(n), np.zeros(k)
+    hf = 1.0 if sampled else float(h)
+    tail = _exp_tail(np.abs(_mpn(dyn.Mx)) * hf) * (1 + 1e-9)
+    for phi, v in dyn.rest:  # dynamics terms: disturbances, uncertain parameters
+        lo, hi = _box_of(phi, full, where)
+        vv = v * (1 if sampled else h)
+        add(list(vv), list(Phi * vv), [0] * m, lo, hi, f"{phi} (dynamics)")
         if not sampled:
-            absA = np.abs(A0)
-            hf = float(h)
-            tail = _exp_tail(absA * hf) * (1 + 1e-9)
-        for phi, v in dyn.rest:  # dynamics terms: disturbances, uncertain parameters
-            lo, hi = _box_of(phi, full, where)
-            gain = Phi * v * (1 if sampled else h)
-            add(list(gain), [0] * m, lo, hi, f"{phi} (dynamics)")
-            if not sampled:
-                big = float(max(abs(lo), abs(hi)))
-                vv = np.abs(_mpn(v)[:, 0])
-                first = np.abs(_mpn(Phi * dyn.Mx * v)[:, 0]) * hf * hf / 2
-                R += (first + hf * (np.abs(_mpn(Phi)) @ (tail @ vv))) * big
+            big = float(max(abs(lo), abs(hi)))
+            va = np.abs(_mpn(v)[:, 0])
+            Rx += (np.abs(_mpn(dyn.Mx * v)[:, 0]) * hf * hf / 2 + hf * (tail @ va)) * big
+            Re += (np.abs(_mpn(Phi * dyn.Mx * v)[:, 0]) * hf * hf / 2
+                   + hf * (np.abs(Phin) @ (tail @ va))) * big
+    if joint:
+        for i in range(n):
+            if Rx[i] > 0:
+                add([Rx[i] if j == i else 0 for j in range(n)], Phin[:, i] * Rx[i], [0] * m,
+                    -1, 1, f"intersample remainder {i + 1}")
+    else:
         for i in range(k):
-            if R[i] > 0:
-                add([R[i] if j == i else 0 for j in range(k)], [0] * m, -1, 1,
+            if Re[i] > 0:
+                add([], [Re[i] if j == i else 0 for j in range(k)], [0] * m, -1, 1,
                     f"intersample remainder {i + 1}")
-    if not cols:
-        return np.zeros((k, 0)), np.zeros((m, 0)), np.zeros(0), np.zeros(0), []
-    B = np.array([c[0] for c in cols]).T.reshape(k, len(cols))
-    Cd = np.array([c[1] for c in cols]).T.reshape(m, len(cols))
-    return B, Cd, np.array([c[2] for c in cols]), np.array([c[3] for c in cols]), labels
+    N = -_mpn(g["Cr"])
+    Fe = _mpn(F)
+    if joint:
+        Fz = np.block([[E0n, np.zeros((n, k))], [_mpn(Kx), Fe]])
+        Nz = np.hstack([np.zeros((m, n)), N])
+    else:
+        Fz, Nz = Fe, N
+    d = Fz.shape[0]
+    T = len(cols)
+    B = np.array([c[0] for c in cols]).T.reshape(d, T) if T else np.zeros((d, 0))
+    Cd = np.array([c[1] for c in cols]).T.reshape(m, T) if T else np.zeros((m, 0))
+    return dict(F=Fz, N=Nz, B=B, Cd=Cd, lo=np.array([c[2] for c in cols]),
+                hi=np.array([c[3] for c in cols]), labels=labels, joint=joint, n=n, k=k)
 
 
 def _exp_tail(M: np.ndarray) -> np.ndarray:
@@ -384,7 +403,8 @@ def _magnitudes(g: dict, out: _Affine, hold: dict, full: dict, model: PlantModel
     return res, step
 
 
-def _conditions(model, hr, how, full, box, labels, wc, rho_F, x0_text, margin_text) -> list:
+def _conditions(model, hr, how, full, box, labels, wc, rho_F, x0_text, margin_text,
+                joint) -> list:
     where_h = (f"observer stepped every h = {format_number(hr)} by "
                + ("RK4" if how == "rk4" else "the exact zero-order hold")
                + " with y(k) and u(k) held over the step (observer_step(..., h, discretisation="
@@ -408,13 +428,73 @@ def _conditions(model, hr, how, full, box, labels, wc, rho_F, x0_text, margin_te
                   _REF),
         Condition("initial state", True, x0_text, _REF),
         Condition("discrete error system stable", bool(rho_F < 1),
-                  f"spectral radius of the step's error matrix F: {rho_F:.6g}", _REF),
+                  ("z = [x; e] (plant and observer error, the plant's step stable: the held"
+                   " terms move with the plant)" if joint else
+                   "z = e (the held terms bounded by the envelope at every sample)")
+                  + f": spectral radius of the step matrix {rho_F:.6g}", _REF),
         Condition("worst-case sum", True,
                   f"L1 norm of each input's impulse response to r over {len(labels)} bounded"
                   f" inputs, {wc.steps} terms summed, geometric tail bound {wc.tail:.3g} added",
                   _L1REF, required=False),
         Condition("roundoff margin", True, margin_text, _REF, required=False),
     ]
+
+
+def _transient(model: PlantModel, g: dict, sysm: dict, full: dict, hr, how: str) -> tuple:
+    """K (per residual) with |transient of r| ≤ K q^k, the decay state's coefficient, q, the
+    condition text, and the observer's start Φ c (None: keep x*(0) = Φ x(0))."""
+    F, N, n = sysm["F"], sysm["N"], sysm["n"]
+    Phin = _mpn(g["Phi"])
+    start, cols = None, []
+    if model.initial:
+        box = [model.initial[x] for x in model.states]
+        c = sp.Matrix([(lo + hi) / 2 for lo, hi in box])
+        rad = np.array([float((hi - lo) / 2) for lo, hi in box])
+        start = g["Phi"] * c
+        if sysm["joint"]:  # z(0) = [c; 0] + [I; Φ] (x(0) − c)
+            cols = [np.concatenate([np.eye(n)[:, j], Phin[:, j]]) * rad[j] for j in range(n)]
+            cols.append(np.concatenate([_mpn(c)[:, 0], np.zeros(Phin.shape[0])]))
+        else:
+            cols = [Phin[:, j] * rad[j] for j in range(n)]
+        x0_text = ("x(0) in the initial box " + ", ".join(
+            f"{x} ∈ [{format_number(lo)}, {format_number(hi)}]" for x, (lo, hi)
+            in zip(model.states, box)) + "; observer started at x*(0) = Φ c (c the box centre)")
+    else:
+        x0_text = ("x(0) known: observer started at x*(0) = Φ x(0) (e(0) = 0); no initial box"
+                   " declared")
+        if sysm["joint"]:  # x(0) anywhere in the envelope, e(0) = 0
+            env = [full[x] for x in model.states]
+            cols = [np.concatenate([np.eye(n)[:, j], np.zeros(Phin.shape[0])])
+                    * float((hi - lo) / 2) for j, (lo, hi) in enumerate(env)]
+            cols.append(np.concatenate([[float((lo + hi) / 2) for lo, hi in env],
+                                        np.zeros(Phin.shape[0])]))
+    if not cols:
+        return np.zeros(N.shape[0]), None, None, x0_text, start
+    coef, q = _decay(F, hr, how)
+    K = transient_envelope(F, N, np.array(cols).T, q) * (1 + 1e-9)
+    return K, coef, q, x0_text + f"; transient ≤ K·{q:.6g}^k", start
+
+
+def _error_system(model: PlantModel, g: dict, hold: dict, sysm: dict, Bf, residuals):
+    """The sampled error system (discrete: z(k+1) = F z(k) + fault_input d, r = −C z) for the
+    fault's steady response; z = [x; e] when the plant's step is stable."""
+    k = g["Phi"].rows
+    if Bf is None:
+        Bx = sp.zeros(g["Phi"].cols, 0)
+    elif hold["sampled"]:
+        Bx = Bf
+    else:
+        Bx = sp.Matrix(_mpn(hold["G0"] * _mp(Bf))).applyfunc(sp.Rational)
+    Be = g["Phi"] * Bx
+    rat = lambda M: sp.Matrix(M).applyfunc(sp.Rational)  # noqa: E731
+    if sysm["joint"]:
+        fin, C = Bx.col_join(Be), sp.zeros(len(residuals), sysm["n"]).row_join(g["Cr"])
+    else:
+        fin, C = Be, g["Cr"]
+    return ErrorSystem("discrete", sp.ImmutableMatrix(rat(sysm["F"])), sp.ImmutableMatrix(C),
+                       sp.ImmutableMatrix(fin),
+                       sp.ImmutableMatrix.zeros(len(residuals), len(model.faults)),
+                       tuple(str(d) for d in model.faults), residuals) if k >= 0 else None
 
 
 def sampled_threshold(model: PlantModel, observer: Observer, h=None, *,
@@ -448,15 +528,16 @@ def sampled_threshold(model: PlantModel, observer: Observer, h=None, *,
     full = _envelope(model, box, where)
     full["__states"], full["__inputs"] = tuple(model.states), tuple(model.inputs)
     hold = _hold_matrices(g, dyn, hr, how)
-    B, Cd, lo, hi, labels = _inputs(g, dyn, out, hold, full, where)
-    F, N = _mpn(hold["F"]), -_mpn(g["Cr"])
+    sysm = _inputs(g, dyn, out, hold, full, where)
+    F, N, labels = sysm["F"], sysm["N"], sysm["labels"]
     rho_F = float(max(np.abs(np.linalg.eigvals(F)))) if F.size else 0.0
     if not rho_F < 1:
         raise UsageError(f"{where}: the observer's discrete step is not stable (spectral radius"
                          f" {rho_F:.6g}); no bounded band at this sample time")
-    wc = worst_case_sums(F, N, B, Cd, lo, hi)
+    wc = worst_case_sums(F, N, sysm["B"], sysm["Cd"], sysm["lo"], sysm["hi"])
+    Fe, Ne = _mpn(hold["F"]), -_mpn(g["Cr"])
     res_mag, step_mag = _magnitudes(g, out, hold, full, model, where)
-    acc = worst_case_sums(F, N, np.diag(step_mag), np.zeros((N.shape[0], len(step_mag))),
+    acc = worst_case_sums(Fe, Ne, np.diag(step_mag), np.zeros((Ne.shape[0], len(step_mag))),
                           -np.ones(len(step_mag)), np.ones(len(step_mag))).upper
     eps = float(np.finfo(float).eps)
     margin = ROUNDOFF_FACTOR * eps * (res_mag + acc) + 1e-9 * (np.abs(wc.upper) + np.abs(wc.lower))
@@ -465,21 +546,11 @@ def sampled_threshold(model: PlantModel, observer: Observer, h=None, *,
                    + ", ".join(f"{v:.3g}" for v in margin))
     xi, upd = list(g["xi"]), list(g["upd"])
     initial = dict(observer.initial)
-    K = np.zeros(len(residuals))
-    if model.initial:
-        c = sp.Matrix([(lo_ + hi_) / 2 for lo_, hi_ in (model.initial[x] for x in model.states)])
-        rad = [float((hi_ - lo_) / 2) for lo_, hi_ in (model.initial[x] for x in model.states)]
-        start = g["Phi"] * c
-        initial.update({s: start[i] for i, s in enumerate(xi)})
-        coef, q = _decay(F, hr, how)
-        K = transient_envelope(F, N, _mpn(g["Phi"]) @ np.diag(rad), q) * (1 + 1e-9)
-        x0_text = ("x(0) in the initial box " + ", ".join(
-            f"{x} ∈ [{format_number(model.initial[x][0])}, {format_number(model.initial[x][1])}]"
-            for x in model.states) + "; observer started at x*(0) = Φ c (c the box centre);"
-            f" transient ≤ K·{q:.6g}^k")
-    else:
-        x0_text = "x(0) known: observer started at x*(0) = Φ x(0) (e(0) = 0); no initial box declared"
-    conds += _conditions(model, hr, how, full, box, labels, wc, rho_F, x0_text, margin_text)
+    K, coef, q, x0_text, start = _transient(model, g, sysm, full, hr, how)
+    if start is not None:
+        initial.update({s_: start[i] for i, s_ in enumerate(xi)})
+    conds += _conditions(model, hr, how, full, box, labels, wc, rho_F, x0_text, margin_text,
+                         sysm["joint"])
     z = sp.Symbol(f"{xi[0] if xi else 'xs'}_decay")
     states, updates = tuple(xi), tuple(upd)
     if np.any(K > 0):
@@ -490,14 +561,7 @@ def sampled_threshold(model: PlantModel, observer: Observer, h=None, *,
         tr = sp.Float(float(K[i]), 17) * z if K[i] > 0 else 0
         outputs.append((f"{r}_lower", sp.Float(float(wc.lower[i] - margin[i]), 17) - tr))
         outputs.append((f"{r}_upper", sp.Float(float(wc.upper[i] + margin[i]), 17) + tr))
-    G0 = hold["G0"]
-    fault_in = (sp.Matrix(_mpn(_mp(g["Phi"]) * G0 * _mp(Bf))).applyfunc(sp.Rational)
-                if Bf is not None and not hold["sampled"] else
-                (g["Phi"] * Bf if Bf is not None else sp.zeros(len(xi), 0)))
-    es = ErrorSystem("discrete", sp.ImmutableMatrix(sp.Matrix(F).applyfunc(sp.Rational)),
-                     sp.ImmutableMatrix(g["Cr"]), sp.ImmutableMatrix(fault_in),
-                     sp.ImmutableMatrix.zeros(len(residuals), len(model.faults)),
-                     tuple(str(d) for d in model.faults), residuals)
+    es = _error_system(model, g, hold, sysm, Bf, residuals)
     th = Threshold("guaranteed", residuals, tuple(conds), (), es, float(max(margin, default=0)),
                    "worst-case (L1) bounds of the fault-free residual of the sampled algorithm",
                    sample_time=float(hr) if hr is not None else None, discretisation=how)

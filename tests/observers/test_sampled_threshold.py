@@ -177,17 +177,19 @@ def test_discrete_plant_simulated(models_dir):
     m = load_model(models_dir / "electric_drive_uncertain.py")
     x1, x2, x3 = m.states
     u = m.inputs[0]
-    m = dataclasses.replace(m, bounds={**m.bounds, x1: (-10, 10), x2: (-5, 5), x3: (-3, 3),
-                                       u: (-10, 10)})
+    m = dataclasses.replace(m, bounds={**m.bounds, x1: (-10, 10), x2: (-1, 1), x3: (-3, 3),
+                                       u: (-2, 2)})
     o = build_observer(m, design(m, observer="diagnostic"))
     ot = sampled_threshold(m, o)
     assert ot.threshold.discretisation == "discrete"
     sc = scenario_from_dict({"steps": 600, "seed": 2,
                              "parameters": {"k5": {"uniform": [0.9504, 0.9696]}},
-                             "signals": {"u": "5*sin(t/10)", "rho": {"uniform": [-0.05, 0.05]},
+                             "signals": {"u": "2*sin(t/10)", "rho": {"uniform": [-0.05, 0.05]},
                                          "w1": {"uniform": [0, 0.02]},
                                          "w2": {"uniform": [-0.01, 0.01]}}})
     res = simulate(m, ot, sc, runs=100)
+    assert np.max(np.abs(res["x3"])) <= 3 and np.max(np.abs(res["x2"])) <= 1
+    assert np.max(np.abs(res["x1"])) <= 10
     assert int(np.sum((res["r"] < res["r_lower"]) | (res["r"] > res["r_upper"]))) == 0
     assert np.max(np.abs(res["r"])) > 0.1 * float(np.max(res["r_upper"]))
 
@@ -216,7 +218,6 @@ def test_without_an_initial_box_the_band_rests_on_a_known_state(motor):
     ot = sampled_threshold(known, o, H, discretisation="zoh")
     conds = {c.name: c.detail for c in ot.threshold.conditions}
     assert conds["initial state"].startswith("x(0) known")
-    assert ot.states == o.states  # no transient state
     assert ot.initial[ot.states[0]] == o.initial[o.states[0]]
 
 
