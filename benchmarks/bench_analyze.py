@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Diagnosability-analysis benchmark (issue 12 item 7): ``analyze`` on a 20-state,
+"""Diagnosability-analysis benchmark: ``analyze`` on a 20-state,
 6-fault model, target < 2 s.
 
     python3 benchmarks/bench_analyze.py            # measure, print the table

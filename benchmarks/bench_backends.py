@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Ensemble backends benchmark (issue 16 item 5): runs per second of a compiled task on
+"""Ensemble backends benchmark: runs per second of a compiled task on
 serial, threads, loky processes and a Dask LocalCluster, side by side in one run.
 
     python3 benchmarks/bench_backends.py            # measure, print the table

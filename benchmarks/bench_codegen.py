@@ -421,7 +421,7 @@ def bench_case(title, path, primary, fallback, scen, a):
     run.argtypes = [ctypes.c_longlong] + [ctypes.c_void_p] * 5
     K = a.k
     # the per-step routes use the joint step with the parameters substituted (s, v, h),
-    # as before issue 16 (the trajectory library takes them at run time: s, v, p, h)
+    # as before run-time parameters (the trajectory library takes them at run time: s, v, p, h)
     js = joint_step(m, o)
     Fm = compile_function(js.mapaccum(K), cache=cache).function
     step_c = compile_function(js, cache=cache).function

@@ -35,7 +35,7 @@ from common import load, machine, publish  # noqa: E402
 from observer_cad import build_observer, design, load_model  # noqa: E402
 from observer_cad.analysis import design_bank  # noqa: E402
 from observer_cad.codegen import observer_step, split_signals  # noqa: E402
-from observer_cad.residuals import (guaranteed_threshold, residual_outputs,  # noqa: E402
+from observer_cad.residuals import (guaranteed_threshold, residual_names,  # noqa: E402
                                     sampled_threshold)
 
 ROOT = HERE.parent
@@ -102,7 +102,7 @@ class Runner:
                                discretisation=how if h is not None else "rk4")
         self.ys, self.us = split_signals(ot)
         self.names = [n for n, _ in ot.outputs]
-        self.res = residual_outputs(ot)
+        self.res = residual_names(ot)
         self.acc = {}
 
     def __call__(self, plant, x0, u, rho, w):
@@ -188,7 +188,7 @@ def main(argv=None) -> int:
             ot = sampled_threshold(m, ob)
         found, band, inside = falsify(m, ot, h, how, steps)
         secs = time.perf_counter() - t0
-        for i, r in enumerate(residual_outputs(ot)):
+        for i, r in enumerate(residual_names(ot)):
             lo, up = band[i]
             ratio = max(up / found[i, 1] if found[i, 1] > 0 else np.inf,
                         -lo / found[i, 0] if found[i, 0] > 0 else np.inf)

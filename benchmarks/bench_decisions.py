@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Decision and evaluation benchmark (issue 13): the cost of deciding on residuals and of
+"""Decision and evaluation benchmark: the cost of deciding on residuals and of
 a Monte-Carlo evaluation, side by side.
 
     python3 benchmarks/bench_decisions.py            # measure, print the table
@@ -16,7 +16,7 @@ a Monte-Carlo evaluation, side by side.
    part of a Monte-Carlo evaluation; the simulator costs several µs per sample).
 2. ``evaluate_ensemble`` on the electric drive (discrete, residual generator for d,
    ρ and the noise uniform within their bounds): the fault-free case and d = 0.2 from
-   t = 1,000, 1,000 runs × 2,000 steps each (the size of issue 13's test), constant band
+   t = 1,000, 1,000 runs × 2,000 steps each (the size of the evaluation test), constant band
    ±0.1; timed whole, and the share of the reference simulator in it. Target < 30 s.
 """
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Ensembles at scale (issue 16, item 7) and scenario-in, result-out latency (item 1).
+"""Ensembles at scale and scenario-in, result-out latency.
 
     python3 benchmarks/bench_ensemble.py [--runs 10000] [--write]
 

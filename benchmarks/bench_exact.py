@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Exact-synthesis benchmark (issue 14 item 1): the exact canonical design of random
+"""Exact-synthesis benchmark: the exact canonical design of random
 dense-rational plants, n = 40 and 60, l = 8, one disturbance, side by side on the two
 rational backends, and the elimination itself on the largest Krylov matrix.
 
@@ -247,7 +247,7 @@ def run(runs: int, pairs: int) -> str:
         f" the end. Exact canonical design of `random_model(n, 8, 1, seed=0, integer=False)`"
         f" (structure extracted first, not timed): median of {runs} fresh processes, wall-clock"
         " (CPU time of the process in parentheses). Ratio: wall / target and CPU / target."
-        " Before: main at 6cfb86b, as measured for issue 14.",
+        " Before: main at 6cfb86b.",
         "",
         "| plant | backend | k | exact design | before | target | ratio wall / CPU |",
         "|---|---|---|---|---|---|---|",

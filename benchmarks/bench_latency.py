@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Latency benchmark (issue 14 items 4 and 5): cold compile time of large observers, and
+"""Latency benchmark: cold compile time of large observers, and
 the wall-clock time of the command line.
 
     python3 benchmarks/bench_latency.py                          # measure, print the tables

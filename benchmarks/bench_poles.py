@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Exact pole placement benchmark (issue 14 item 3): ``place_poles`` for k = 4, 6, 8, 12,
+"""Exact pole placement benchmark: ``place_poles`` for k = 4, 6, 8, 12,
 target k = 8 < 1 s, the previous implementation side by side.
 
     python3 benchmarks/bench_poles.py            # measure, print the table
@@ -84,7 +84,7 @@ CASES = (("dense:4", "dense rational F*, dense row h, μ = −1 … −k"), ("de
 
 
 def previous_place_poles(Fs, Hs, eigenvalues):
-    """main before issue 14 item 3 (observer_cad/synthesis/core/_poles.py), verbatim but for
+    """main before the fraction-free placement (observer_cad/synthesis/core/_poles.py), verbatim but for
     the error classes."""
     Fs, Hs = sp.Matrix(Fs), sp.Matrix(Hs)
     k = Fs.rows

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Scale benchmark (issue 14, item 2): model building and structure extraction up to
+"""Scale benchmark: model building and structure extraction up to
 n = 240, and the float designs of a 300-state, 32-output model.
 
     python3 benchmarks/bench_scale.py            # measure, print the table

@@ -8,9 +8,8 @@ Every Sphinx warning is attributed to the file it comes from: a docstring's modu
 ``docstring of observer_cad.x.y`` of the warning), or a page of docs/. Without
 ``--strict`` the build fails on the warnings of files that the documentation work owns —
 the pages of docs/ and the modules listed in :data:`OWNED` — and lists the others, per
-module and kind, without failing. That split is temporary: the modules outside
-:data:`OWNED` were being rewritten while this build was set up, and their warnings are to
-be fixed once; from then on .ci/run runs ``--strict``, which is plain
+module and kind, without failing (a view for work in progress). .ci/run runs
+``--strict``: every warning anywhere fails, as with
 ``python3 -m sphinx -W --keep-going -b html docs docs/_build/html``.
 
 The doctests (``>>>`` examples in the docstrings and in the pages) run with Sphinx's

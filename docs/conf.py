@@ -60,6 +60,10 @@ autodoc_preserve_defaults = True
 # the docstrings' own Examples sections are doctests; napoleon keeps them as such
 napoleon_numpy_docstring = True
 napoleon_google_docstring = False
+# A bare attribute name in a docstring's type position (``names``, ``A``, ``N``) becomes a
+# cross-reference that several classes' attributes answer; Sphinx links the first, and the
+# ambiguity is not an error of the documentation (unresolved references still are)
+suppress_warnings = ["ref.python"]
 
 # MyST: GitHub-style heading anchors, so that links like METHOD.md#2b-jordan-canonical-form
 # work both on a forge and in the built pages; $…$ math is not used (the pages write

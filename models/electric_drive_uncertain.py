@@ -1,6 +1,6 @@
 """The electric drive of models/electric_drive.py (seed 000, Zhirabok & Zuev 2024, §9) with
 a 1 % uncertainty on k5 and asymmetric sensor noise: the commissioning example of the
-guaranteed thresholds (issue 13; METHOD §3, residual evaluation).
+guaranteed thresholds (METHOD §3, residual evaluation).
 
     x1(t+1) = x1(t) + k1 x2(t)
     x2(t+1) = k2 x2(t) + k3 x3(t) + rho(t)

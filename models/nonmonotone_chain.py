@@ -1,4 +1,4 @@
-"""A three-state chain with Lipschitz but non-monotone nonlinear terms (issue 14, item 7):
+"""A three-state chain with Lipschitz but non-monotone nonlinear terms:
 an interval observer through the γ-shift (mixed-monotone) decomposition, METHOD §3.
 
     x1' = -2 x1 + a sin(x2) + b exp(-|x1 - x2|) + u + rho

@@ -1,5 +1,5 @@
 """Linear three-tank with a fault in each tank and a disturbance beside the third
-(this project's own example, built for the diagnosability analysis of issue 12).
+(this project's own example, built for the diagnosability analysis).
 
 The plant is the linearised three-tank of seed 001 (Zhirabok, Zuev & Kim 2022, §7) and
 seed 004 §5 (every geometric coefficient 1, levels x2, x3 measured); the faults are this

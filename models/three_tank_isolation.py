@@ -1,6 +1,6 @@
 """Linear three-tank with a fault in each tank, every level measured and a common
 disturbance (this project's own example, built for the isolating residual banks of
-issue 12; the companion of models/three_tank_faults.py, where isolation fails).
+the companion of models/three_tank_faults.py, where isolation fails).
 
 The plant is the linearised three-tank of seed 001 (Zhirabok, Zuev & Kim 2022, §7) and
 seed 004 §5 (every geometric coefficient 1), as in models/three_tank_faults.py; the

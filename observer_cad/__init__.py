@@ -17,7 +17,7 @@ from .errors import (CertificateError, DimensionError, InfeasibleDesignError, Mo
 
 # Everything else is imported on first use (PEP 562 ``__getattr__`` below), so that
 # ``import observer_cad`` — and a command that needs only the model and the synthesis —
-# does not pay for the stages it does not use (scipy, casadi, matplotlib; issue 14 item 5).
+# does not pay for the stages it does not use (scipy, casadi, matplotlib).
 # ``from observer_cad import design`` works as before.
 _LAZY = {
     "model": ("NonlinearTerm", "ObserverKind", "PlantModel", "Structure", "Task",

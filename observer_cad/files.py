@@ -11,8 +11,8 @@ from pathlib import Path
 
 from .errors import UsageError
 
-__all__ = ["atomic_write_text", "atomic_writer", "read_json_file", "staged_directory",
-           "new_file_mode"]
+__all__ = ["atomic_write_text", "atomic_write_bytes", "atomic_writer", "read_json_file",
+           "staged_directory", "new_file_mode"]
 
 
 def new_file_mode() -> int:
@@ -28,6 +28,24 @@ def atomic_write_text(path: Path, text: str) -> None:
     """Write a file atomically: a temporary file in the same folder, then os.replace."""
     with atomic_writer(path) as fh:
         fh.write(text)
+
+
+def atomic_write_bytes(path: Path, data: bytes) -> None:
+    """Write binary ``data`` atomically (a temporary file in the same folder, then
+    os.replace), e.g. a zip archive built in memory."""
+    path = Path(path)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    try:
+        os.chmod(tmp, new_file_mode())
+        with os.fdopen(fd, "wb") as fh:
+            fh.write(data)
+        os.replace(tmp, path)
+    except BaseException:
+        try:
+            os.unlink(tmp)
+        except OSError:
+            pass
+        raise
 
 
 @contextlib.contextmanager

@@ -1,4 +1,4 @@
-"""Independent oracle for fault signatures (tests of issue 12): the fault columns read off
+"""Independent oracle for fault signatures: the fault columns read off
 the model's right-hand side by differentiation, and the residual's transfer function
 H* (sI − F*)⁻¹ Φ D_j computed symbolically in s — not the extracted structure's D nor the
 observability matrix the implementation uses. Also the issue's three-tank plant."""

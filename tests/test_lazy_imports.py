@@ -1,4 +1,4 @@
-"""Import cost (issue 14 item 5): ``import observer_cad`` and the commands that only design
+"""Import cost: ``import observer_cad`` and the commands that only design
 or analyse import neither casadi nor matplotlib nor scipy (nor python-control, pandas);
 the top-level names stay importable (PEP 562).  Each check runs in a fresh interpreter
 and reads ``sys.modules`` there — no timing here: the wall-clock figures are in

@@ -41,7 +41,7 @@ def test_every_demo_model_and_scenario_is_an_example():
         assert (EXAMPLES_DIR / case.model).is_file(), case.model
         for run in case.runs:
             assert (EXAMPLES_DIR / "scenarios" / f"{run.scenario}.json").is_file(), run.scenario
-    # the diagnosability example (issue 12): the analysed model, the bank's model and scenario
+    # the diagnosability example: the analysed model, the bank's model and scenario
     for model in (DIAGNOSABILITY.analysis_model, DIAGNOSABILITY.bank_model):
         assert (EXAMPLES_DIR / model).is_file(), model
     assert (EXAMPLES_DIR / "scenarios" / f"{DIAGNOSABILITY.scenario}.json").is_file()

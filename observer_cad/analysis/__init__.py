@@ -1,9 +1,16 @@
 """Stage 4 — analysis: diagnosability (detectability, isolability, the achievable
 structure matrix), the nonlinear checks, and residual banks that realise a structure.
 """
-from ._bank import (ResidualBank, design_bank, parse_structure, realised_row, FULL_SEARCH_FAULTS)
+from ._bank import (ResidualBank, design_bank, parse_structure)
 from ._ranges import (interval_scale, range_sign, format_number, Domain, RangeAnalyzer, argument_range, derivative_range)
 from ._checks import (LipschitzResult, MonotoneResult, StabilityResult, lipschitz, is_monotone, is_cooperative, stability_condition, model_nonlinearity, reduced_nonlinearity, nonlinear_conditions)
-from ._diagnosability import (analyze, Analysis, FaultAnalysis, PairAnalysis, StructureRow, Suggestion, detecting_orders, MAX_ENUMERATED_FAULTS)
+from ._diagnosability import (analyze, Analysis, FaultAnalysis, PairAnalysis, StructureRow, Suggestion, detecting_orders)
 
-__all__ = ["ResidualBank", "design_bank", "parse_structure", "realised_row", "FULL_SEARCH_FAULTS", "interval_scale", "range_sign", "format_number", "Domain", "RangeAnalyzer", "LipschitzResult", "MonotoneResult", "StabilityResult", "lipschitz", "is_monotone", "is_cooperative", "stability_condition", "argument_range", "derivative_range", "model_nonlinearity", "reduced_nonlinearity", "nonlinear_conditions", "analyze", "Analysis", "FaultAnalysis", "PairAnalysis", "StructureRow", "Suggestion", "detecting_orders", "MAX_ENUMERATED_FAULTS"]
+__all__ = [
+    "ResidualBank", "design_bank", "parse_structure", "interval_scale", "range_sign",
+    "format_number", "Domain", "RangeAnalyzer", "LipschitzResult", "MonotoneResult",
+    "StabilityResult", "lipschitz", "is_monotone", "is_cooperative", "stability_condition",
+    "argument_range", "derivative_range", "model_nonlinearity", "reduced_nonlinearity",
+    "nonlinear_conditions", "analyze", "Analysis", "FaultAnalysis", "PairAnalysis",
+    "StructureRow", "Suggestion", "detecting_orders"
+]

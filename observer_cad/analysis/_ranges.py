@@ -370,8 +370,8 @@ class _Entry:
 
 def _piecewise_range(f, t, lo, hi, function_range):
     """inf and sup of f over the open interval (lo, hi), exactly: sympy's function_range,
-    on each piece between the zeros of the affine arguments of |·| and sign(·) in f
-    (there |a| = ±a and sign(a) = ±1, so f is smooth and function_range can answer;
+    on each piece between the zeros of the affine arguments of abs(·) and sign(·) in f
+    (there abs(a) = ±a and sign(a) = ±1, so f is smooth and function_range can answer;
     e^(−|t|) and sign(t) e^(−|t|) are bounded exactly instead of from samples)."""
     atoms = [a for a in f.atoms(sp.Abs, sp.sign) if a.args[0].has(t)]
     if not atoms:

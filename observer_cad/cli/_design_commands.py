@@ -88,6 +88,8 @@ def cmd_codegen(args) -> int:
     from ..observers import build_observer
     if args.symbolic:
         raise UsageError("codegen needs numeric parameters: drop --symbolic")
+    if getattr(args, "fmi_version", None) is not None and not getattr(args, "fmu", False):
+        raise UsageError("--fmi-version applies with --fmu")
     model, result = design_from_args(args)
     report("building the observer", stage=True)
     observer = build_observer(model, result, **observer_options(args, result))
@@ -103,6 +105,9 @@ def cmd_codegen(args) -> int:
     except ModuleNotFoundError:  # pragma: no cover - during development only
         raise UsageError("standalone C export is not available") from None
     dt = args.dt if args.dt is not None else (0.01 if observer.time == "continuous" else None)
+    sample_time = None
+    if getattr(args, "fmu", False) and observer.time == "discrete":
+        sample_time, dt = dt, None   # --dt: the FMU's sample period
     rule = None
     if observer.threshold is not None:
         from ..residuals import decision_rule
@@ -111,8 +116,18 @@ def cmd_codegen(args) -> int:
         raise UsageError("--persistence applies with --threshold")
     from ..files import staged_directory
     out = Path(args.out)
-    with staged_directory(out) as stage:  # the three files together, or none changed
+    fmu = None
+    with staged_directory(out) as stage:  # the files together, or none changed
         paths = export_observer(observer, stage, name=args.name, dt=dt, rule=rule)
+        if getattr(args, "fmu", False):
+            from ..codegen import export_fmu
+            fmu = export_fmu(observer, stage, name=args.name, dt=dt, sample_time=sample_time,
+                             rule=rule, fmi_version=args.fmi_version or "2.0")
+            paths.append(fmu.path)
     for p in paths:
         print(f"wrote {out / Path(p).relative_to(stage)}")
+    if fmu is not None:
+        for src, fmi in fmu.renamed:
+            print(f"fmu: '{src}' is named {fmi} (FMI names are identifiers; listed in"
+                  " documentation/index.html)")
     return 0

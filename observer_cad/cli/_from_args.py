@@ -100,6 +100,12 @@ def _warn_conditioning(result) -> None:
 
 
 def observer_options(args, result) -> dict:
+    if getattr(args, "tau", None) is not None:
+        if result.observer != "unknown-input" or getattr(args, "gain", None):
+            raise UsageError("--tau applies to --observer unknown-input on a continuous-time"
+                             " model (without --gain)")
+        from ..model import parse_number
+        return {"tau": parse_number(args.tau, where="--tau")}
     if getattr(args, "gain", None):
         if result.observer != "unknown-input":
             raise UsageError("--gain applies to --observer unknown-input")

@@ -162,8 +162,16 @@ def _add_codegen(sub) -> None:
     _add_design_options(cg)
     cg.add_argument("--out", metavar="DIR", required=True, help="output directory")
     cg.add_argument("--dt", type=_positive_float("--dt"), default=None,
-                    help="continuous time: the RK4 step size baked into the step (default 0.01)")
+                    help="continuous time: the RK4 step size baked into the step (default 0.01);"
+                         " with --fmu and a discrete observer: the sample period (default 1)")
     cg.add_argument("--name", default=None, help="C name prefix (default: the observer's name)")
+    cg.add_argument("--fmu", action="store_true",
+                    help="also write NAME.fmu: an FMI co-simulation FMU of the monitor (the C"
+                         " sources and this platform's binary, built with $CC or cc; inputs y, u;"
+                         " outputs, bands, alarms, diagnosis code; sample time = --dt, for a"
+                         " discrete observer its sample period, default 1)")
+    cg.add_argument("--fmi-version", choices=["2.0", "3.0"], default=None,
+                    help="with --fmu: the FMI version of NAME.fmu (default 2.0)")
     _add_threshold_options(cg, quantile=True)
     cg.add_argument("--scenario", metavar="FILE", default=None,
                     help="with --threshold quantile:RATE: the scenario whose fault-free runs"
@@ -261,6 +269,10 @@ def _add_design_options(p) -> None:
     p.add_argument("--gain", metavar="VALUE", nargs="+",
                    help="unknown-input estimator: the gains g (one, or one per row of the "
                         "model); default as in seed 000 (-0.7; -0.4, -0.1 mismatched)")
+    p.add_argument("--tau", metavar="T", default=None,
+                   help="unknown-input estimator, continuous time: the time constant of the "
+                        "estimate's filter 1/(T s + 1) (default 1/10): the estimate is the "
+                        "input filtered by it")
     p.add_argument("--gamma", type=_positive_float("--gamma"), default=None,
                    help="drem: the gradient gain γ (default: the model's suggestion)")
     p.add_argument("--poles", metavar="SET", nargs="+",

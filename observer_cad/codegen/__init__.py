@@ -8,13 +8,28 @@ whole-trajectory simulation in one compiled call, standalone C export.
     z = observer_step(obs, h=0.01, discretisation="zoh")  # exact ZOH (affine observers)
     res = CompiledSimulator(model, obs).simulate(scenario)   # == simulate(model, obs, scenario)
     export_observer(obs, "out", dt=0.01)      # out/NAME.c, NAME.h, NAME_example.c (standalone C)
+    export_fmu(obs, "out", dt=0.01)           # out/NAME.fmu (FMI 2.0 co-simulation; or 3.0)
+    ref = reference_run(obs, columns, dt=0.01)   # the same steps in Python, on recorded columns
+    compare_columns(ref, read_csv_columns("run.csv")).ok   # another run (FMU, C, monitor) equal?
 """
-from ._compile import (CACHE_LOCK, CodegenError, cache_dir, usable_cache_dir, verify_library, compiler, generate_c, compile_source, compile_function, compile_or_interpret, CompiledFunction, STATS, FLAGS, LARGE_SOURCE, LARGE_LEVEL, size_aware_flags, structure, fingerprint, lookup_fingerprint, record_fingerprint, forget_fingerprint, compile_observer_step, compile_plant_step)
-from ._decide_c import (MAX_C_RESIDUALS, DecisionSources, decision_sources)
+from ._compile import (CodegenError, cache_dir, usable_cache_dir, verify_library, compiler, generate_c, compile_source, compile_function, CompiledFunction, STATS, FLAGS, LARGE_SOURCE, LARGE_LEVEL, size_aware_flags, structure, fingerprint, compile_observer_step, compile_plant_step)
+from ._decide_c import (DecisionSources)
 from ._export import (export_observer, export_sources, ExportedSources, EXAMPLE_FLAGS, silence_unused_parameters)
-from ._loops import loop_source
-from ._trajectory import (CompiledSimulator, simulate_compiled, TRAJ_FLAGS)
-from ._translate import (to_casadi, Translator, observer_step, plant_step, joint_step, describe, split_signals, rk4, zoh_matrices, DISCRETISATIONS, observer_step_name, plant_step_name, joint_step_name, observer_identity, plant_identity, joint_identity)
+from ._trajectory import (CompiledSimulator, simulate_compiled)
+from ._translate import (to_casadi, Translator, observer_step, plant_step, joint_step, describe, split_signals, rk4, zoh_matrices)
 from ._library import (LibrarySpec, library_spec, load_library, loaded_libraries)
+from ._fmu import (export_fmu, FmuExport, FmuVariable, fmi_variable_name)
+from ._replay import (reference_run, fmu_samples, compare_columns, ColumnComparison, read_csv_columns)
 
-__all__ = ["MAX_C_RESIDUALS", "DecisionSources", "decision_sources", "CACHE_LOCK", "CodegenError", "cache_dir", "usable_cache_dir", "verify_library", "compiler", "generate_c", "compile_source", "compile_function", "compile_or_interpret", "CompiledFunction", "STATS", "FLAGS", "LARGE_SOURCE", "LARGE_LEVEL", "size_aware_flags", "structure", "fingerprint", "lookup_fingerprint", "record_fingerprint", "forget_fingerprint", "compile_observer_step", "compile_plant_step", "export_observer", "export_sources", "ExportedSources", "EXAMPLE_FLAGS", "silence_unused_parameters", "CompiledSimulator", "simulate_compiled", "loop_source", "TRAJ_FLAGS", "to_casadi", "Translator", "observer_step", "plant_step", "joint_step", "describe", "split_signals", "rk4", "zoh_matrices", "DISCRETISATIONS", "observer_step_name", "plant_step_name", "joint_step_name", "observer_identity", "plant_identity", "joint_identity", "LibrarySpec", "library_spec", "load_library", "loaded_libraries"]
+__all__ = [
+    "DecisionSources", "CodegenError", "cache_dir", "usable_cache_dir", "verify_library",
+    "compiler", "generate_c", "compile_source", "compile_function", "CompiledFunction", "STATS",
+    "FLAGS", "LARGE_SOURCE", "LARGE_LEVEL", "size_aware_flags", "structure", "fingerprint",
+    "compile_observer_step", "compile_plant_step", "export_observer", "export_sources",
+    "ExportedSources", "EXAMPLE_FLAGS", "silence_unused_parameters", "CompiledSimulator",
+    "simulate_compiled", "to_casadi", "Translator", "observer_step", "plant_step", "joint_step",
+    "describe", "split_signals", "rk4", "zoh_matrices", "LibrarySpec", "library_spec",
+    "load_library", "loaded_libraries", "export_fmu", "FmuExport", "FmuVariable",
+    "fmi_variable_name", "reference_run", "fmu_samples", "compare_columns", "ColumnComparison",
+    "read_csv_columns"
+]

@@ -111,10 +111,13 @@ def silence_unused_parameters(src: str) -> str:
 
 
 class ExportedSources:
-    """The three files' text (``c``, ``h``, ``example``), the casadi Function and sizes."""
+    """The three files' text (``c``, ``h``, ``example``), the casadi Function and sizes;
+    ``x0``: the default initial state (``NAME_x0``), ``decisions``: the
+    :class:`~observer_cad.codegen.DecisionSources` of the rule (None without)."""
 
-    def __init__(self, name, function, c, h, example):
+    def __init__(self, name, function, c, h, example, x0=(), decisions=None):
         self.name, self.function, self.c, self.h, self.example = name, function, c, h, example
+        self.x0, self.decisions = tuple(x0), decisions
 
 
 def _initial_state(observer: Observer, initial: Mapping | None):
@@ -188,7 +191,7 @@ def export_sources(observer: Observer, *, name: str | None = None, dt: float | N
     c_text, h_text = _c_source(parts), _header_source(parts)
     ex_text = example_source(name, observer, parts.h_arg, parts.ys, parts.us, parts.xs,
                              parts.outs, parts.dec)
-    return ExportedSources(name, parts.f, c_text, h_text, ex_text)
+    return ExportedSources(name, parts.f, c_text, h_text, ex_text, parts.x0, parts.dec)
 
 
 def _checked_options(observer: Observer, name: str | None, dt, discretisation: str) -> tuple:

@@ -9,6 +9,9 @@ share), the report (``_report``) and :func:`run_demo`, which runs them in order 
 from ._cases import (CASES, EXAMPLES_DIR, Case, Run, DIAGNOSABILITY, BANK_FIGURE, DiagnosabilityExample)
 from ._figures import FIGURES
 from ._run import run_demo
-from ._evaluation import (EvaluationOutcome, run_evaluation, evaluation_section, evaluation_summary, DRIVE_MODEL, BANK_MODEL, ENSEMBLE_MODEL)
+from ._evaluation import (EvaluationOutcome)
 
-__all__ = ["CASES", "EXAMPLES_DIR", "FIGURES", "Case", "Run", "run_demo", "DIAGNOSABILITY", "BANK_FIGURE", "DiagnosabilityExample", "EvaluationOutcome", "run_evaluation", "evaluation_section", "evaluation_summary", "DRIVE_MODEL", "BANK_MODEL", "ENSEMBLE_MODEL"]
+__all__ = [
+    "CASES", "EXAMPLES_DIR", "FIGURES", "Case", "Run", "run_demo", "DIAGNOSABILITY",
+    "BANK_FIGURE", "DiagnosabilityExample", "EvaluationOutcome"
+]

@@ -95,7 +95,7 @@ def fig_000_3(outs, path):
 
 
 def fig_000_4(outs, path):
-    """Noisy case: ρ, ρ̂ and e_ρ, then |e_ρ| beside the noise-free case on a log axis."""
+    """Noisy case: ρ, ρ̂ and e_ρ, then abs(e_ρ) beside the noise-free case on a log axis."""
     plt = pyplot()
     o = outs["drive_rho"]
     res4, res3 = o.sims["electric_drive_rho_fig4"], o.sims["electric_drive_rho_fig3"]

@@ -88,7 +88,7 @@ def is_identically_zero(expr, *, scale=(), seed: int = 0, rtol: float | None = N
 
 
 def _numeric(e, scale, seed: int, rtol: float) -> ZeroTest:
-    """The numeric fallback: |e| relative to the size of ``scale`` at random rational points."""
+    """The numeric fallback: abs(e) relative to the size of ``scale`` at random rational points."""
     syms = sorted(e.free_symbols | set().union(*[sp.sympify(s).free_symbols for s in scale]),
                   key=str)
     rng = random.Random(f"{seed}:{len(syms)}")

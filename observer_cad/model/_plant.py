@@ -3,11 +3,11 @@
 A model file is a plain Python module that defines ``model = PlantModel(...)``;
 :func:`load_model` imports one by path. The model is immutable and validated on
 construction: every symbol is declared in exactly one role, lengths agree, outputs
-are linear in the states, noise appears only in the outputs.
+are linear in the states, noise enters linearly (outputs, and optionally the dynamics).
 
 Plant (METHOD §1), continuous ``dx/dt`` or discrete ``x(t+1)``::
 
-    x' = F x + G u + C Ψ(x, u) + D d + L ρ,     y = H x + W w
+    x' = F x + G u + C Ψ(x, u) + D d + L ρ + Bw w,     y = H x + W w
 """
 from __future__ import annotations
 
@@ -25,6 +25,7 @@ import sympy as sp
 
 from ..errors import DimensionError, ExpressionError, ModelError
 from ._expressions import parse_number
+from ._statespace import statespace_model_arguments
 
 __all__ = ["PlantModel", "load_model", "load_model_module", "model_from_module", "to_rational"]
 
@@ -179,7 +180,8 @@ class PlantModel:
         Right-hand side, one expression per state.
     inputs, faults, disturbances, noise : list of Symbol, optional
         Known controls u, unknown inputs / faults d, disturbances ρ to decouple from,
-        measurement noise w (appearing only in the outputs).
+        noise w: measurement noise in the outputs (W w) and/or process noise in the
+        dynamics (Bw w, linear with constant coefficients); bounded, never decoupled.
     parameters : mapping Symbol -> number or None, optional
         Symbolic parameters and their default values (None: no default; numeric
         designs then fail with a clear error).
@@ -268,9 +270,8 @@ class PlantModel:
     def from_statespace(cls, sys, **options) -> "PlantModel":
         """A model from a python-control ``StateSpace``, a scipy ``lti``/``dlti`` or a
         tuple ``(A, B, C, D)``, its input columns grouped by role
-        (:func:`observer_cad.model.from_statespace`, which documents the options)."""
-        from ._statespace import from_statespace
-        return from_statespace(sys, **options)
+        (the options: :func:`observer_cad.model.statespace_model_arguments`)."""
+        return cls(**statespace_model_arguments(sys, **options))
 
     # ------------------------------------------------------------------ helpers
     @property
@@ -429,8 +430,8 @@ def _symbol_roles(model: "PlantModel", params: dict, where: str) -> dict:
 
 
 def _check_expression_symbols(model: "PlantModel", roles: dict, where: str) -> None:
-    """Every symbol of the equations declared; noise in the outputs only, and in some
-    output; outputs free of inputs, faults and disturbances; every fault and disturbance
+    """Every symbol of the equations declared; noise in some output or dynamics equation
+    (process noise enters the dynamics linearly, checked at extraction); outputs free of inputs, faults and disturbances; every fault and disturbance
     in some dynamics equation. Each expression's symbols are collected once (one walk
     over its terms)."""
     declared = set(roles)
@@ -441,10 +442,6 @@ def _check_expression_symbols(model: "PlantModel", roles: dict, where: str) -> N
         for s in sorted(fs - declared, key=str):
             raise ModelError(
                 f"{where}: undeclared symbol '{s}' in dynamics equation {i + 1} (for {x})")
-        for s in sorted(fs & noise, key=str):
-            raise ModelError(
-                f"{where}: noise '{s}' appears in dynamics equation {i + 1} (for {x});"
-                " measurement noise may enter the outputs only")
     unknown = set(model.inputs) | set(model.faults) | set(model.disturbances)
     for i, (h, hs) in enumerate(zip(model.outputs, out_syms)):
         name = f"y{i + 1}"
@@ -455,10 +452,11 @@ def _check_expression_symbols(model: "PlantModel", roles: dict, where: str) -> N
                 f"{where}: output {name} = {h} depends on {roles[s][:-1]} '{s}';"
                 " outputs may contain states, noise and parameters only")
     in_outputs = set().union(*out_syms)
-    for w in model.noise:
-        if w not in in_outputs:
-            raise ModelError(f"{where}: noise '{w}' is declared but appears in no output")
     in_dynamics = set().union(*dyn_syms)
+    for w in model.noise:
+        if w not in in_outputs and w not in in_dynamics:
+            raise ModelError(f"{where}: noise '{w}' is declared but appears in no output"
+                             " and no dynamics equation")
     for role, syms in (("fault", model.faults), ("disturbance", model.disturbances)):
         for s in syms:
             if s not in in_dynamics:

@@ -36,7 +36,7 @@ import sympy as sp
 
 from ..errors import DimensionError, ModelError
 
-__all__ = ["from_statespace", "statespace_matrices"]
+__all__ = ["statespace_model_arguments", "statespace_matrices"]
 
 _NAME = re.compile(r"[A-Za-z][A-Za-z0-9_]*")
 _RESERVED = re.compile(r"t|y[0-9]+|xs[0-9]+")
@@ -161,12 +161,12 @@ def _groups(m: int, inputs, faults, disturbances, noise, where: str) -> dict:
     return out
 
 
-def from_statespace(sys, *, inputs: Sequence[int] | None = None, faults: Sequence[int] = (),
+def statespace_model_arguments(sys, *, inputs: Sequence[int] | None = None, faults: Sequence[int] = (),
                     disturbances: Sequence[int] = (), noise: Sequence[int] = (),
                     name: str = "statespace", time: str | None = None,
-                    names: Mapping[str, Sequence[str]] | None = None, **model_options):
-    """A :class:`~observer_cad.model.PlantModel` from a state-space system (see the module
-    docstring).
+                    names: Mapping[str, Sequence[str]] | None = None, **model_options) -> dict:
+    """The arguments of :class:`~observer_cad.model.PlantModel` for a state-space system
+    (see the module docstring); ``PlantModel.from_statespace(sys, ...)`` builds the model.
 
     Parameters
     ----------
@@ -185,8 +185,9 @@ def from_statespace(sys, *, inputs: Sequence[int] | None = None, faults: Sequenc
 
     Returns
     -------
-    PlantModel
-        Its dynamics and outputs written from the matrices, exact rationals throughout.
+    dict
+        The model's keyword arguments: its dynamics and outputs written from the matrices,
+        exact rationals throughout.
 
     Raises
     ------
@@ -194,8 +195,6 @@ def from_statespace(sys, *, inputs: Sequence[int] | None = None, faults: Sequenc
         Shapes that do not fit, an entry that is not a finite real number, a column in two
         groups or in none, a name that is not usable.
     """
-    from ._plant import PlantModel
-
     where = f"from_statespace ({name})"
     A, B, C, D, sys_time, labels = statespace_matrices(sys, where=where)
     if time is None:
@@ -233,7 +232,7 @@ def from_statespace(sys, *, inputs: Sequence[int] | None = None, faults: Sequenc
     x = sp.Matrix(syms["states"])
     dyn = A * x + (B * ucol if B.cols else sp.zeros(n, 1))
     out = C * x + (D * ucol if B.cols else sp.zeros(C.rows, 1))
-    return PlantModel(name=name, time=time, states=list(syms["states"]),
+    return dict(name=name, time=time, states=list(syms["states"]),
                       inputs=list(syms["inputs"]), faults=list(syms["faults"]),
                       disturbances=list(syms["disturbances"]), noise=list(syms["noise"]),
                       outputs=list(out), dynamics=list(dyn), **model_options)

@@ -1,8 +1,11 @@
-"""Structure extraction: from a model's right-hand side to F, G, H, C, D, L and Ψ.
+"""Structure extraction: from a model's right-hand side to F, G, H, C, D, L, Bw and Ψ.
 
 METHOD §1::
 
-    x' = F x + G u + C Ψ(x, u) + D d + L ρ,     y = H x + W w
+    x' = F x + G u + C Ψ(x, u) + D d + L ρ + Bw w,     y = H x + W w
+
+(process noise Bw w: a noise symbol entering the dynamics linearly with a constant
+coefficient; bounded, never decoupled).
     Ψ(x, u) = (φ_1(A_1 x, u), ..., φ_q(A_q x, u))ᵀ
 
 Every additive term of a right-hand side that is not linear in x and u is a
@@ -49,14 +52,14 @@ class EquationCheck:
 class ModelCertificate:
     """The extracted matrices rebuild the model's own equations (METHOD §1)::
 
-        F x + G u + C Ψ(A x, u) + D d + L ρ − f(x, u, d, ρ) ≡ 0,   H x + W w − h(x, w) ≡ 0
+        F x + G u + C Ψ(A x, u) + D d + L ρ + Bw w − f(x, u, d, ρ, w) ≡ 0,   H x + W w − h(x, w) ≡ 0
 
     one :class:`EquationCheck` per equation and output, every one passed (a failure is a
     :class:`ModelError`, never a certificate)."""
 
     checks: tuple
 
-    IDENTITY = "F x + G u + C Psi(A x, u) + D d + L rho - f = 0,  H x + W w - h = 0"
+    IDENTITY = "F x + G u + C Psi(A x, u) + D d + L rho + Bw w - f = 0,  H x + W w - h = 0"
 
     @property
     def exact(self) -> bool:
@@ -109,6 +112,13 @@ class Structure:
     #: the model certificate (:func:`extract_structure` always sets it; None for a
     #: structure built from known matrices, e.g. :func:`~observer_cad.model.random_structure`)
     certificate: ModelCertificate | None = None
+    #: process noise in the dynamics: x' = ... + Bw w (zero when absent)
+    Bw: sp.ImmutableMatrix | None = None
+
+    def __post_init__(self):
+        if self.Bw is None:
+            object.__setattr__(self, "Bw", sp.ImmutableMatrix.zeros(self.F.shape[0],
+                                                                    len(self.model.noise)))
 
     @property
     def n(self) -> int:
@@ -150,14 +160,15 @@ class Structure:
         return sp.ImmutableMatrix(sp.Matrix.hstack(*cols))
 
     def rhs(self) -> sp.ImmutableMatrix:
-        """F x + G u + C Ψ + D d + L ρ rebuilt from the matrices (for checks).
+        """F x + G u + C Ψ + D d + L ρ + Bw w rebuilt from the matrices (for checks).
 
         Built row by row from the nonzero entries (``Add`` of products), which is much
         cheaper than matrix products of long symbolic sums."""
         m = self.model
         psi = list(self.psi()) if self.terms else []
         return _rebuilt(self.n, [(self.F, m.states), (self.G, m.inputs), (self.C, psi),
-                                 (self.D, m.faults), (self.L, m.disturbances)])
+                                 (self.D, m.faults), (self.L, m.disturbances),
+                                 (self.Bw, m.noise)])
 
     def outputs_rebuilt(self) -> sp.ImmutableMatrix:
         """H x + W w rebuilt from the matrices (for checks)."""
@@ -371,8 +382,10 @@ class _Collected:
         self.G = [[zero] * len(us) for _ in range(n)]
         self.D = [[zero] * len(ds) for _ in range(n)]
         self.L = [[zero] * len(rs) for _ in range(n)]
+        self.Bw = [[zero] * len(model.noise) for _ in range(n)]
         self.simple = {}  # variable -> (matrix, column)
-        for mat, syms in ((self.F, xs), (self.G, us), (self.D, ds), (self.L, rs)):
+        for mat, syms in ((self.F, xs), (self.G, us), (self.D, ds), (self.L, rs),
+                          (self.Bw, model.noise)):
             for k, v in enumerate(syms):
                 self.simple[v] = (mat, k)
         self.funcs: list = []  # m (x,u-dependent part) per column, in order of appearance
@@ -385,9 +398,9 @@ def _check_nonlinear_term(t, m, eq, model: PlantModel, variables, where) -> None
     """Step 2: in a nonlinear term t = c·m, unknown inputs must enter linearly with
     constant coefficients (D, L constant); controls affinely (φ(A x, u) may hold u)."""
     us, ds = model.inputs, model.faults
-    unknown = set(ds) | set(model.disturbances)
+    unknown = set(ds) | set(model.disturbances) | set(model.noise)
     for sym in sorted(m.free_symbols & unknown, key=str):
-        role = "fault" if sym in ds else "disturbance"
+        role = "fault" if sym in ds else "noise" if sym in model.noise else "disturbance"
         k = sp.diff(t, sym)
         bad = k.free_symbols & variables
         if bad & (set(us) | unknown):
@@ -550,7 +563,7 @@ def _read_outputs(model: PlantModel, where) -> tuple:
 
 
 def extract_structure(model: PlantModel) -> Structure:
-    """Recognise F, G, H, C, D, L, W and the nonlinear terms of a model, and certify them.
+    """Recognise F, G, H, C, D, L, W, Bw and the nonlinear terms of a model, and certify them.
 
     Every right-hand side is split into additive terms with constant factors distributed
     over sums (``(u − x/a − f1)/b`` is u/b − x/(a b) − f1/b) and products and integer
@@ -573,8 +586,9 @@ def extract_structure(model: PlantModel) -> Structure:
     n = len(xs)
     got = _read_dynamics(model, variables, where)
     _linear_after_all(got, variables, n)
-    F, G, D, L = (exact_matrix(n, len(v), [e for row in M for e in row])
-                  for M, v in ((got.F, xs), (got.G, us), (got.D, ds), (got.L, rs)))
+    F, G, D, L, Bw = (exact_matrix(n, len(v), [e for row in M for e in row])
+                      for M, v in ((got.F, xs), (got.G, us), (got.D, ds), (got.L, rs),
+                                   (got.Bw, model.noise)))
     C, info = _nonlinear_columns(got, n)
     F = _own_linear_part(model, F, C, info, n, where)
     # normalise signs: first nonzero entry of each C column not negative
@@ -587,14 +601,15 @@ def extract_structure(model: PlantModel) -> Structure:
     terms = tuple(NonlinearTerm(fn, s, sp.ImmutableMatrix([row]))
                   for fn, s, row in info)
     C = exact_matrix(*C.shape, list(C)) if not isinstance(C, sp.ImmutableMatrix) else C
-    st = Structure(model, *(sp.ImmutableMatrix(M) for M in (F, G, H, C, D, L, W)), terms)
+    st = Structure(model, *(sp.ImmutableMatrix(M) for M in (F, G, H, C, D, L, W)), terms,
+                   Bw=sp.ImmutableMatrix(Bw))
     return dataclasses.replace(st, certificate=certify_structure(st))
 
 
 def certify_structure(st: Structure) -> "ModelCertificate":
     """The model certificate of an extracted structure (METHOD §1)::
 
-        F x + G u + C Ψ(A x, u) + D d + L ρ − f(x, u, d, ρ) ≡ 0,    H x + W w − h(x, w) ≡ 0
+        F x + G u + C Ψ(A x, u) + D d + L ρ + Bw w − f(x, u, d, ρ, w) ≡ 0,    H x + W w − h(x, w) ≡ 0
 
     each equation and output decided by :func:`is_identically_zero` (exactly, with the
     parameters kept as symbols; else numerically at random rational points, said so).

@@ -76,14 +76,14 @@ from typing import Sequence
 
 import sympy as sp
 
-from ..synthesis import Condition, parse_json_expression
+from ..synthesis import Condition, parse_json_expression, shift_matrix
 from ..errors import UsageError
 from ..model import PlantModel, to_rational
 from ..numerics import rational_approximation
 from ._observer import Observer
 from ._drem_class import DremClass, DremSpec, DremTerm, analyse
 
-__all__ = ["shift_matrix", "DremDesign", "gains_from_poles", "default_poles",
+__all__ = ["DremDesign", "gains_from_poles", "default_poles",
            "parametrisation_residual", "chain_error_residual", "drem_design", "drem_observer",
            "determinants"]
 
@@ -91,10 +91,6 @@ REFERENCE = "seed 003 (Statements 1–3); METHOD §5"
 
 
 # =============================================================== gains
-def shift_matrix(N: int) -> sp.Matrix:
-    return sp.Matrix(N, N, lambda i, j: 1 if j == i + 1 else 0)
-
-
 def gains_from_poles(poles) -> sp.Matrix:
     """K with det(sI − (A − K e1ᵀ)) = Π (s − λ): K = the coefficients k1 … kN.
 

@@ -21,7 +21,8 @@ where every argument is replaced by the bound that makes f_i smallest (largest):
   of ∂f_i/∂ỹ_k. This is the "∓ k* w*" margin of seed 002 §6 computed as the exact
   worst case over the noise box — valid without a Lipschitz constant (for the
   three-tank, f = u1 − √(x* − ỹ1) is increasing in ỹ1 but not Lipschitz at 0);
-- the unknown inputs ρ, d: the ⁺/⁻ split over their declared bounds.
+- the unknown inputs ρ, d and the process noise w (x' = … + Bw w, not decoupled: it
+  enters the reduced model as Φ Bw w): the ⁺/⁻ split over their declared bounds.
 
 The signs are proven on all of the observer's state space, not only on the plant's
 domain: each nonlinear argument is clipped to its range over the domain (x1 − x2 ≥ 0
@@ -210,16 +211,22 @@ def _check_design(design: Design) -> None:
 
 
 def _unknown_inputs(work, st, Phi, k):
-    """The unknown inputs entering the reduced model through Φ L ρ + Φ D d, their box and
-    the per-row min / max of that term: (names, Φ [L D] on them, lo, hi, min, max)."""
-    unk = [s for s in work.disturbances] + [s for s in work.faults]
-    Bu = Phi * sp.Matrix.hstack(sp.Matrix(st.L), sp.Matrix(st.D)) if unk else sp.zeros(k, 0)
+    """The unknown inputs entering the reduced model through Φ L ρ + Φ D d + Φ Bw w (the
+    process noise, bounded like them), their box and the per-row min / max of that term:
+    (names, Φ [L D Bw] on them, lo, hi, min, max)."""
+    unk = [s for s in work.disturbances] + [s for s in work.faults] + list(work.noise)
+    Bu = (Phi * sp.Matrix.hstack(sp.Matrix(st.L), sp.Matrix(st.D), sp.Matrix(st.Bw))
+          if unk else sp.zeros(k, 0))
     Bu = Bu.applyfunc(rationalize_floats)  # floats (float designs) only: exact stays exact
     used = [j for j in range(Bu.cols) if any(Bu[i, j] != 0 for i in range(k))]
     Bu = Bu.extract(list(range(k)), used) if used else sp.zeros(k, 0)
     unk = [unk[j] for j in used]
     ulo = uhi = None
     if unk:
+        noise = set(work.noise)
+        for what, syms in (("the unknown input", [s for s in unk if s not in noise]),
+                           ("the process noise", [s for s in unk if s in noise])):
+            bounds_box(work, syms, what)  # a missing bound named by its role
         ulo, uhi = bounds_box(work, unk, "the unknown input")
         bmin, bmax = box_min(Bu, ulo, uhi), box_max(Bu, ulo, uhi)
     else:
@@ -339,7 +346,7 @@ def _joint_lipschitz(red: _Reduced, i, sg, rng) -> tuple:
 
 def _joint_user(red: _Reduced, i, sg, mg) -> tuple:
     """Row i sign-definite in the states, the noise by the user's k* w* for the nonlinear
-    part plus |J*| W w* for the linear one; a condition compares k* w* with the Lipschitz
+    part plus abs(J*) W w* for the linear one; a condition compares k* w* with the Lipschitz
     bound when there is one. Returns (lower, upper, margin text, condition)."""
     lo_x, hi_x = _state_ends(red, i, sg)
     W, wlo, whi = red.W, red.wlo, red.whi
@@ -488,8 +495,9 @@ def _conditions(work, d, red: _Reduced, rows, dom) -> list:
         "; ".join(f"row {i + 1} ({r.how}): {r.margin}" for i, r in enumerate(rows))
         + f"; ỹ − y ∈ [{list(red.off_lo)}, {list(red.off_hi)}]", "METHOD §3; seed 002 §4, §6"))
     if red.unk:
+        what = "Φ [L D Bw]" if set(red.unk) & set(work.noise) else "Φ [L D]"
         conds.append(Condition("unknown inputs bounded", True,
-                               f"Φ [L D] = {red.Bu.tolist()} over {[str(s) for s in red.unk]} ∈"
+                               f"{what} = {red.Bu.tolist()} over {[str(s) for s in red.unk]} ∈"
                                f" [{list(red.ulo)}, {list(red.uhi)}]", "METHOD §3"))
     if not any(c.name == "H_z ≥ 0" for c in conds):
         nonneg = all(e >= 0 for e in red.Hz)
@@ -513,7 +521,7 @@ def interval_observer_nonlinear(model: PlantModel, design: Design, *, margin=Non
         worst case over the noise box (needs f_i monotone in each ỹ_k; no Lipschitz
         constant). ``"lipschitz"``: f_i(x, y) ∓ Σ_k K_ik r_k with K_ik = sup|∂f_i/∂ỹ_k|
         (fails when that is infinite, as for √ at 0). Numbers (one, or one per row):
-        the paper's "k* w*" for the nonlinear part, added to the linear |J*| W w*
+        the paper's "k* w*" for the nonlinear part, added to the linear abs(J*) W w*
         term; a Condition compares it with the Lipschitz bound when there is one.
     domain : relations, optional
         Override the model's state domain (for the clipping ranges and the checks).

@@ -26,15 +26,11 @@ from typing import Any, Mapping
 
 import sympy as sp
 
-from ..synthesis import Design
+from ..synthesis import Design, output_symbols
 from ..errors import UsageError
 from ..model import PlantModel, parse_expression
 
 __all__ = ["Observer", "estimate_name", "output_symbols"]
-
-
-def output_symbols(l: int):
-    return sp.symbols(f"y1:{l + 1}")
 
 
 @dataclasses.dataclass(frozen=True)

@@ -1,6 +1,7 @@
 """Unknown-input estimators of seed 000 (Zhirabok & Zuev 2024, §4-§8) as observers.
 
-Discrete time only (the paper's setting). The reduced model of a canonical design
+Discrete time (the paper's setting); a continuous-time model gets the derivative-free
+estimator of :mod:`._uio_continuous` (d filtered by 1/(τ s + 1)) instead. The reduced model of a canonical design
 (:func:`~observer_cad.synthesis.design_canonical`, METHOD §2a) or a one-row Jordan
 design (:func:`~observer_cad.synthesis.design_jordan` with ``observer="diagnostic"``,
 METHOD §2b),
@@ -33,7 +34,7 @@ bounds) and stable:
   after D*'s row and from row 3 on;
 * Jordan: g = λ − 0.7, so that the copies' error obeys e(t+1) = 0.7 e(t).
 
-Degenerate α: α is computed as ``Piecewise((num/den, |den| > eps), (1/2, True))`` with the
+Degenerate α: α is computed as ``Piecewise((num/den, abs(den) > eps), (1/2, True))`` with the
 denominator itself made nonzero in the unused branch (numpy evaluates every branch of a
 select: no division by zero, no NaN), ``eps`` the observer parameter ``alpha_eps``
 (default 1e-12). With −g ≥ 0 (k = 1; F* − g H* ≥ 0 in general) and x̲(0) ≤ x̄(0) the
@@ -62,6 +63,7 @@ from ..synthesis import Condition, Design
 from ..errors import ModelError, UsageError
 from ..model import PlantModel, to_rational
 from ._observer import Observer, output_symbols
+from ._uio_continuous import continuous_unknown_input_observer
 from ._uio_derivation import (Derivation, ReducedModel, bound_symbols, bound_terms, derivation,
                               gain_symbols, is_negligible, lag_symbol, nonlinear_part,
                               reduced_model)
@@ -182,12 +184,14 @@ def _description(red: ReducedModel, der: Derivation) -> str:
 
 
 def unknown_input_observer(model: PlantModel, design: Design, *, g=None, bounds=None,
-                           alpha_eps=ALPHA_EPS) -> Observer:
-    """The unknown-input estimator of seed 000 for a design (module docstring).
+                           alpha_eps=ALPHA_EPS, tau=None) -> Observer:
+    """The unknown-input estimator of seed 000 for a design (module docstring); for a
+    continuous-time model :func:`continuous_unknown_input_observer` (d filtered by
+    1/(τ s + 1)).
 
     Parameters
     ----------
-    model : PlantModel (discrete time)
+    model : PlantModel (discrete time; continuous: see ``tau``)
     design : Design
         ``design_canonical(model, unknown_input=NAME)`` (D* in one row: first = matched,
         last = mismatched), or a one-row Jordan design from
@@ -201,6 +205,8 @@ def unknown_input_observer(model: PlantModel, design: Design, *, g=None, bounds=
         ``{"rho": (-0.2, 0.2)}`` for the electric drive's ρ-estimation.
     alpha_eps : float
         Threshold of the α guard.
+    tau : positive number, optional
+        Continuous time only: the time constant of the estimate's filter (default 1/10).
 
     Returns
     -------
@@ -208,6 +214,14 @@ def unknown_input_observer(model: PlantModel, design: Design, *, g=None, bounds=
         kind ``"unknown-input"``; states ``xl1…xlk``, ``xu1…xuk`` (the two copies) and the
         memory states ``<signal>_lag<j>``; output ``<name>_hat`` with delay m.
     """
+    if model.time == "continuous":
+        if g is not None:
+            raise UsageError("the gains g (--gain) belong to the discrete-time estimator; the"
+                             " continuous-time one takes the filter time constant tau (--tau)")
+        return continuous_unknown_input_observer(model, design, tau=tau)
+    if tau is not None:
+        raise UsageError("tau (--tau) applies to continuous-time unknown-input estimation; the"
+                         " discrete-time estimator takes the gains g (--gain)")
     red = reduced_model(model, design)
     der = derivation(model, red)
     k, m = red.k, der.delay
@@ -229,12 +243,29 @@ def unknown_input_observer(model: PlantModel, design: Design, *, g=None, bounds=
     name = red.target.name
     out = f"{name}_hat"
     conds = list(design.conditions) + _conditions(red, der, gvals, params, lo, hi)
+    conds += _process_noise_condition(design, red)
     return Observer(
         name=f"{model.name}_unknown_input_{name}", kind="unknown-input", time="discrete",
         states=states, signals=tuple(output_symbols(l)) + tuple(model.inputs),
         parameters=params, update=tuple(upd) + tuple(lag_upd), outputs=((out, est),),
         delays={out: m}, initial=initial, conditions=tuple(conds),
         assumptions=tuple(design.assumptions), design=design, description=_description(red, der))
+
+
+def _process_noise_condition(design: Design, red: ReducedModel) -> list:
+    """Process noise reaching the reduced model (Φ Bw ≠ 0) is neither decoupled nor in the
+    copies' bound terms: said so (the estimate carries D*_r⁻¹ (Φ Bw w)_r)."""
+    st = design.structure
+    if st is None or not st.Bw.cols:
+        return []
+    PBw = sp.Matrix(design.matrices.Phi) * sp.Matrix(st.Bw)
+    if all(e == 0 for e in PBw):
+        return []
+    return [Condition(
+        "process noise not decoupled", False,
+        f"Φ Bw = {PBw.tolist()}: the estimate of {red.target} carries D*⁻¹ (Φ Bw w) of the row"
+        " of D*, and the copies' bound terms do not include it (inclusion may fail)",
+        "METHOD §1", required=False)]
 
 
 def _numeric_matrix(M, params):

@@ -99,10 +99,11 @@ def is_negligible(e, scale) -> bool:
     return abs(float(e)) <= 1e-12 * scale
 
 
-def reduced_model(model: PlantModel, design: Design) -> ReducedModel:
+def reduced_model(model: PlantModel, design: Design, *, continuous: bool = False) -> ReducedModel:
     """The reduced model of a design for one unknown input (one-line errors when the
-    design is not one the estimator takes)."""
-    if model.time != "discrete":
+    design is not one the estimator takes). ``continuous``: accept a continuous-time
+    model (the filtered estimator of :mod:`._uio_continuous`); else discrete time only."""
+    if model.time != "discrete" and not continuous:
         raise UsageError("unknown-input estimators (seed 000) are discrete-time; the model"
                          f" {model.name} is {model.time}-time")
     if len(design.task.targets) != 1:
@@ -504,7 +505,7 @@ def _derive_core(model, red, k, r, m, l, inputs, _lambda):
 
 
 def _guarded(num, den, eps):
-    """num/den, or 1/2 where |den| ≤ eps (the denominator itself guarded: no 0/0)."""
+    """num/den, or 1/2 where abs(den) ≤ eps (the denominator itself guarded: no 0/0)."""
     ok = sp.Abs(den) > eps
     # den + (0 or 1 − den): an Add, so that sympy does not move the power into the
     # Piecewise (numpy evaluates every branch of a select)

@@ -58,7 +58,8 @@ def structure_to_json(st: Structure) -> dict:
         "bounds": {s.name: [str(lo), str(hi)] for s, (lo, hi) in m.bounds.items()},
         "initial": {s.name: [str(lo), str(hi)] for s, (lo, hi) in m.initial.items()},
         "domain": [str(r) for r in m.domain],
-        "matrices": {name: rows(getattr(st, name)) for name in ("F", "G", "H", "C", "D", "L", "W")},
+        "matrices": {name: rows(getattr(st, name))
+                     for name in ("F", "G", "H", "C", "D", "L", "W", "Bw")},
         "nonlinear": [{"function": str(t.function.xreplace({t.argument: sp.Symbol("s")})),
                        "argument": str((t.row * sp.Matrix(m.states))[0, 0]),
                        "row": [str(e) for e in t.row]} for t in st.terms],
@@ -86,8 +87,10 @@ def format_structure(st: Structure) -> str:
     if m.domain:
         out.append("  domain       " + ", ".join(str(r) for r in m.domain))
     lhs = "x(t+1)" if m.time == "discrete" else "dx/dt"
-    out.append(f"\n  {lhs} = F x + G u + C Psi(x, u) + D d + L rho,   y = H x + W w\n")
-    for name in ("F", "G", "H", "C", "D", "L", "W"):
+    process = not st.Bw.is_zero_matrix  # process noise: shown only when the model has it
+    out.append(f"\n  {lhs} = F x + G u + C Psi(x, u) + D d + L rho{' + Bw w' if process else ''},"
+               "   y = H x + W w\n")
+    for name in ("F", "G", "H", "C", "D", "L", "W") + (("Bw",) if process else ()):
         out.append(format_matrix(name, getattr(st, name)))
     if st.terms:
         out.append("\n  nonlinear terms Psi_j = phi_j(A_j x, u):")

@@ -9,8 +9,8 @@ the largest value r_i(k) can take from e(0) = 0 is sup_k Σ_{j ≤ k} max(h_j lo
 attained by an input sequence, so the sum is the exact worst case (a symbol used by several
 terms is one input: its uses with opposite signs cancel inside h_j).
 
-Tail: with β = ‖|F^L|‖_∞ < 1 for some L, Σ_{j ≥ J} |N F^j b| ≤ (|N| 1)·Σ_{m < L} ‖F^{J+m} b‖_∞
-/ (1 − β) elementwise. Computed in double precision; the caller adds a relative allowance.
+Tail: with β = ‖abs(F^L)‖_∞ < 1 for some L, Σ_{j ≥ J} abs(N F^j b) ≤ (abs(N) 1)·Σ_{m < L}
+‖F^{J+m} b‖_∞ / (1 − β) elementwise. Computed in double precision; the caller adds a relative allowance.
 """
 from __future__ import annotations
 
@@ -40,7 +40,7 @@ class WorstCase:
 
 
 def contraction(F: np.ndarray, max_power: int = 100_000) -> tuple:
-    """The smallest power L (doubling) with β = ‖|F^L|‖_∞ < 1/2, and β: (L, β). Raises a
+    """The smallest power L (doubling) with β = ‖abs(F^L)‖_∞ < 1/2, and β: (L, β). Raises a
     UsageError when F is not a contraction in any power up to ``max_power``."""
     k = F.shape[0]
     if k == 0:
@@ -100,7 +100,7 @@ def worst_case_sums(F, N, B, Cd, lo, hi) -> WorstCase:
 
 
 def transient_envelope(F, N, V0, q: float) -> np.ndarray:
-    """K_i with Σ_c |(N F^k V0)_{i,c}| ≤ K_i q^k for every k ≥ 0 (columns of V0: the initial
+    """K_i with Σ_c abs((N F^k V0)_{i,c}) ≤ K_i q^k for every k ≥ 0 (columns of V0: the initial
     error directions scaled by their radii); q must exceed the spectral radius of F."""
     F, N, V0 = (np.asarray(a, dtype=float) for a in (F, N, V0))
     m = N.shape[0]

@@ -18,8 +18,8 @@ with K_x = Φ e^{A0 h} − F Φ − Q G H, K_u = Φ Γ0 B0 − Q (G D_y + G_u), 
 Q (G h0 + c0), Γ0 = ∫₀ʰ e^{A0 τ} dτ: these are the effect of holding y and u over a step
 while the plant moves (zero in the limit h → 0 by the decoupling identities Φ A0 = A Φ +
 G H, Φ B0 = G D_y + G_u). The integral is h Φ v_t φ̂_t (φ̂_t the step mean of φ_t, inside
-φ_t's range) plus a remainder bounded elementwise by (h²/2 |Φ A0 v_t| + h |Φ| (e^{|A0| h} − I
-− |A0| h) |v_t|) max |φ_t|. Every term is a bounded scalar input (states and inputs from the
+φ_t's range) plus a remainder bounded elementwise by (h²/2 abs(Φ A0 v_t) + h abs(Φ) (e^{abs(A0) h}
+− I − abs(A0) h) abs(v_t)) max abs(φ_t). Every term is a bounded scalar input (states and inputs from the
 operating envelope, ρ, w, δ from their boxes), and the band is the exact worst-case sum
 (:func:`worst_case_sums`) plus the transient of the initial error e(0) = Φ (x(0) − c) from
 the initial box (observer started at Φ c, c the box centre), bounded by K q^k with q the
@@ -41,7 +41,7 @@ from ..synthesis import Condition
 from ..analysis import format_number
 from ..observers import Observer, output_symbols
 from ._l1 import transient_envelope, worst_case_sums
-from ._threshold import ErrorSystem, Threshold, residual_outputs
+from ._threshold import ErrorSystem, Threshold, residual_names
 
 __all__ = ["sampled_threshold", "SAMPLED_DISCRETISATIONS", "ROUNDOFF_FACTOR"]
 
@@ -441,7 +441,7 @@ def _conditions(model, hr, how, full, box, labels, wc, rho_F, x0_text, margin_te
 
 
 def _transient(model: PlantModel, g: dict, sysm: dict, full: dict, hr, how: str) -> tuple:
-    """K (per residual) with |transient of r| ≤ K q^k, the decay state's coefficient, q, the
+    """K (per residual) with abs(transient of r) ≤ K q^k, the decay state's coefficient, q, the
     condition text, and the observer's start Φ c (None: keep x*(0) = Φ x(0))."""
     F, N, n = sysm["F"], sysm["N"], sysm["n"]
     Phin = _mpn(g["Phi"])
@@ -513,7 +513,7 @@ def sampled_threshold(model: PlantModel, observer: Observer, h=None, *,
     ``threshold.discretisation`` saying how it must be stepped.
     """
     where = model.where
-    residuals = residual_outputs(observer)
+    residuals = residual_names(observer)
     if observer.time != model.time:
         raise UsageError(f"{where}: the observer is {observer.time}-time, the model {model.time}-time")
     if observer.delays and any(observer.delays.get(r, 0) for r in residuals):

@@ -23,12 +23,16 @@ the comparison (embedding) system
 
 and r̲ = N⁺ e̲ − N⁻ ē + Γ̲, r̄ = N⁺ ē − N⁻ e̲ + Γ̄ with N = −C. While the declared bounds hold,
 the fault-free residual stays in [r̲, r̄]: no false alarm is possible. The comparison system
-must be stable for the band to stay bounded: ρ(|A|) < 1 (discrete) or A_d + |A_o| Hurwitz
+must be stable for the band to stay bounded: ρ(abs(A)) < 1 (discrete) or A_d + abs(A_o) Hurwitz
 (continuous), certified exactly through the leading principal minors of the M-matrix
-I − |A| (or −(A_d + |A_o|)).
+I − abs(A) (or −(A_d + abs(A_o))).
+
+Process noise in the dynamics (f = … + Bw w) is not decoupled: it adds Φ Bw w to Δ, bounded
+over the noise box together with the measurement noise of the same symbols
+(:func:`_process_noise_term`), so the band grows by its contribution.
 
 A fault d adds e_f' = A e_f + B_f d to the error and −C e_f to the residual (B_f = Φ D), so
-r = r_0 + r_f with r_0 ∈ [r̲, r̄]: a step fault whose steady response |r_f| exceeds the band
+r = r_0 + r_f with r_0 ∈ [r̲, r̄]: a step fault whose steady response abs(r_f) exceeds the band
 width is detected for sure (:meth:`ErrorSystem.dc_gain`, :func:`min_detectable_fault`).
 """
 from __future__ import annotations
@@ -46,7 +50,7 @@ from ..analysis import argument_range, format_number
 from ..observers import Observer, output_symbols
 
 __all__ = ["ErrorSystem", "Threshold", "ThresholdSpec", "guaranteed_threshold",
-           "constant_threshold", "residual_outputs", "min_detectable_fault", "DEFAULT_MARGIN",
+           "constant_threshold", "residual_names", "min_detectable_fault", "DEFAULT_MARGIN",
            "RELATIVE_ROUNDOFF"]
 
 #: Absolute allowance added to both ends of a guaranteed band for floating-point roundoff of
@@ -63,7 +67,7 @@ RELATIVE_ROUNDOFF = 256
 _REF = "METHOD §3 (residual evaluation)"
 
 
-def residual_outputs(observer: Observer) -> tuple:
+def residual_names(observer: Observer) -> tuple:
     """The residual outputs of an observer: ``r`` or ``r1 … rm`` (in output order)."""
     names = tuple(n for n, _ in observer.outputs if re.fullmatch(r"r\d*", n))
     if not names:
@@ -352,10 +356,10 @@ def _bound_terms(expr, gens, coeff_box, xbox, where):
 
 
 def _checked_options(model: PlantModel, observer: Observer, initial_error, margin) -> tuple:
-    """The residuals, |e(0)| and the margin, with one-line errors for what cannot have a
+    """The residuals, abs(e(0)) and the margin, with one-line errors for what cannot have a
     guaranteed threshold."""
     where = model.where
-    residuals = residual_outputs(observer)
+    residuals = residual_names(observer)
     if observer.time != model.time:
         raise UsageError(f"{where}: the observer is {observer.time}-time, the model {model.time}-time")
     if observer.delays and any(observer.delays.get(r, 0) for r in residuals):
@@ -403,10 +407,29 @@ def _error_terms(model: PlantModel, observer: Observer, xi, upd, g, where: str) 
     ysub = dict(zip(ys, outs))
     xsub = dict(zip(xi, phi))
     nofault = {d: 0 for d in model.faults}
+    nofault.update({w: 0 for w in model.noise})  # process noise: _process_noise_term
     Fx = sp.Matrix([f.xreplace(nofault) for f in dyn])
     Delta = (Phi * Fx - sp.Matrix([e.xreplace(xsub).xreplace(ysub) for e in upd])).applyfunc(sp.expand)
     Gamma = sp.Matrix([e.xreplace(xsub).xreplace(ysub) for e in g]).applyfunc(sp.expand)
     return Delta, Gamma, Phi, dyn, outs, deltas, dbox
+
+
+def _process_noise_term(model: PlantModel, Phi, dyn) -> tuple:
+    """Process noise in the error equation: Φ Bw w with Bw = ∂f/∂w (constant, the model's
+    extraction guarantees it; uncertain parameters kept as θ0 + δ), and the condition naming
+    it (None without process noise). Added to Δ, it is bounded over the noise box like every
+    other term, jointly with the measurement noise −J* W w of the same symbols."""
+    k = Phi.rows
+    noise = [w for w in model.noise if any(f.has(w) for f in dyn)]
+    if not noise:
+        return sp.zeros(k, 1), None
+    Bw = sp.Matrix([[sp.diff(f, w) for w in noise] for f in dyn])
+    term = (Phi * Bw * sp.Matrix(noise)).applyfunc(sp.expand)
+    seen = [str(w) for j, w in enumerate(noise) if any(e != 0 for e in (Phi * Bw)[:, j])]
+    detail = (f"Φ Bw w over {', '.join(map(str, noise))}: Φ Bw = {(Phi * Bw).tolist()}; "
+              + (f"{', '.join(seen)} widen the band (bounded over their declared boxes)" if seen
+                 else "Φ Bw = 0: the process noise does not reach this residual"))
+    return term, Condition("process noise bounded", True, detail, _REF)
 
 
 def _identity_condition(model: PlantModel, Delta, Gamma, deltas, where: str) -> Condition:
@@ -581,7 +604,7 @@ def guaranteed_threshold(model: PlantModel, observer: Observer, *, initial_error
     extra states (the error bounds ``<ξ>_elo``, ``<ξ>_ehi``); its conditions list what the
     band rests on, and ``observer.threshold`` is the :class:`Threshold`.
 
-    ``initial_error`` bounds |e_i(0)| (0: the observer starts at x*(0) = Φ x(0), as the
+    ``initial_error`` bounds abs(e_i(0)) (0: the observer starts at x*(0) = Φ x(0), as the
     simulator does unless a scenario sets ``observer_initial``); ``margin`` is added to both
     ends for floating-point roundoff.
     """
@@ -591,6 +614,9 @@ def guaranteed_threshold(model: PlantModel, observer: Observer, *, initial_error
     k = len(xi)
     Delta, Gamma, Phi, dyn, outs, deltas, dbox = _error_terms(model, observer, xi, upd, g, where)
     conds = [_identity_condition(model, Delta, Gamma, deltas, where)]
+    process, process_cond = _process_noise_term(model, Phi, dyn)
+    Delta = Delta + process
+    conds += [process_cond] if process_cond is not None else []
     Dl, Dh, Gl, Gh, bound_conds = _uncertainty_bounds(model, Delta, Gamma, outs, deltas, dbox,
                                                       xi, residuals, where)
     conds += bound_conds
@@ -632,7 +658,7 @@ def constant_threshold(observer: Observer, value, *, kind: str = "constant",
                        description: str = "") -> Observer:
     """The observer with constant bands ``rI_lower = −τ_I``, ``rI_upper = τ_I`` (``value`` a
     number, or one per residual)."""
-    residuals = residual_outputs(observer)
+    residuals = residual_names(observer)
     vals = list(value) if isinstance(value, (list, tuple)) else [value] * len(residuals)
     if len(vals) != len(residuals):
         raise UsageError(f"{len(vals)} threshold values for {len(residuals)} residuals"
@@ -656,7 +682,7 @@ def constant_threshold(observer: Observer, value, *, kind: str = "constant",
 
 def min_detectable_fault(threshold: Threshold, width) -> dict:
     """Smallest step fault (per fault name) guaranteed to be detected once its response has
-    settled: min over residuals of width_I / |dc gain_I,j| (``width``: the band width per
+    settled: min over residuals of width_I / abs(dc gain_I,j) (``width``: the band width per
     residual, e.g. its largest value over a run). None where no residual sees the fault."""
     es = threshold.error_system
     if es is None:

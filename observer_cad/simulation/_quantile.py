@@ -1,7 +1,7 @@
-"""Monte-Carlo quantile thresholds: a constant band |r_I| ≤ τ_I for a target false-alarm rate.
+"""Monte-Carlo quantile thresholds: a constant band abs(r_I) ≤ τ_I for a target false-alarm rate.
 
 The scenario is run fault-free (every fault signal removed) over ``runs`` seeded realisations
-of its random signals; τ_I is the (1 − rate) quantile of |r_I| over every sample of every run
+of its random signals; τ_I is the (1 − rate) quantile of abs(r_I) over every sample of every run
 (the ``higher`` order statistic, so that at most ``rate`` of the simulated samples lie above
 it). ``rate`` is a per-residual, per-sample false-alarm rate *on the simulated ensemble*: unlike
 the guaranteed threshold (:func:`observer_cad.observers.guaranteed_threshold`) it promises
@@ -16,7 +16,7 @@ import numpy as np
 from ..errors import UsageError
 from ..model import PlantModel
 from ..observers import Observer
-from ..residuals import ThresholdSpec, constant_threshold, guaranteed_threshold, residual_outputs
+from ..residuals import ThresholdSpec, constant_threshold, guaranteed_threshold, residual_names
 from ._simulate import Scenario, simulate
 
 __all__ = ["quantile_threshold", "fault_free", "apply_threshold"]
@@ -33,7 +33,7 @@ def fault_free(model: PlantModel, scenario: Scenario) -> Scenario:
 
 def quantile_threshold(model: PlantModel, observer: Observer, scenario: Scenario, *,
                        rate: float, runs: int = 200, seed: int | None = None) -> Observer:
-    """The observer with constant bands from the (1 − ``rate``) quantile of |r_I| over
+    """The observer with constant bands from the (1 − ``rate``) quantile of abs(r_I) over
     ``runs`` fault-free realisations of ``scenario`` (seeded by ``seed``, default the
     scenario's). Needs runs × samples ≥ 10 / rate."""
     try:
@@ -44,7 +44,7 @@ def quantile_threshold(model: PlantModel, observer: Observer, scenario: Scenario
         raise UsageError(f"a false-alarm rate must lie in (0, 1), got {rate:g}")
     if int(runs) < 1:
         raise UsageError(f"runs must be at least 1, got {runs}")
-    residuals = residual_outputs(observer)
+    residuals = residual_names(observer)
     sc = fault_free(model, scenario)
     if seed is not None:
         sc = dataclasses.replace(sc, seed=int(seed))

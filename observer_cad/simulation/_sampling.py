@@ -1,4 +1,4 @@
-"""What varies from run to run: signal programs and per-run draws (issue 16, item 3).
+"""What varies from run to run: signal programs and per-run draws.
 
 A scenario's signals become a :class:`SignalProgram`: on the time grid, each signal j is
 

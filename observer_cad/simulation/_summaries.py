@@ -22,15 +22,15 @@ expression) evaluated from the state columns. An output without a truth (an esti
 parameter, ``z`` without a design) is listed in :attr:`Monitors.skipped` and has no
 summary. The fields (names are the ``summary.csv`` headers):
 
-- estimate ``<s>_hat``: ``<s>_hat.max_error`` (max |ŝ − s|), ``<s>_hat.rms_error``
-  (sqrt of the mean of (ŝ − s)²), ``<s>_hat.final_error`` (|ŝ − s| at the last available
+- estimate ``<s>_hat``: ``<s>_hat.max_error`` (max abs(ŝ − s)), ``<s>_hat.rms_error``
+  (sqrt of the mean of (ŝ − s)²), ``<s>_hat.final_error`` (abs(ŝ − s) at the last available
   sample);
 - interval ``<s>_lower``/``<s>_upper``: ``<s>.violations`` (samples whose slack
   min(s − lower, upper − s) is < −tol — with tol = 0 exactly s < lower or s > upper — or
   NaN: a sample that shows no inclusion counts), ``<s>.min_slack`` (min of the slack;
   negative = violated; in a finite run, violations > 0 exactly when min_slack < −tol), ``<s>.max_width`` (max of upper − lower), ``<s>.first_violation`` (time; NaN
   when none);
-- residual ``r``, ``r1`` …: ``<r>.max_abs`` (max |r|); with its band ``<r>_lower``/
+- residual ``r``, ``r1`` …: ``<r>.max_abs`` (max abs(r)); with its band ``<r>_lower``/
   ``<r>_upper``: ``<r>.exceedances`` (samples with r < lower or r > upper, strict as in
   :func:`~observer_cad.observers.decide`: NaN is not out) and ``<r>.first_exceedance``
   (time; NaN when none);

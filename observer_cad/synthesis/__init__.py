@@ -10,50 +10,32 @@ method:
 
 and :func:`design`, the one entry that dispatches to them.
 """
-from .certificates import (Identity, Certificate, certify_reduced_model, certify_design,
-                           certify_against_model, MODEL_PREFIX, denominator_assumptions,
-                           complete_assumptions, CONDITIONING_LEVEL, CONDITIONING_NAME,
-                           CONDITIONING_REFERENCE, conditioning_numbers, conditioning_verdict,
-                           FaultSensitivity, fault_signature, fault_sensitivity,
-                           residual_response, SIGNATURE_RTOL)
-from .core import (Condition, Design, DesignMatrices, DesignRequest, Form, Method,
-                   NonlinearSubstitution, SlidingGainInputs, MATRIX_ORDER, parse_json_expression,
-                   substitute_arguments, default_eigenvalues, parse_eigenvalues, place_poles,
-                   require_stable, pole_placement, PolePlacement, certify_poles,
-                   closed_loop_eigenvalues, target_polynomial, PLACEMENT_SEED, observer_symbols,
-                   output_symbols, is_stable, jordan_equations, reduced_equations,
-                   residual_outputs, estimate_outputs, named_outputs, task_for, task_parts)
+from .certificates import (Identity, Certificate, certify_reduced_model, certify_design, certify_against_model, MODEL_PREFIX, denominator_assumptions, complete_assumptions, CONDITIONING_LEVEL, CONDITIONING_NAME, conditioning_numbers, FaultSensitivity, fault_sensitivity)
+from .core import (Condition, Design, DesignMatrices, DesignRequest, Form, Method, NonlinearSubstitution, SlidingGainInputs, parse_json_expression, substitute_arguments, default_eigenvalues, place_poles, pole_placement, PolePlacement, certify_poles, closed_loop_eigenvalues, target_polynomial, PLACEMENT_SEED, observer_symbols, output_symbols, is_stable)
 from .canonical import (design_canonical, krylov_blocks, krylov_null_spaces, member_to_phi,
                         FLOAT_AUTO_N, design_diagnostic_canonical, observer_equations,
-                        design_virtual_sensor_canonical)
-from .jordan import (Admissible, admissible_lambdas, design_jordan, design_jordan_unknown_input,
-                     admissible_lambdas_float, design_jordan_float, DEFAULT_RTOL)
-from .robust import (design_robust_canonical, design_robust_jordan, robust_basis,
-                     jordan_candidates, TASK_RTOL)
-from .sliding import (K1, EPS, TAU, design_sliding, sliding_pencil, admissible_sliding_lambdas,
-                      GainBound, GainTerm, gain_bound, reaching_time, RK4_STABILITY)
-from ._dispatch import design, OBSERVERS
+                        design_virtual_sensor_canonical, shift_matrix)
+from .jordan import (Admissible, admissible_lambdas, design_jordan, design_jordan_unknown_input, admissible_lambdas_float, design_jordan_float)
+from .robust import (design_robust_canonical, design_robust_jordan, robust_basis, jordan_candidates)
+from .sliding import (K1, EPS, TAU, design_sliding, sliding_pencil, admissible_sliding_lambdas, GainBound, GainTerm, gain_bound, reaching_time)
+from ._continuous_estimation import (continuous_estimation_check)
+from ._dispatch import (design)
 
 __all__ = [
-    "Identity", "Certificate", "certify_reduced_model", "certify_design", "certify_against_model",
-    "MODEL_PREFIX", "denominator_assumptions", "complete_assumptions", "CONDITIONING_LEVEL",
-    "CONDITIONING_NAME", "CONDITIONING_REFERENCE", "conditioning_numbers", "conditioning_verdict",
-    "FaultSensitivity", "fault_signature", "fault_sensitivity", "residual_response",
-    "SIGNATURE_RTOL",
-    "Condition", "Design", "DesignMatrices", "DesignRequest", "Form", "Method",
-    "NonlinearSubstitution", "SlidingGainInputs", "MATRIX_ORDER", "parse_json_expression",
-    "substitute_arguments", "default_eigenvalues", "parse_eigenvalues", "place_poles",
-    "require_stable", "pole_placement", "PolePlacement", "certify_poles",
-    "closed_loop_eigenvalues", "target_polynomial", "PLACEMENT_SEED", "observer_symbols",
-    "output_symbols", "is_stable", "jordan_equations", "reduced_equations", "residual_outputs",
-    "estimate_outputs", "named_outputs", "task_for", "task_parts",
-    "design_canonical", "krylov_blocks", "krylov_null_spaces", "member_to_phi", "FLOAT_AUTO_N",
+    "Identity", "Certificate", "certify_reduced_model", "certify_design",
+    "certify_against_model", "MODEL_PREFIX", "denominator_assumptions", "complete_assumptions",
+    "CONDITIONING_LEVEL", "CONDITIONING_NAME", "conditioning_numbers", "FaultSensitivity",
+    "fault_sensitivity", "Condition", "Design", "DesignMatrices", "DesignRequest", "Form",
+    "Method", "NonlinearSubstitution", "SlidingGainInputs", "parse_json_expression",
+    "substitute_arguments", "default_eigenvalues", "place_poles", "pole_placement",
+    "PolePlacement", "certify_poles", "closed_loop_eigenvalues", "target_polynomial",
+    "PLACEMENT_SEED", "observer_symbols", "output_symbols", "is_stable", "design_canonical",
+    "krylov_blocks", "krylov_null_spaces", "member_to_phi", "FLOAT_AUTO_N",
     "design_diagnostic_canonical", "observer_equations", "design_virtual_sensor_canonical",
-    "Admissible", "admissible_lambdas", "design_jordan", "design_jordan_unknown_input",
-    "admissible_lambdas_float", "design_jordan_float", "DEFAULT_RTOL",
+    "shift_matrix", "Admissible", "admissible_lambdas", "design_jordan",
+    "design_jordan_unknown_input", "admissible_lambdas_float", "design_jordan_float",
     "design_robust_canonical", "design_robust_jordan", "robust_basis", "jordan_candidates",
-    "TASK_RTOL",
     "K1", "EPS", "TAU", "design_sliding", "sliding_pencil", "admissible_sliding_lambdas",
-    "GainBound", "GainTerm", "gain_bound", "reaching_time", "RK4_STABILITY",
-    "design", "OBSERVERS",
+    "GainBound", "GainTerm", "gain_bound", "reaching_time", "continuous_estimation_check",
+    "design"
 ]

@@ -28,6 +28,7 @@ from .jordan import design_jordan, design_jordan_unknown_input, proof_seconds_va
 from .core import default_eigenvalues
 from .robust import design_robust_canonical, design_robust_jordan
 from .sliding import design_sliding
+from ._continuous_estimation import continuous_estimation_check
 from .canonical import design_virtual_sensor_canonical
 
 __all__ = ["design", "OBSERVERS"]
@@ -95,6 +96,8 @@ def design(model: PlantModel, *, observer: str, faults: Sequence[str] = (),
                         estimate=estimate)
     if kind == ObserverKind.DIAGNOSTIC and form == "canonical" and len(task.targets) > 1:
         raise UsageError("name the fault to detect with --fault NAME")
+    if kind == ObserverKind.UNKNOWN_INPUT and not robust:  # continuous time: rank tests first
+        continuous_estimation_check(model, task.targets[0], task.decoupled)
     try:
         d = _exact(model, task, faults, disturbances, estimate, form, lambdas, eigenvalues,
                    variant, symbolic, method, rtol, proof_seconds)

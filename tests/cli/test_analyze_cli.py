@@ -1,4 +1,4 @@
-"""``observer-cad analyze``: text, JSON, messages naming the fault (issue 12 items 2, 4)."""
+"""``observer-cad analyze``: text, JSON, messages naming the fault."""
 from __future__ import annotations
 
 import json

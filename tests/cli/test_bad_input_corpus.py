@@ -1,4 +1,4 @@
-"""A corpus of bad inputs (issue 11, item 10): model files, CLI values, scenarios and
+"""A corpus of bad inputs: model files, CLI values, scenarios and
 cache faults.
 
 Every case asserts what the README promises a user: the documented exit status (2 for a

@@ -1,6 +1,6 @@
 """The command line: ``observer-cad show|design|demo`` and their help.
 
-Output formats (README "Command line"): ``show`` prints the extracted matrices (or one
+Output formats (docs/CLI.md): ``show`` prints the extracted matrices (or one
 JSON object with ``--json``); ``design`` prints the design with its conditions marked
 ``[ ok ]`` / ``[FAIL]`` / ``[ -- ]``, or one JSON object with keys ``k``, ``form``,
 ``matrices``, ``conditions``, ``assumptions``. Error paths are in test_bad_input.py.
@@ -168,7 +168,7 @@ def test_design_json_symbolic(capsys):
 
 
 def test_design_json_symbolic_rho_assumptions(capsys):
-    """README §2: estimating rho symbolically needs k4 != 0 (and k1 != 0)."""
+    """The README tour's symbolic design: estimating rho symbolically needs k4 != 0 (and k1 != 0)."""
     obj = design_json(capsys, "--symbolic", fault="rho")
     assert obj["decoupled"] == []  # d is a fault, taken as zero; nothing to decouple
     mats = check_design_json(obj, symbolic=True, n_decoupled=0)
@@ -232,7 +232,7 @@ def test_help_design_mentions_every_option(capsys):
     assert out.startswith("usage: observer-cad design")
     expected = {"--observer", "--fault", "--disturbance", "--form", "--symbolic", "--method",
                 "--rtol", "--json", "--help", "--estimate", "--lambda", "--eigenvalues",
-                "--variant", "--robust", "--bound", "--gain", "--gamma", "--poles",
+                "--variant", "--robust", "--bound", "--gain", "--tau", "--gamma", "--poles",
                 "--include-epsilon", "--isolate", "--structure", "--threshold", "--initial-error",
                 "--proof-seconds"}
     subparsers = next(a for a in build_parser()._actions if a.choices and "design" in a.choices)

@@ -1,5 +1,5 @@
 """Every observer kind designs, simulates and passes its property test from a model file
-and one CLI call (issue 4 acceptance); `design --json` carries the observer's equations
+and one CLI call; `design --json` carries the observer's equations
 and outputs."""
 import csv
 import json

@@ -1,4 +1,4 @@
-"""Progress on stderr for long designs (issue 11 item 9): stage lines after 2 s on a
+"""Progress on stderr for long designs: stage lines after 2 s on a
 terminal (or with OBSERVER_CAD_PROGRESS=1), never in the default test output."""
 from __future__ import annotations
 

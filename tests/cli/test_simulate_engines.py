@@ -1,4 +1,4 @@
-"""``observer-cad simulate`` runs the compiled engine by default (issue 16, item 1); the
+"""``observer-cad simulate`` runs the compiled engine by default; the
 reference simulator stays available (``--engine reference``) and both write the same CSV;
 ``--case`` / ``--run`` replay one run of an ensemble."""
 from __future__ import annotations

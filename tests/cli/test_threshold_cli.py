@@ -1,4 +1,4 @@
-"""``--threshold`` on the command line (issue 13 items 5 and 6): the CSV's r_lower/r_upper,
+"""``--threshold`` on the command line: the CSV's r_lower/r_upper,
 alarm and diagnosis columns, the summary lines, the exported C computing the same bands and
 decisions as the Python simulation, and one-line refusals."""
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""The compile cache trusts nothing on disk (issue 11, item 5).
+"""The compile cache trusts nothing on disk.
 
 Every library has a SHA-256 checksum file, verified before the library is loaded: a
 truncated, replaced or unverifiable entry is rebuilt atomically (never mapped: no SIGBUS,
@@ -99,7 +99,7 @@ print(cs.cached, cs.translated)
 
 @pytest.mark.slow  # two fresh interpreters and a compile: ~4.5 s
 def test_truncated_library_in_a_fresh_process_is_rebuilt_without_a_crash(tmp_path):
-    """Issue 11: a truncated .so killed every later run with SIGBUS (exit 135)."""
+    """A truncated .so killed every later run with SIGBUS (exit 135)."""
     cache = tmp_path / "cache"
     env = dict(os.environ, OBSERVER_CAD_CACHE=str(cache), PYTHONPATH=str(ROOT))
     cmd = [sys.executable, "-c", TRUNCATED_SCRIPT, str(ROOT / "models" / "electric_drive.py")]
@@ -203,7 +203,7 @@ def test_codegen_error_is_an_observer_cad_error():
 
 
 def test_demo_module_with_an_unusable_cache_still_compiles(tmp_path):
-    """Issue 11: an unusable cache made ``demo`` report no design certified; now it
+    """An unusable cache made ``demo`` report no design certified; now it
     carries on in a private cache after one warning line."""
     (tmp_path / "file").write_text("x")
     code = textwrap.dedent("""

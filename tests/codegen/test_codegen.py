@@ -525,7 +525,7 @@ def test_changed_model_misses_the_fingerprint_and_recompiles(built, tmp_path, mo
     m, o, sc = built["diagnostic"]
     cs1 = CompiledSimulator(m, o)
     k = next(iter(m.parameters))
-    # a parameter's value is a run-time input (issue 16): same library, no compile
+    # a parameter's value is a run-time input: same library, no compile
     m2 = dataclasses.replace(m, parameters={**m.parameters, k: m.parameters[k] * 2})
     n = STATS["compiles"]
     cs2 = CompiledSimulator(m2, o)

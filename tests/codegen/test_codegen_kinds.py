@@ -175,7 +175,7 @@ def _interpreted(cs, t, V, s0):
 def _rerun_parity(m, o, sc, ref, res) -> str:
     """Whether the reference and the compiled trajectory reproduce when computed again:
     evidence for a failure seen once and not reproduced since (delayed unknown-input
-    cases, relative error 1e-10; see the closing notes of issue 14)."""
+    cases, relative error 1e-10)."""
     ref2, res2 = simulate(m, o, sc), CompiledSimulator(m, o).simulate(sc)
 
     def moved(a, b):

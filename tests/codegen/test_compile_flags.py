@@ -1,4 +1,4 @@
-"""Size-aware optimisation level (issue 14 item 4): large generated C is compiled at -O1
+"""Size-aware optimisation level: large generated C is compiled at -O1
 instead of -O3, explicit flags are used as given, and the flags are part of every cache
 key (content key and pre-translation fingerprint), so a library built with one level is
 never reused for another.  The compile-time and per-step figures that justify the

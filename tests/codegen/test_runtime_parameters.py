@@ -1,4 +1,4 @@
-"""Issue 16, items 1–3: the compiled trajectory takes the plant's and the observer's
+"""The compiled trajectory takes the plant's and the observer's
 parameters at run time (one library for every sample), generates the scenario's random
 signals in C with the reference's generator, and agrees with the reference simulator."""
 from __future__ import annotations

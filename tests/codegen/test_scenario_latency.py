@@ -1,4 +1,4 @@
-"""Issue 16, item 1: what makes ``CompiledSimulator.simulate(scenario)`` cheap to repeat —
+"""What makes ``CompiledSimulator.simulate(scenario)`` cheap to repeat —
 the per-scenario preparation kept with the scenario, a result's memory reused once the
 result is gone, the finiteness decided inside the compiled loop — must not change a
 result: every value equals a fresh simulator's, a kept result is never overwritten, a

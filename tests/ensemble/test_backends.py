@@ -1,4 +1,4 @@
-"""The ensemble backends (issue 16 item 5): the same deterministic task — a tiny C
+"""The ensemble backends: the same deterministic task — a tiny C
 library loaded with load_library, called on numpy buffers — gives identical results
 on every backend; compiled code reaches workers by value and is refused when its key
 does not match; the payload is sent once per worker; Ctrl-C leaves the finished

@@ -1,4 +1,4 @@
-"""Ensembles end to end (issue 16, items 2–6, 8): the same summaries for any chunk size
+"""Ensembles end to end: the same summaries for any chunk size
 and on every backend (a Dask LocalCluster included), the worst run found and replayed
 exactly, inclusion statistics equal to the reference simulator's, parameters sampled
 without recompiling, a guaranteed threshold with no false alarm over sampled plants, and
@@ -303,7 +303,7 @@ def test_ctrl_c_leaves_what_finished_readable(tmp_path, scen_file):
 
 
 def test_the_shipped_ensemble_scenario(tank):
-    """models/scenarios/three_tank_ensemble.json (the README's example): declared noise and
+    """models/scenarios/three_tank_ensemble.json (the example of docs/ENSEMBLES.md): declared noise and
     disturbances, two cases; no run leaves the interval."""
     from observer_cad.simulation import load_scenario
     m, o, sim, _ = tank

@@ -1,4 +1,4 @@
-"""The safe expression reader (issue 11, item 1): text from data or the command line is
+"""The safe expression reader: text from data or the command line is
 parsed by a whitelist grammar on Python's ast, never evaluated.
 
 Checked here: what the papers' scenarios and the CLI documentation write still reads

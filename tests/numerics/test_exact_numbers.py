@@ -1,4 +1,4 @@
-"""Exact numbers stay exact (issue 11 item 7): nsimplify never sees an exact number;
+"""Exact numbers stay exact: nsimplify never sees an exact number;
 floats become the rational their decimal string denotes."""
 from __future__ import annotations
 

@@ -19,7 +19,8 @@ import scipy.linalg
 import sympy as sp
 
 from observer_cad import ModelError, PlantModel, UsageError
-from observer_cad.observers import DremSpec, ExcitationError, analyse, chain_error_residual, check_excitation, determinants, drem_design, excitation_report, gains_from_poles, load_drem, parametrisation_residual, shift_matrix, suggest_gamma, true_unknowns
+from observer_cad.synthesis import shift_matrix
+from observer_cad.observers import DremSpec, ExcitationError, analyse, chain_error_residual, check_excitation, determinants, drem_design, excitation_report, gains_from_poles, load_drem, parametrisation_residual, suggest_gamma, true_unknowns
 from observer_cad.simulation import load_scenario, scenario_from_dict, simulate
 
 SETTLE = 25.0

@@ -15,7 +15,7 @@ import sympy as sp
 from observer_cad import build_observer, design, load_model, simulate
 from observer_cad.errors import ModelError, UsageError
 from observer_cad.residuals import (constant_threshold, guaranteed_threshold, min_detectable_fault,
-                                    residual_outputs)
+                                    residual_names)
 from observer_cad.simulation import scenario_from_dict
 from observer_cad.analysis import design_bank
 
@@ -120,7 +120,7 @@ def test_bank_bands_continuous_time(models_dir):
     m = load_model(models_dir / "three_tank_isolation.py")
     bank = design_bank(m)
     ot = guaranteed_threshold(m, build_observer(m, bank))
-    assert residual_outputs(ot) == ("r1", "r2", "r3")
+    assert residual_names(ot) == ("r1", "r2", "r3")
     sc = scenario_from_dict({"t_end": 10, "dt": 0.01, "seed": 8,
                              "initial": {"x1": 0.5, "x2": 0.2, "x3": 0.1},
                              "signals": {"u1": "1", "u2": "0.5*sin(t)",

@@ -1,4 +1,4 @@
-"""Interoperability (issue 7 item 4): python-control StateSpace of linear observers,
+"""Interoperability: python-control StateSpace of linear observers,
 LaTeX of a design's matrices, JSON files.
 
 The StateSpace is checked against the reference simulator on step inputs: a "signal

@@ -1,4 +1,4 @@
-"""Counter-based random numbers, signal programs and per-run draws (issue 16, item 3):
+"""Counter-based random numbers, signal programs and per-run draws:
 a run depends on (seed, run index) only — never on the batch it is computed in."""
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Thresholds on simulated ensembles (issue 13 items 2 and 7): the guaranteed threshold over
+"""Thresholds on simulated ensembles: the guaranteed threshold over
 1,000 runs × 2,000 steps of the electric drive, the step fault it detects, and the
 Monte-Carlo quantile threshold."""
 import dataclasses

@@ -1,4 +1,4 @@
-"""Complete assumptions (issue 11 item 6): every denominator of everything a symbolic
+"""Complete assumptions: every denominator of everything a symbolic
 design reports is excluded by its assumptions, checked by an independent oracle
 (:mod:`assumption_oracle`) over every symbolic design of the example models and of
 parametrised variants built here. (``conftest.py`` runs the same oracle on every

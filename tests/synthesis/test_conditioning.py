@@ -1,4 +1,4 @@
-"""Conditioning (issue 11 item 8): every design reports the scale of Φ and the noise gain
+"""Conditioning: every design reports the scale of Φ and the noise gain
 of its output as a non-required condition, in text and JSON; above the documented level
 (README "Conditioning") it does not hold and the CLI prints one warning line."""
 from __future__ import annotations

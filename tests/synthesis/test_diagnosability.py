@@ -1,4 +1,4 @@
-"""Diagnosability analysis (issue 12 item 2): detectability, minimal order, isolability.
+"""Diagnosability analysis: detectability, minimal order, isolability.
 
 Grouped by what they prove:
 * agreement with an independent criterion on random systems: f is detectable with L

@@ -1,10 +1,10 @@
-"""Full fault signatures (issue 12, item 1): every design with a residual reports, for
+"""Full fault signatures: every design with a residual reports, for
 EVERY declared fault, whether the residual responds — checked here against an
 independent oracle: the fault columns read off the model's right-hand side by
 differentiation (not from the extracted structure), and the transfer function
 H* (sI − F*)⁻¹ Φ D_j computed symbolically in s (not the observability matrix the
 implementation uses). Also: the 3-tank case of the issue (a residual designed for f1 that
-f2 also moves must say so), refusals that name the fault and the reason (item 4), a
+f2 also moves must say so), refusals that name the fault and the reason, a
 symbolic sensitivity that needs a parameter nonzero, and the JSON round trip."""
 from __future__ import annotations
 

@@ -60,8 +60,7 @@ def _with_matrices(model, mats):
 def _rerun_float(case) -> str:
     """What the same float design gives when computed again, in this process and in a
     fresh one: evidence for a failure that does not reproduce (this test failed
-    intermittently, only after other tests had run in the same worker; see the
-    closing notes of issue 14)."""
+    intermittently, only after other tests had run in the same worker)."""
     n, l, p, seed, dens = case  # noqa: E741
     model, st = random_structure(n, l, p, seed=seed, density=dens)
     try:

@@ -1,4 +1,4 @@
-"""The search over k, incremental (issue 14 item 1): the null spaces of (W⁽ᵏ⁾ L⁽ᵏ⁾) that
+"""The search over k, incremental: the null spaces of (W⁽ᵏ⁾ L⁽ᵏ⁾) that
 :func:`krylov_null_spaces` grows from one k to the next are, for every k, exactly the
 reduced echelon bases that eliminating (W⁽ᵏ⁾ L⁽ᵏ⁾) from scratch gives
 (:func:`left_null_echelon`), and the ranks are those of a Fraction elimination of the

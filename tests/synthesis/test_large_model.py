@@ -1,9 +1,9 @@
-"""A 300-state, 32-output random model gets an answer (issue 11 item 9, issue 14 item 2).
+"""A 300-state, 32-output random model gets an answer.
 
-Measured on the 2-core development machine (2026-11-23, issue 14): building the model
+Measured on the 2-core development machine (2026-11-23): building the model
 ~0.8 s CPU, each design (unknown-input, diagnostic, virtual sensor: k = 9) ~1.5 s CPU,
-structure extraction included (``benchmarks/bench_scale.py``). Before issue 11: no
-answer in 300 s; before issue 14: model building 29 s, the diagnostic design 40–50 s
+structure extraction included (``benchmarks/bench_scale.py``). Before the fast paths: no
+answer in 300 s; before the scale work: model building 29 s, the diagnostic design 40–50 s
 (the float Jordan search over 1/2 … 1/2³⁰⁰), the virtual-sensor refusal 16 s.
 """
 from __future__ import annotations

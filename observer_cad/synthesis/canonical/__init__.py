@@ -2,7 +2,8 @@
 diagnostic observers and virtual sensors.
 """
 from ._canonical import (design_canonical, krylov_blocks, krylov_null_spaces, member_to_phi, FLOAT_AUTO_N)
+from ._krylov import shift_matrix
 from ._diagnostic import (design_diagnostic_canonical, observer_equations)
 from ._virtual import (design_virtual_sensor_canonical)
 
-__all__ = ["design_canonical", "krylov_blocks", "krylov_null_spaces", "member_to_phi", "FLOAT_AUTO_N", "design_diagnostic_canonical", "observer_equations", "design_virtual_sensor_canonical"]
+__all__ = ["design_canonical", "krylov_blocks", "krylov_null_spaces", "member_to_phi", "FLOAT_AUTO_N", "design_diagnostic_canonical", "observer_equations", "design_virtual_sensor_canonical", "shift_matrix"]

@@ -1,7 +1,7 @@
 """The float path of the canonical form (METHOD §2a): SVD with stated tolerances and
 the evidence of every decision, certified on the original matrices.
 
-* Scale: (W⁽ᵏ⁾ L⁽ᵏ⁾) is built from F/α, α = (|H Fᵏ| / |H|)^{1/k} the mean growth of
+* Scale: (W⁽ᵏ⁾ L⁽ᵏ⁾) is built from F/α, α = (abs(H Fᵏ) / abs(H))^{1/k} the mean growth of
   the Krylov rows. That is exactly a row and column scaling of the original
   matrix (a member v of the scaled one gives the member v_b α^b, block b, of the
   original); without it a contractive F (F/10 of a random F) buries the W part of
@@ -15,8 +15,8 @@ the evidence of every decision, certified on the original matrices.
   the block Toeplitz of D built like L⁽ᵏ⁾, so the members doing so are the left
   null space of (W L⁽ᵏ⁾ D⁽ᵏ⁾_others), computed in one SVD like the rank condition
   (not by a second null space of a computed, already rounded basis).
-* Sensitivity and rank Φ are judged relative to ρ_i = Σ_b |v_b| |H F^(i−1−b)|, the
-  size row Φ_i would have without cancellation (:func:`_phi_ref`): |Φ_i D|/(ρ_i |D|)
+* Sensitivity and rank Φ are judged relative to ρ_i = Σ_b abs(v_b) abs(H F^(i−1−b)), the
+  size row Φ_i would have without cancellation (:func:`_phi_ref`): abs(Φ_i D)/(ρ_i abs(D))
   and Φ with rows divided by ρ_i. Scaling a row to unit norm instead would turn a
   row that is zero up to rounding (R* H = 0 when H has dependent rows) into a
   "sensitive, full-rank" one.
@@ -183,10 +183,10 @@ class CanonicalFloat(FloatArithmetic):
         matrix to one of the original (elementwise product). Rows are tried in the exact
         path's order (first, last, then the others). For row r the members with D* in row
         r only are the left null space of (M, D⁽ᵏ⁾_others); among them the unit combination
-        maximising |D*_r| is taken if it clears the tolerance relative to ρ_r |D| (ρ the
+        maximising abs(D*_r) is taken if it clears the tolerance relative to ρ_r abs(D) (ρ the
         size of Φ_r without cancellation, :func:`_phi_ref`; ``pn[j] = |H Fʲ|``) and if Φ,
         its rows divided by ρ, has rank k. Without ``single_row`` (as the exact path): any
-        member with D* ≠ 0, the unit combination maximising |D*| (rows scaled by ρ_i |D|).
+        member with D* ≠ 0, the unit combination maximising abs(D*) (rows scaled by ρ_i abs(D)).
         If the optimum is degenerate, perturbations of it are tried (rank Φ = k is generic
         in the null space when it holds anywhere).
         Returns ``((v, r, evidence, FloatRank of Φ, subspace dimension, tolerance), None)``
@@ -348,7 +348,7 @@ def _pow2(x):
 
 
 def _growth(P, k, hnorm):
-    """α with |H Fᵏ| ≈ αᵏ |H|: the mean growth of the Krylov rows (1 if undefined).
+    """α with abs(H Fᵏ) ≈ αᵏ abs(H): the mean growth of the Krylov rows (1 if undefined).
 
     Building (W L) from F/α (exactly a row and column scaling of it, undone for the
     members) keeps H Fʲ, the W and the L⁽ᵏ⁾ parts of each row at comparable sizes,
@@ -386,7 +386,7 @@ def _phi_float(U, F, H, k, l):  # noqa: E741
 
 
 def _phi_ref(U, pn, k, l):  # noqa: E741
-    """Size of each Φ_i without cancellation: Σ_b |v_b| |H F^{i−b}| (an (s, k) array).
+    """Size of each Φ_i without cancellation: Σ_b abs(v_b) abs(H F^{i−b}) (an (s, k) array).
 
     Φ_{i+1} = Σ_{b≤i} v_b H F^{i−b} for a member v = (v_0, …, v_k) (METHOD §2a); a row
     far below this reference is zero up to rounding (e.g. R* H = 0 when H has

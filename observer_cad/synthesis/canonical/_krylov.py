@@ -147,6 +147,7 @@ def member_to_phi(v, F, H, k):
 
 
 def shift_matrix(k):
+    """The k×k shift matrix: ones on the superdiagonal (the F* of the canonical form)."""
     Fs = sp.zeros(k, k)
     for i in range(k - 1):
         Fs[i, i + 1] = 1

@@ -318,15 +318,15 @@ def _model_jacobians(model):
     """``(jacobians, outputs)``: ∂f/∂v for v in (x, u, d, ρ) and ∂h/∂x straight from the
     model's expressions — sympy's ``linear_eq_to_matrix``, nothing of the extraction —
     when f and h are linear (every coefficient free of the variables, no constant term),
-    else None; ``outputs`` are h with the noise at 0."""
+    else None; ``outputs`` are h with the noise at 0 (and f with the process noise at 0)."""
     from sympy.solvers.solveset import NonlinearError
     groups = {"x": model.states, "u": model.inputs, "d": model.faults,
               "rho": model.disturbances}
     noise0 = {w: 0 for w in model.noise}
     outs = [h.xreplace(noise0) for h in model.outputs]
     order = [s for syms in groups.values() for s in syms]
-    try:
-        A, b = sp.linear_eq_to_matrix(list(model.dynamics), order)
+    try:  # process noise (Bw w) is not decoupled: the identities hold with w = 0
+        A, b = sp.linear_eq_to_matrix([f.xreplace(noise0) for f in model.dynamics], order)
         Hm, c = sp.linear_eq_to_matrix(outs, list(model.states)) if outs else (None, None)
     except NonlinearError:
         return None, outs
@@ -343,7 +343,7 @@ def certify_against_model(model, mats, task, *, nonlinear=(), observer_states=()
                           exact: bool = True, tolerance: float = 1e-9,
                           approximate: bool = False) -> tuple:
     """A design's reduced model re-derived from the model's own right-hand side f and
-    outputs h (noise at 0), not from the extracted matrices::
+    outputs h (noise at 0, in f and h), not from the extracted matrices::
 
         Φ f(x, u, d, ρ) − F* Φ x − J* h(x) − G* u − C* Ψ*(Φ x, h(x), u) − D* d_T − L* ρ_B ≡ 0
         R* h(x) − H* Φ x ≡ 0,        M x − H_z Φ x − Q h(x) ≡ 0
@@ -443,6 +443,7 @@ def _equation_checks(model, m, task, outs, targets, bounded, zero, nonlinear,
     xs = list(observer_states) if observer_states else list(sp.symbols(f"xs1:{k + 1}"))
     ys = sp.symbols(f"y1:{len(outs) + 1}")
     sub = {s: 0 for s in zero}
+    sub.update({w: 0 for w in model.noise})  # process noise is bounded, not decoupled
     f = sp.Matrix([sp.sympify(e).xreplace(sub) for e in model.dynamics])
     z = dict(zip(xs, list(Phi * x)))
     z.update(dict(zip(ys, outs)))

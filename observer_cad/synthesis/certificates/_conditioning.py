@@ -7,7 +7,7 @@ synthesis condition holds. :func:`conditioning_condition` reports two numbers, a
 model's parameter defaults (symbolic designs) or as designed (numeric ones), with
 ‖A‖₁ the sum of the absolute values of A's entries:
 
-- **scale of Φ**: max |Φ_ij| / max |H_ij|. In both forms the rows of Φ are combinations
+- **scale of Φ**: max abs(Φ_ij) / max abs(H_ij). In both forms the rows of Φ are combinations
   of the measured rows H Fⁱ (the canonical form has Φ_1 = R* H with R*'s leading entry
   1), so a large ratio means rows that cancel: the reduced model lives on tiny
   differences of large numbers.
@@ -20,7 +20,7 @@ model's parameter defaults (symbolic designs) or as designed (numeric ones), wit
     ‖R*‖₁ + ‖H*‖₁ (‖J*‖₁ + ‖K‖₁ ‖R*‖₁);
   - an unknown-input estimate d̂ = (x*(t+1) − F* x* − J* y − G* u)_i / D*_i (unknown-input
     and sliding-mode estimators), x* recovered from y through R* and J*:
-    (‖R*‖₁ + ‖J*‖₁)(1 + ‖F*‖₁) / min_i |D*_i| over the nonzero D*_i.
+    (‖R*‖₁ + ‖J*‖₁)(1 + ‖F*‖₁) / min_i abs(D*_i) over the nonzero D*_i.
 
   (K and R* count as 0 where the design has none.)
 
@@ -46,7 +46,7 @@ CONDITIONING_REFERENCE = "README: Conditioning"
 
 
 def _values(M, subs):
-    """|entries| of M as floats at the parameter values, or None if a symbol remains."""
+    """abs(entries) of M as floats at the parameter values, or None if a symbol remains."""
     if M is None:
         return []
     M = sp.ImmutableMatrix(M)
@@ -70,7 +70,7 @@ def _values(M, subs):
 
 
 def _abs_float(v) -> float:
-    """|v| as a float; ∞ for an exact number beyond the floating-point range (reported as
+    """abs(v) as a float; ∞ for an exact number beyond the floating-point range (reported as
     ill-conditioned, not an OverflowError)."""
     try:
         return abs(float(v))

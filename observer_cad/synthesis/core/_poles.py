@@ -201,10 +201,17 @@ def pole_placement(Fs, Hs, eigenvalues, *, seed: int = PLACEMENT_SEED) -> PolePl
 
     Parameters
     ----------
-    Fs : k × k matrix F*;  Hs : p × k matrix H* (any number of rows p ≥ 1);
-    eigenvalues : k exact numbers μ_i (complex ones in conjugate pairs);
-    seed : seed of the random combinations tried for several rows (default 0).
+    Fs
+        The k × k matrix F*.
+    Hs
+        The p × k matrix H* (any number of rows p ≥ 1).
+    eigenvalues
+        k exact numbers μ_i (complex ones in conjugate pairs).
+    seed
+        Seed of the random combinations tried for several rows (default 0).
 
+    Notes
+    -----
     Method: observer-form Ackermann formula over the exact field (module docstring);
     floats in F*, H* are read as the rationals their decimal strings denote.
     Raises :class:`InfeasibleDesignError` when (F*, H*) is not observable (with the rank

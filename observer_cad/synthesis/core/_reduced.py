@@ -104,7 +104,7 @@ def sliding_equations(mats, inputs, xs, ys, fault_name: str, injection: str, *,
                       nonlinear=(), q: int | None = None) -> tuple:
     """(states, update, outputs) of a one-row sliding-mode observer (seed 002 §5): the
     reduced model's right-hand side minus K1·v, v the injection of e = x*_1 − R* y —
-    e/(|e| + ε) ("regularised") or sign(e), filtered by the state vf ("sign") —
+    e/(abs(e) + ε) ("regularised") or sign(e), filtered by the state vf ("sign") —
     with the estimate ``<fault>_hat`` = −K1 v / D* and the residual r = R* y − x*_1."""
     x = xs[0]
     ystar = (sp.Matrix(_get(mats, "R_star")) * sp.Matrix(ys))[0, 0]

@@ -144,7 +144,7 @@ class DesignMatrices:
 @dataclasses.dataclass(frozen=True)
 class SlidingGainInputs:
     """What a sliding-mode design's gain bound rests on besides the model (seed 002 §5,
-    :func:`observer_cad.synthesis.gain_bound`): ``delta`` bounds |x̂*(0) − x*(0)|,
+    :func:`observer_cad.synthesis.gain_bound`): ``delta`` bounds abs(x̂*(0) − x*(0)),
     ``lipschitz`` is the Lipschitz constant N* of C*Ψ* in x* (None when C* = 0). Recorded
     so that building the observer recomputes the bound for the gains it is given."""
 

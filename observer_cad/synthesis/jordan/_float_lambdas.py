@@ -14,7 +14,7 @@ loses row rank. They are computed, not guessed:
   of the square pencil (A − λB) Z for any n × r matrix Z, so the eigenvalues common to two
   random orthonormal Z are the candidates.
 
-Every candidate (real up to a tolerance, finite: |β| of the normalised homogeneous pair
+Every candidate (real up to a tolerance, finite: abs(β) of the normalised homogeneous pair
 not negligible) is refined by the two-sided Rayleigh step λ ← λ + σ/(uᵀ B v) (u, v the
 singular vectors of σ_min(P(λ))) and kept only when σ_min(P(λ)) / σ_1(P(λ)) is below the
 tolerance; the evidence gives that ratio and the gap to the next singular value.

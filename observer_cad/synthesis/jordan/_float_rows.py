@@ -68,7 +68,7 @@ def default_lambdas(time: str, count: int):
     the spectrum of F), so crowded λ waste SVDs and give ill-conditioned or spurious row
     combinations: the exact path's discrete list 1/2, 1/4, …, 1/2ⁿ crowds at 0 (1/2⁶⁰ and
     1/2³⁰⁰ give the same P(λ) in floating point), and −1, −2, …, −n crowds in direction
-    for |λ| ≫ ‖F‖. Every λ is generically as good as any other here; the list only has to
+    for abs(λ) ≫ ‖F‖. Every λ is generically as good as any other here; the list only has to
     be long enough for the rows a design needs (one λ per row), and ``lambdas=`` widens it.
     """
     if time == "continuous":

@@ -176,7 +176,7 @@ def _promising_sets(F, H, L, L0, M, Q, grid, q, time, e=1) -> list:
     λ_i with Σ Φ_i Q = 0, all images nonzero and spanning e dimensions, exist, and E(λ) of
     T = [M; e of the rows] drops rank at q − 1 further real stable λ (distinct, not among
     the set); the least stiff first (continuous: the ratio of the largest to the smallest
-    |λ|; discrete: the largest |λ|). Items: (the λ, the float rows)."""
+    abs(λ); discrete: the largest abs(λ)). Items: (the λ, the float rows)."""
     try:
         Fn, Hn, L0n, Mn, Qn = (np.array(X.evalf().tolist(), dtype=float).reshape(X.shape)
                                for X in (F, H, L0, M, Q))

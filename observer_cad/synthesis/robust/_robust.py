@@ -25,8 +25,8 @@ task).
 The task (rank Φ = k always; plus one of):
 
 * ``unknown_input``: the input must reach the model, Φ D ≠ 0 relative to
-  ρ_i = |H| α^(i−1) Σ_b |v_b| α^(−b), the size row Φ_i would have without cancellation
-  (α the mean growth of |H Fʲ|; every block of v counts, so a member whose R* is
+  ρ_i = abs(H) α^(i−1) Σ_b abs(v_b) α^(−b), the size row Φ_i would have without cancellation
+  (α the mean growth of abs(H Fʲ); every block of v counts, so a member whose R* is
   rounding noise is degenerate, not "sensitive");
 * ``estimate`` z = M x: rank [Φ; H] = rank [Φ; H; M] (then M = H_z Φ + Q H).
 
@@ -39,7 +39,7 @@ member of a subspace whose members keep the task:
 * z not reachable: with P_H = I − H⁺H, the condition reads M P_H = Σ_{i≥2} h_i Φ_i(w) P_H
   (Φ_1 P_H = 0). For a fixed direction g of (h_2, …, h_k) it is linear in w: w must lie
   in V(g), the left null space of C(g)(I − m̂ᵀm̂), C(g) = Σ g_i Φ_i(N) P_H,
-  m̂ = M P_H / |M P_H|; the best w in V(g) is an SVD. k = 2 has one subspace (exact);
+  m̂ = M P_H / abs(M P_H); the best w in V(g) is an SVD. k = 2 has one subspace (exact);
   for k = 3 g is an angle searched on a 360-point grid, for k ≥ 4 on 400·(k−2)
   seeded random directions (the best found, not a proven optimum; reported as a search).
 * rank Φ < k only: the singular directions of N L⁽ᵏ⁾ are tried in increasing order.
@@ -166,15 +166,15 @@ class RobustFloat(FloatArithmetic):
         return np.stack(rows, axis=1)
 
     def alpha(self, k):
-        """α with |H Fᵏ| ≈ αᵏ |H|: the mean growth of the Krylov rows (1 if undefined)."""
+        """α with abs(H Fᵏ) ≈ αᵏ abs(H): the mean growth of the Krylov rows (1 if undefined)."""
         g = float(np.linalg.norm(self.hf(k)))
         h = float(np.linalg.norm(self.H))
         return (g / h) ** (1.0 / k) if g > 0 and h > 0 and np.isfinite(g) else 1.0
 
     def ref(self, v, k):
-        """Reference size of each row Φ_i of the member v: |H| α^(i−1) Σ_b |v_b| α^(−b).
+        """Reference size of each row Φ_i of the member v: abs(H) α^(i−1) Σ_b abs(v_b) α^(−b).
 
-        Φ_i = Σ_(b<i) v_b H F^(i−1−b) and |H Fʲ| ≈ |H| αʲ, so this is the size Φ_i
+        Φ_i = Σ_(b<i) v_b H F^(i−1−b) and abs(H Fʲ) ≈ abs(H) αʲ, so this is the size Φ_i
         would have without cancellation — counting every block of v, so that a member
         whose R* is rounding noise (a shifted smaller-k member, Φ_1 ≈ 0) is degenerate.
         """

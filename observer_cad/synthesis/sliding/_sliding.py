@@ -33,18 +33,18 @@ Observer and sign conventions (derived here, checked by simulation in the tests)
 Noise-free, e = x̂* − x* and  e' = λ e − k1 v − D* d. On the sliding surface
 (e = e' = 0) the equivalent injection satisfies k1 v_eq = −D* d, hence
 
-    d̂ = −k1 D*⁻¹ v_eq,     v_eq = e / (|e| + ε)          (seed 002 eq. (5.4)).
+    d̂ = −k1 D*⁻¹ v_eq,     v_eq = e / (abs(e) + ε)          (seed 002 eq. (5.4)).
 
 The printed sign is right: d̂ → d (verified in tests/test_sliding.py).
 
-Injection. ``injection="regularised"`` (default) uses v = e/(|e| + ε) in the observer
+Injection. ``injection="regularised"`` (default) uses v = e/(abs(e) + ε) in the observer
 too (a boundary-layer sliding mode): the right-hand side is continuous, the fixed-step
 RK4 reference simulator integrates it without chattering, and the same v is the v_eq of
-the estimate. The error then settles in the layer |e| ≲ ε b/(k1 − b) (b = the bound
+the estimate. The error then settles in the layer abs(e) ≲ ε b/(k1 − b) (b = the bound
 below) instead of e = 0, and d̂ − d = (e' − λ e)/D* = O(ε). The slope of v at e = 0 is
 k1/ε: explicit RK4 needs dt < 2.78 ε/k1 (reported as a condition).
 ``injection="sign"`` is the paper's discontinuous v = sign(e). Under a fixed step it
-chatters with amplitude ≈ k1·dt, and e/(|e| + ε) of that chattering e is no estimate of
+chatters with amplitude ≈ k1·dt, and e/(abs(e) + ε) of that chattering e is no estimate of
 v_eq (measured: errors of order 1). Its equivalent injection is therefore taken by a
 first-order low-pass filter, a second observer state v_f' = (sign(e) − v_f)/τ, and
 d̂ = −k1 D*⁻¹ v_f (filter lag ≈ τ ḋ, ripple ≈ dt/τ).
@@ -52,35 +52,38 @@ d̂ = −k1 D*⁻¹ v_f (filter lag ≈ τ ḋ, ripple ≈ dt/τ).
 Gain bound (derived; the printed one is corrected)
 --------------------------------------------------
 With the measured sliding variable e = x̂* − R* y, noise w and a Lipschitz
-nonlinearity (|C*ΔΨ| ≤ N*|x̂* − x*|):
+nonlinearity (abs(C*ΔΨ) ≤ N*|x̂* − x*|):
 
     e' = λ e − k1 v − D* d + (J* + λ R*) W w − R* W w' + C* ΔΨ
 
-and V = e²/2 gives V' ≤ |e| (λ|e| − k1 + d*|D*| + Σ_i |((J* + λR*) W)_i| w*_i
-+ |R* W| ẇ* + N* δ). Since λ < 0 the term λ|e| is ≤ 0 and can only help: the
+and V = e²/2 gives V' ≤ abs(e) (λ|e| − k1 + d*|D*| + Σ_i abs(((J* + λR*) W)_i) w*_i
++ abs(R* W) ẇ* + N* δ). Since λ < 0 the term λ|e| is ≤ 0 and can only help: the
 sufficient condition is
 
-    k1 > d*|D*| + Σ_i |((J* + λR*) W)_i| w*_i + δ N*      (+ |R* W| ẇ* for smooth noise).
+    k1 > d*|D*| + Σ_i abs(((J* + λR*) W)_i) w*_i + δ N*      (+ abs(R* W) ẇ* for smooth noise).
+
+Process noise in the dynamics (x' = … + Bw w, not decoupled) adds −Φ_1 Bw w to e' and
+Σ_i |(Φ_1 Bw)_i| w*_i to the bound.
 
 The printed bound k1 > λδ + d*‖D*‖ (+ w*‖J*‖ + δN*) is *not* sufficient for λ < 0: it
-lowers the bound by |λ|δ, but on the sliding surface |v_eq| = |D* d|/k1 ≤ 1 forces
-k1 ≥ sup |D* d| = d*|D*| whatever λ and δ are (a test shows tracking failing at the
+lowers the bound by |λ|δ, but on the sliding surface abs(v_eq) = abs(D* d)/k1 ≤ 1 forces
+k1 ≥ sup abs(D* d) = d*|D*| whatever λ and δ are (a test shows tracking failing at the
 printed value). Reading the printed term as |λ|δ gives a valid but conservative bound;
 both values are reported for information. The printed noise term w*‖J*‖ bounds J* w for
 the unmeasurable error x̂* − x*; for the measured e the coefficient is J* + λR*, and a
 noise that is not differentiable (sampled noise) makes an exact sliding mode on e
 impossible — the estimate is then approximate (seed 002 says so too).
 
-δ bounds the initial estimation error |x̂*(0) − x*(0)|; with k1 above the bound |e| is
+δ bounds the initial estimation error abs(x̂*(0) − x*(0)); with k1 above the bound abs(e) is
 non-increasing, so δ bounds it for all t. Reaching time (pure sign, noise-free, linear):
-|e(t)| ≤ (δ + η/|λ|) e^{λt} − η/|λ| with η = k1 − b, so e = 0 by
-t_r = ln(1 + |λ|δ/η)/|λ|. With the regularised injection the same argument bounds the
-time to enter the band |e| ≤ e_th = 3 ε b/(k1 − b): outside it k1|e|/(|e| + ε) ≥
-k_th = 3 k1 b/(k1 + 2b) > b, so t_r ≤ ln((δ + η_th/|λ|)/(e_th + η_th/|λ|))/|λ| with
+abs(e(t)) ≤ (δ + η/abs(λ)) e^{λt} − η/abs(λ) with η = k1 − b, so e = 0 by
+t_r = ln(1 + |λ|δ/η)/abs(λ). With the regularised injection the same argument bounds the
+time to enter the band abs(e) ≤ e_th = 3 ε b/(k1 − b): outside it k1|e|/(abs(e) + ε) ≥
+k_th = 3 k1 b/(k1 + 2b) > b, so t_r ≤ ln((δ + η_th/abs(λ))/(e_th + η_th/abs(λ)))/abs(λ) with
 η_th = k_th − b. Inside the band the injection's slope is ≥ k1 ε/(ε + e_th)², so e
 settles on the layer with time constant τ_L ≤ (ε + e_th)²/(k1 ε); d̂ = d + (e' − λe)/D*
 tracks d once e' has died out, a few τ_L after t_r. Steady error (noise-free):
-|d̂ − d| ≲ ε (|λ| d*/η + ḋ* k1/η²) with η = k1 − d*|D*| (plus ḋ*·dt from the simulator
+abs(d̂ − d) ≲ ε (abs(λ) d*/η + ḋ* k1/η²) with η = k1 − d*|D*| (plus ḋ*·dt from the simulator
 holding signals over a step).
 
 Default gain: k1 = 2 × the bound (``gain_margin``).
@@ -195,8 +198,8 @@ class GainBound:
         return next(t for t in self.terms if t.name == name)
 
     def reaching_time_bound(self, k1: float, eps: float | None = None) -> float:
-        """Upper bound on the reaching time from |e(0)| ≤ δ (noise-free, linear);
-        ``eps``: the regularised injection's band |e| ≤ 3 ε b/(k1 − b)."""
+        """Upper bound on the reaching time from abs(e(0)) ≤ δ (noise-free, linear);
+        ``eps``: the regularised injection's band abs(e) ≤ 3 ε b/(k1 − b)."""
         b, lam = self.bound, abs(self.lam)
         if k1 <= b:
             return math.inf
@@ -210,7 +213,7 @@ class GainBound:
         return math.log((self.delta + eta / lam) / (e_th + eta / lam)) / lam
 
     def band(self, k1: float, eps: float) -> float:
-        """e_th = 3 ε b/(k1 − b): the regularised sliding mode stays in |e| ≤ e_th."""
+        """e_th = 3 ε b/(k1 − b): the regularised sliding mode stays in abs(e) ≤ e_th."""
         return 3 * eps * self.bound / (k1 - self.bound) if k1 > self.bound else math.inf
 
     def layer_time_constant(self, k1: float, eps: float) -> float:
@@ -285,6 +288,11 @@ def gain_bound(model: PlantModel, design: Design, *, delta: float = 1.0,
     else:
         pv = 0.0
         terms.append(GainTerm("w*|J* + λR*|", 0.0, "no measurement noise declared"))
+    PBw = sp.Matrix(mats.Phi) * sp.Matrix(st.Bw)  # process noise: not decoupled, bounded
+    if any(e != 0 for e in PBw):
+        terms.append(GainTerm("w*|Φ_1 Bw|", sum(abs(float(c)) * w for c, w in zip(PBw, wst)),
+                              f"process noise: Σ_i |(Φ_1 Bw)_i| w*_i = Σ |{[float(c) for c in PBw]}|"
+                              f"·{wst}"))
     Cs = sp.Matrix(mats.C_star) if mats.C_star is not None else sp.zeros(1, 0)
     nonlin = any(e != 0 for e in Cs)
     if nonlin:
@@ -318,11 +326,11 @@ def design_sliding(model: PlantModel, *, fault: str | None = None, lam=None, k1=
     fault : name of the fault to estimate (default: the model's only fault). Other
         faults and every disturbance are decoupled (Φ_1 L = 0).
     lam : requested λ < 0 (checked: admissible, stable); default −1 when every λ is
-        admissible, else the admissible stable values in increasing |λ|.
+        admissible, else the admissible stable values in increasing abs(λ).
     k1 : sliding gain; default ``gain_margin`` × the derived bound (see the module doc).
         A k1 below the bound is accepted (the condition is reported as failing).
-    eps : ε of v_eq = e/(|e| + ε) (and of the regularised injection).
-    delta : δ, a bound on the initial estimation error |x̂*(0) − x*(0)|.
+    eps : ε of v_eq = e/(abs(e) + ε) (and of the regularised injection).
+    delta : δ, a bound on the initial estimation error abs(x̂*(0) − x*(0)).
     injection : ``"regularised"`` (v = v_eq; default) or ``"sign"`` (paper's sign(e),
         with v_eq from the low-pass filter v_f' = (sign(e) − v_f)/τ, ``tau``).
     lipschitz : N*, the Lipschitz constant of C*Ψ* in x*, needed when C* ≠ 0.
@@ -335,7 +343,7 @@ def design_sliding(model: PlantModel, *, fault: str | None = None, lam=None, k1=
     The observer's states: ``xs1`` (x̂*), plus ``vf`` for the sign injection. Its
     outputs: ``<fault>_hat`` (d̂ = −k1 D*⁻¹ v_eq) and ``r = R* y − x̂*`` (= −e, the
     sliding variable). Its parameters: ``k_sm`` (the paper's k1), ``eps_sm`` (ε) or
-    ``tau_sm`` (τ). Initial state 0; δ must bound |x̂*(0) − x*(0)| = |R* y(0)| then
+    ``tau_sm`` (τ). Initial state 0; δ must bound abs(x̂*(0) − x*(0)) = abs(R* y(0)) then
     (a scenario's ``observer_initial`` overrides it; x̂*(0) = R* y(0) gives e(0) = 0).
     """
     if injection not in INJECTIONS:
@@ -421,7 +429,7 @@ def _matching(ar, H, D, where, fsym) -> Condition:
 
 def _lambdas(adm, lam, where) -> list:
     """The λ to try: the requested one (admissible and stable), −1 when every λ is
-    admissible, else the admissible stable values in increasing |λ|."""
+    admissible, else the admissible stable values in increasing abs(λ)."""
     if lam is not None:
         lv = rationalize_floats(sp.sympify(lam)) if not isinstance(lam, sp.Basic) else lam
         if not adm.contains(lv):
@@ -499,7 +507,7 @@ def _gain_conditions(gb, k1v, eps, tau, injection) -> tuple:
 
 
 def reaching_time(t, r, threshold: float):
-    """First time after which |r| ≤ threshold at every later sample (None if never)."""
+    """First time after which abs(r) ≤ threshold at every later sample (None if never)."""
     t, r = np.asarray(t, dtype=float), np.abs(np.asarray(r, dtype=float))
     bad = np.nonzero(~(r <= threshold))[0]
     if bad.size == 0:

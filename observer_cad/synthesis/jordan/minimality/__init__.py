@@ -12,22 +12,22 @@ the root box), ``_row_counts`` (can k rows give z), ``_q_plus_one_rows``,
 ``_q_plus_two_rows``, ``_rows_in_six_dimensions`` (the shapes of the rows' images),
 ``_exterior``, ``_roots`` (shared algebra), ``_clock`` (the time budget).
 """
-from ._box_cover import BoxCover, box_cover, quadric_cover, pencil_cover, BOX_CELLS, BOX_DEPTH, PROBES
+from ._box_cover import (BoxCover, box_cover, quadric_cover, pencil_cover)
 from ._bounds import OrderBound, estimation_order_bound, residual_order_bound, nonlinear_jordan_bound
 from ._chains import chain_order, chain_system, spread_lambdas
 from ._clock import ProofClock, ProofStopped, UNLIMITED, proof_seconds_value
-from ._condition import CONDITION_NAME
-from ._families import (ChainOrder, family_order, plane_order, hyperplane_functional, hyperplane_corners,
-                        hyperplane_member, MAX_SUBSETS)
+from ._families import (ChainOrder, family_order, plane_order, hyperplane_corners, hyperplane_member, MAX_SUBSETS)
 from ._prove import MinimalityProblem, ChosenRows, prove_minimal
 from ._row_counts import (q_plus_one_rows_possible, basis_minus_one_rows_possible, q_plus_two_rows_possible,
                           q_plus_three_rows_possible)
 from ._rows_verdict import RowsVerdict
 
-__all__ = ["prove_minimal", "MinimalityProblem", "ChosenRows", "CONDITION_NAME", "ProofClock", "ProofStopped",
-           "UNLIMITED", "proof_seconds_value", "BoxCover", "box_cover", "quadric_cover", "pencil_cover",
-           "BOX_CELLS", "BOX_DEPTH", "PROBES", "OrderBound", "estimation_order_bound", "residual_order_bound",
-           "nonlinear_jordan_bound", "chain_order", "chain_system", "spread_lambdas", "ChainOrder",
-           "family_order", "plane_order", "hyperplane_functional", "hyperplane_corners", "hyperplane_member",
-           "MAX_SUBSETS", "RowsVerdict", "q_plus_one_rows_possible", "basis_minus_one_rows_possible",
-           "q_plus_two_rows_possible", "q_plus_three_rows_possible"]
+__all__ = [
+    "prove_minimal", "MinimalityProblem", "ChosenRows", "ProofClock", "ProofStopped",
+    "UNLIMITED", "proof_seconds_value", "BoxCover", "box_cover", "quadric_cover",
+    "pencil_cover", "OrderBound", "estimation_order_bound", "residual_order_bound",
+    "nonlinear_jordan_bound", "chain_order", "chain_system", "spread_lambdas", "ChainOrder",
+    "family_order", "plane_order", "hyperplane_corners", "hyperplane_member", "MAX_SUBSETS",
+    "RowsVerdict", "q_plus_one_rows_possible", "basis_minus_one_rows_possible",
+    "q_plus_two_rows_possible", "q_plus_three_rows_possible"
+]
