@@ -107,6 +107,16 @@ def test_no_false_alarm_on_1000_records_of_the_continuous_plant(motor):
     assert np.max(np.abs(r[200:])) > 0.1 * up[-1, 0]
 
 
+def test_no_false_alarm_with_the_exact_hold(motor):
+    """The same on 100 records with the observer stepped by the exact zero-order hold."""
+    m, o, _ = motor
+    ot = sampled_threshold(m, o, H, discretisation="zoh")
+    rec = _data_module().records(100, 5.0, seed=12)
+    r, lo, up = _run(ot, rec, discretisation="zoh")
+    assert int(np.sum((r < lo) | (r > up))) == 0
+    assert np.max(np.abs(r[200:])) > 0.1 * up[-1, 0]
+
+
 def test_step_faults_above_the_guaranteed_size_are_detected(motor):
     """Step faults 1.3× the guaranteed detectable size (either sign) from t = 1 s: every
     record raises an alarm after the fault and none before."""
