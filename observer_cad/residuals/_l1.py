@@ -39,7 +39,7 @@ class WorstCase:
     tail: float
 
 
-def contraction(F: np.ndarray, max_power: int = 100_000) -> tuple:
+def contraction(F: np.ndarray, max_power: int = 1 << 24) -> tuple:
     """The smallest power L (doubling) with β = ‖abs(F^L)‖_∞ < 1/2, and β: (L, β). Raises a
     UsageError when F is not a contraction in any power up to ``max_power``."""
     k = F.shape[0]
