@@ -118,7 +118,9 @@ def cmd_codegen(args) -> int:
     out = Path(args.out)
     fmu = None
     with staged_directory(out) as stage:  # the files together, or none changed
-        paths = export_observer(observer, stage, name=args.name, dt=dt, rule=rule)
+        from ..simulation import declared_envelope
+        paths = export_observer(observer, stage, name=args.name, dt=dt, rule=rule,
+                                envelope=declared_envelope(model))
         if getattr(args, "fmu", False):
             from ..codegen import export_fmu
             fmu = export_fmu(observer, stage, name=args.name, dt=dt, sample_time=sample_time,

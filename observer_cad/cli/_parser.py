@@ -57,8 +57,8 @@ def build_parser() -> argparse.ArgumentParser:
                    help="print the version and exit")
     sub = p.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser,
                            required=True)
-    for add in (_add_show, _add_design, _add_simulate, _add_ensemble, _add_codegen, _add_analyze,
-                _add_demo):
+    for add in (_add_show, _add_design, _add_simulate, _add_ensemble, _add_monitor, _add_codegen,
+                _add_analyze, _add_demo):
         add(sub)
     return p
 
@@ -149,6 +149,43 @@ def _add_ensemble(sub) -> None:
                     help="only replay run RUN of this ensemble: write DIR/run_<RUN>/signals.csv"
                          " and figures, and print its summary")
     _add_threshold_options(en, quantile=True)
+
+
+def _add_monitor(sub) -> None:
+    """``monitor``: the observer over recorded data (a file, or rows on stdin)."""
+    mo = sub.add_parser("monitor", help="run the observer (and its threshold) over recorded data",
+                        description="Design the observer and run it over recorded data: a CSV "
+                                    "(or Parquet, with pyarrow) with a time column t and one "
+                                    "column per input and output the observer reads (u, y1, ...). "
+                                    "Writes DIR/monitor.csv (t, the signals, the observer's "
+                                    "outputs, alarm and diagnosis with a threshold, in_bounds) and "
+                                    "DIR/monitor.png. Continuous time: the discrete algorithm of "
+                                    "the exported C at the data's sample time, inputs held (ZOH).")
+    mo.add_argument("model", metavar="MODEL", help="path to a model file")
+    _add_design_options(mo)
+    mo.add_argument("--data", metavar="FILE", required=True,
+                    help="the recorded data (CSV, or .parquet with pyarrow); '-' reads CSV rows"
+                         " from stdin as they arrive and prints each change of alarm or"
+                         " diagnosis at once")
+    mo.add_argument("--out", metavar="DIR", required=True, help="output directory")
+    mo.add_argument("--column", metavar="SIGNAL=NAME", action="append", default=[],
+                    help="the column NAME holds the signal SIGNAL (e.g. y1=angle; repeatable;"
+                         " t=time for the time column)")
+    mo.add_argument("--sample-time", metavar="H", type=_positive_float("--sample-time"),
+                    default=None,
+                    help="discrete-time models: the interval of t between two steps (default 1:"
+                         " t counts the steps)")
+    mo.add_argument("--initial", metavar="NAME=VALUE", action="append", default=[],
+                    help="a plant state the observer's initial state depends on (default 0, as"
+                         " the exported C), or an observer state (repeatable)")
+    mo.add_argument("--engine", choices=["compiled", "reference"], default="compiled",
+                    help="compiled: the exported C step in a compiled loop (cached; without a"
+                         " C compiler the reference is used, with a warning); reference: Python"
+                         " (default compiled)")
+    _add_threshold_options(mo, quantile=False)
+    mo.add_argument("--persistence", metavar="N", type=_positive_int("--persistence"), default=1,
+                    help="alarm when a residual is outside its band for N consecutive samples"
+                         " (default 1)")
 
 
 def _add_codegen(sub) -> None:
