@@ -277,3 +277,19 @@ def test_monitor_on_the_recorded_example_uses_the_sampled_band(models_dir, tmp_p
     assert code == 0
     assert "sampled algorithm at h = 0.01 (RK4)" in out
     assert "no alarm in 501 samples" in out
+
+
+def test_monitor_refuses_data_at_another_sample_time(motor):
+    """A sampled band holds at its own h only: data at 0.02 s is refused in one line."""
+    from observer_cad.simulation import Monitor
+    m, o, ot = motor
+    t = np.arange(5) * 0.02
+    data = {"t": t, "u": np.zeros(5), "y1": np.zeros(5), "y2": np.zeros(5), "y3": np.zeros(5)}
+    with pytest.raises(UsageError, match="band holds for the algorithm stepped at h = 0.01;"
+                                         " the data's sample time is 0.02"):
+        Monitor(m, ot).run(data)
+    mon = Monitor(m, ot)
+    mon.step(0.0, u=[0], y=[0, 0, 0])
+    with pytest.raises(UsageError, match="sample time is 0.02"):
+        mon.step(0.02, u=[0], y=[0, 0, 0])
+    assert "r_upper" in Monitor(m, ot).run({**data, "t": np.arange(5) * 0.01}).columns
