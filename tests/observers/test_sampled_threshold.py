@@ -15,6 +15,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 import sympy as sp
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from observer_cad import build_observer, design, load_model, simulate
 from observer_cad.analysis import design_bank
@@ -293,3 +295,18 @@ def test_monitor_refuses_data_at_another_sample_time(motor):
     with pytest.raises(UsageError, match="sample time is 0.02"):
         mon.step(0.02, u=[0], y=[0, 0, 0])
     assert "r_upper" in Monitor(m, ot).run({**data, "t": np.arange(5) * 0.01}).columns
+
+
+@settings(max_examples=15, deadline=None)
+@given(a=st.floats(-0.9, 0.9), c=st.floats(-2, 2), lo=st.floats(-1, 0), hi=st.floats(0, 1))
+def test_scalar_worst_case_sum_is_the_closed_form(a, c, lo, hi):
+    """e⁺ = a e + ψ, r = e + c ψ, ψ ∈ [lo, hi] with lo ≤ 0 ≤ hi: the largest r is
+    max(c lo, c hi) + Σ_j max(a^j lo, a^j hi) (every term ≥ 0, so the sup is the full sum)."""
+    wc = worst_case_sums(np.array([[a]]), np.array([[1.0]]), np.array([[1.0]]),
+                         np.array([[c]]), [lo], [hi])
+    J = np.arange(4000)
+    p = a ** J
+    expect = max(c * lo, c * hi) + np.sum(np.maximum(p * lo, p * hi))
+    assert expect - 1e-9 <= wc.upper[0] <= expect + 1e-9
+    expect_lo = min(c * lo, c * hi) + np.sum(np.minimum(p * lo, p * hi))
+    assert expect_lo - 1e-9 <= wc.lower[0] <= expect_lo + 1e-9
