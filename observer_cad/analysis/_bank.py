@@ -185,7 +185,9 @@ class ResidualBank:
     @classmethod
     def from_json(cls, data, model: PlantModel) -> "ResidualBank":
         """The bank of :meth:`to_json`: every design re-read and re-certified by
-        :meth:`Design.from_json`, every row recomputed from the structure and compared."""
+        :meth:`Design.from_json`, every row recomputed from the structure and compared.
+        (:func:`~observer_cad.analysis.load_design` also designs the bank again and
+        compares everything else it records.)"""
         if not isinstance(data, dict) or not isinstance(data.get("designs"), list) \
                 or not isinstance(data.get("structure_matrix"), list):
             raise UsageError("not a residual bank: a JSON object with 'designs' and"

@@ -7,7 +7,7 @@ from pathlib import Path
 
 from ..errors import UsageError
 from ..progress import report
-from ._from_args import design_from_args, observer_options, refuse_failed, threshold_from_args
+from ._from_args import design_or_load, observer_options, refuse_failed, threshold_from_args
 from ._parser import PROG
 
 __all__ = ["cmd_monitor"]
@@ -33,7 +33,7 @@ def cmd_monitor(args) -> int:
     initial = {k: float(parse_number(v, where=f"--initial {k}={v}"))
                for k, v in _pairs(args.initial, "--initial").items()}
     data = None if args.data == "-" else read_table(args.data)  # read before the design's work
-    model, result = design_from_args(args)
+    model, result = design_or_load(args, numeric=True)
     for sig in rename:
         if sig != "t" and model.symbol(sig) is None and not (
                 sig.startswith("y") and sig[1:].isdigit()

@@ -324,6 +324,12 @@ def _add_design_options(p) -> None:
                         "above 20 states for numeric models)")
     p.add_argument("--rtol", type=float, default=None,
                    help="relative rank tolerance of the float path (default 1e3·eps·size)")
+    p.add_argument("--design", metavar="FILE", default=None,
+                   help="use the frozen design in FILE (written by 'design --json' or"
+                        " write_design_json; a single design, a residual bank or a DREM design)"
+                        " instead of designing: it is loaded for MODEL, whose structure must"
+                        " be the one it was made for, and everything it reports is recomputed"
+                        " and compared; design options given beside it must agree with it")
     p.add_argument("--proof-seconds", metavar="S", default=None,
                    help="Jordan form: time budget of the proof that k is minimal (default 2; "
                         "'exhaustive' runs it to the end; when it runs out the condition gives "

@@ -8,7 +8,7 @@ from pathlib import Path
 
 from ..errors import UsageError
 from ..progress import report
-from ._from_args import design_from_args, observer_options, refuse_failed, threshold_from_args
+from ._from_args import design_or_load, observer_options, refuse_failed, threshold_from_args
 from ._parser import PROG
 
 __all__ = ["cmd_simulate", "cmd_ensemble", "CALIBRATION_OFFSET"]
@@ -21,7 +21,7 @@ def cmd_simulate(args) -> int:
     if args.symbolic:
         raise UsageError("simulate needs numeric parameters: drop --symbolic")
     scenario = load_scenario(args.scenario)  # validated before the design's work
-    model, result = design_from_args(args)
+    model, result = design_or_load(args, numeric=True)
     report("building the observer", stage=True)
     observer = build_observer(model, result, **observer_options(args, result))
     refuse_failed(observer)
@@ -210,7 +210,7 @@ def _backend(args):
 def _ensemble_observer(args, scenario) -> tuple:
     """(model, observer with its threshold, decision rule or None) of the ensemble."""
     from ..observers import build_observer
-    model, result = design_from_args(args)
+    model, result = design_or_load(args, numeric=True)
     report("building the observer", stage=True)
     observer = build_observer(model, result, **observer_options(args, result))
     refuse_failed(observer)

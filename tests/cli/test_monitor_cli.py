@@ -221,3 +221,29 @@ def test_the_initial_state_assumption_is_stated(capsys, tmp_path):
     rc, so, se = run(capsys, base + ["--initial", "x1=0.1"])
     assert rc == 0 and "as if x2 = x3 = 0" in so
     assert "first alarm at t = 0 s" in so
+
+
+def test_monitor_runs_a_frozen_design_like_a_fresh_one(capsys, tmp_path):
+    """``--design FILE``: the bank saved by ``design --json`` gives the same monitor.csv as
+    designing again (the file is recomputed at load, never believed)."""
+    rc, so, se = run(capsys, ["design", TANKS, "--observer", "diagnostic", "--isolate", "--json"])
+    assert rc == 0, se
+    frozen = tmp_path / "bank.json"
+    frozen.write_text(so)
+    rc, _, se = run(capsys, ["monitor", TANKS, *BANK, "--data", RECORDING, "--out",
+                             tmp_path / "fresh"])
+    assert rc == 0, se
+    rc, _, se = run(capsys, ["monitor", TANKS, "--observer", "diagnostic", "--threshold",
+                             "guaranteed", "--design", frozen, "--data", RECORDING, "--out",
+                             tmp_path / "frozen"])
+    assert rc == 0, se
+    assert (tmp_path / "frozen" / "monitor.csv").read_bytes() == \
+        (tmp_path / "fresh" / "monitor.csv").read_bytes()
+    # a changed model is refused in one line, nothing written
+    changed = _rewrite(TANKS, tmp_path / "changed.py",
+                       lambda ls: [ln.replace("-x1 + x2 + u1", "-2 * x1 + x2 + u1") for ln in ls])
+    rc, _, se = run(capsys, ["monitor", changed, "--observer", "diagnostic", "--threshold",
+                             "guaranteed", "--design", frozen, "--data", RECORDING, "--out",
+                             tmp_path / "bad"])
+    assert rc == 2 and len(se.strip().splitlines()) == 1 and "different model" in se, se
+    assert not (tmp_path / "bad").exists()
