@@ -35,11 +35,12 @@ def _rhs(t, s, b, u_of, rho_of, d_of):
 
 
 def records(n: int, T: float, seed: int, *, fault=None, fault_time: float = 0.0,
-            hold: float = 0.25, rtol: float = 1e-10, atol: float = 1e-12) -> dict:
+            hold: float = 0.25, rho=None, rtol: float = 1e-10, atol: float = 1e-12) -> dict:
     """``n`` records of ``T`` seconds at the sample time H: a dict with ``t`` (N), ``u``
     (n × N, held over each sample interval), ``y`` (n × N × 3, sampled with noise), ``x``
     (n × N × 3, the true states at the samples) and the drawn ``b``, ``x0``. ``fault``: a
-    step fault d per record (array of n) from ``fault_time`` on."""
+    step fault d per record (array of n) from ``fault_time`` on; ``rho``: a function
+    t → (n,) for the load torque instead of the smooth default (e.g. a fast square wave)."""
     rng = np.random.default_rng(seed)
     N = int(round(T / H)) + 1
     t = np.arange(N) * H
@@ -57,6 +58,8 @@ def records(n: int, T: float, seed: int, *, fault=None, fault_time: float = 0.0,
         return levels[:, int(k * H / hold)]
 
     def rho_of(tt):
+        if rho is not None:
+            return rho(tt)
         return np.sum(amp * np.sin(freq * tt + phase), axis=1)
 
     def d_of(tt):

@@ -119,6 +119,21 @@ def test_no_false_alarm_with_the_exact_hold(motor):
     assert np.max(np.abs(r[200:])) > 0.1 * up[-1, 0]
 
 
+def test_no_false_alarm_with_bang_bang_signals_between_samples(motor):
+    """Adversarial records: the input switching between random levels at every sample, the
+    load torque a ±0.5 square wave of 37 Hz (it switches inside the sample intervals, which
+    the band's intersample remainder covers): still no sample leaves the band."""
+    m, o, ot = motor
+    n = 20
+
+    def square(tt):
+        return np.full(n, 0.5 * np.sign(np.sin(2 * np.pi * (37 * tt + 0.3)) + 1e-12))
+    rec = _data_module().records(n, 1.0, seed=6, hold=0.01, rho=square)
+    assert np.all(np.abs(rec["x"]).max(axis=(0, 1)) <= [4, 5, 5])
+    r, lo, up = _run(ot, rec)
+    assert int(np.sum((r < lo) | (r > up))) == 0
+
+
 def test_step_faults_above_the_guaranteed_size_are_detected(motor):
     """Step faults 1.3× the guaranteed detectable size (either sign) from t = 1 s: every
     record raises an alarm after the fault and none before."""
