@@ -99,6 +99,14 @@ def realised_row(d: Design, faults: Sequence[str]) -> tuple:
                  for f in faults)
 
 
+def strongly_realised(d: Design, faults: Sequence[str]) -> bool:
+    """Whether the residual's every sensitive fault among ``faults`` has a nonzero
+    steady-state gain (none is seen only as a transient, see
+    :func:`~observer_cad.synthesis.certificates.steady_state_gain`)."""
+    sig = d.signature or d.with_signature().signature
+    return not any(s.transient_only for s in sig if s.name in faults)
+
+
 def _pairs(rows, faults):
     """((a, b), isolable) for every pair: both detected, columns different."""
     out = []
@@ -321,7 +329,8 @@ def _scheme_bank(attempt: _Rows, tried_txt: list):
 
 def _best_bank(attempt: _Rows, tried_txt: list) -> ResidualBank:
     """3. the best achievable rows, added greedily: each the row that isolates the most
-    further pairs (then detects the most further faults, then has the fewest states)."""
+    further pairs (then detects the most further faults, then sees every fault it is
+    sensitive to with a nonzero steady-state gain, then has the fewest states)."""
     model, names = attempt.model, attempt.names
     m = len(names)
     if m <= FULL_SEARCH_FAULTS:
@@ -352,7 +361,7 @@ def _best_bank(attempt: _Rows, tried_txt: list) -> ResidualBank:
             s = score([c for c, _ in chosen] + [r])
             if s <= base:
                 continue
-            key = (s, -d.k)
+            key = (s, strongly_realised(d, names), -d.k)
             if best is None or key > best[0]:
                 best = (key, r, d)
         if best is None:

@@ -239,6 +239,10 @@ def _add_analyze(sub) -> None:
                          "states for numeric models)")
     an.add_argument("--rtol", type=float, default=None,
                     help="relative rank tolerance of the float path (default 1e-9)")
+    an.add_argument("--frequency", metavar="W", action="append", default=None,
+                    help="a frequency ω for strong detectability (repeatable; rad per time "
+                         "unit, per sample in discrete time; default 0: the steady-state "
+                         "gain): a residual's gain to the fault must be nonzero at every ω")
     an.add_argument("--json", action="store_true", help="print one JSON object instead of text")
 
 

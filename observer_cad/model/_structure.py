@@ -112,6 +112,10 @@ class Structure:
     #: the model certificate (:func:`extract_structure` always sets it; None for a
     #: structure built from known matrices, e.g. :func:`~observer_cad.model.random_structure`)
     certificate: ModelCertificate | None = None
+    #: feedthrough to the outputs: y = H x + Gy u + Dy d + Ly rho + W w (zero when absent)
+    Gy: sp.ImmutableMatrix | None = None
+    Dy: sp.ImmutableMatrix | None = None
+    Ly: sp.ImmutableMatrix | None = None
     #: process noise in the dynamics: x' = ... + Bw w (zero when absent)
     Bw: sp.ImmutableMatrix | None = None
 
@@ -119,6 +123,16 @@ class Structure:
         if self.Bw is None:
             object.__setattr__(self, "Bw", sp.ImmutableMatrix.zeros(self.F.shape[0],
                                                                     len(self.model.noise)))
+        l = self.H.shape[0]  # noqa: E741
+        for name, cols in (("Gy", self.G.shape[1]), ("Dy", self.D.shape[1]),
+                           ("Ly", self.L.shape[1])):
+            if getattr(self, name) is None:
+                object.__setattr__(self, name, sp.ImmutableMatrix(sp.zeros(l, cols)))
+
+    @property
+    def has_feedthrough(self) -> bool:
+        """Whether faults or disturbances enter the outputs directly (Dy or Ly nonzero)."""
+        return any(e != 0 for M in (self.Dy, self.Ly) for e in M)
 
     @property
     def n(self) -> int:
