@@ -79,10 +79,14 @@ def _nominal(model: PlantModel) -> tuple:
             sub[p] = v
     nofault = {d: 0 for d in model.faults}
     dyn = [sp.expand(sp.sympify(f).xreplace(sub).xreplace(nofault)) for f in model.dynamics]
-    outs = [sp.expand(sp.sympify(h).xreplace(sub)) for h in model.outputs]
+    outs = [sp.expand(sp.sympify(h).xreplace(sub).xreplace(nofault)) for h in model.outputs]
     fault_cols = [[sp.diff(sp.sympify(f).xreplace(sub), d).xreplace({b: 0 for b in box})
                    for d in model.faults] for f in model.dynamics]
-    return dyn, outs, box, sp.Matrix(fault_cols) if model.faults else None
+    out_cols = [[sp.diff(sp.sympify(h).xreplace(sub), d).xreplace({b: 0 for b in box})
+                 for d in model.faults] for h in model.outputs]
+    if not model.faults:
+        return dyn, outs, box, None
+    return dyn, outs, box, (sp.Matrix(fault_cols), sp.Matrix(out_cols))
 
 
 def _split(exprs, xs, us, uncertain, what: str, where: str) -> _Affine:
@@ -479,21 +483,23 @@ def _error_system(model: PlantModel, g: dict, hold: dict, sysm: dict, Bf, residu
     """The sampled error system (discrete: z(k+1) = F z(k) + fault_input d, r = −C z) for the
     fault's steady response; z = [x; e] when the plant's step is stable."""
     k = g["Phi"].rows
+    rat = lambda M: sp.Matrix(M).applyfunc(sp.Rational)  # noqa: E731
+    Df = sp.zeros(g["Gr"].cols, 0)
     if Bf is None:
         Bx = sp.zeros(g["Phi"].cols, 0)
-    elif hold["sampled"]:
-        Bx = Bf
     else:
-        Bx = sp.Matrix(_mpn(hold["G0"] * _mp(Bf))).applyfunc(sp.Rational)
-    Be = g["Phi"] * Bx
-    rat = lambda M: sp.Matrix(M).applyfunc(sp.Rational)  # noqa: E731
+        Bf, Df = Bf
+        Bx = Bf if hold["sampled"] else rat(_mpn(hold["G0"] * _mp(Bf)))
+    # a fault in the outputs enters the observer's step (−Q G D_f) and r (G_r D_f) directly
+    Be = g["Phi"] * Bx - rat(_mpn(hold["Q"] * _mp(g["G"]) * _mp(Df))) if Df.cols else g["Phi"] * Bx
     if sysm["joint"]:
         fin, C = Bx.col_join(Be), sp.zeros(len(residuals), sysm["n"]).row_join(g["Cr"])
     else:
         fin, C = Be, g["Cr"]
     return ErrorSystem("discrete", sp.ImmutableMatrix(rat(sysm["F"])), sp.ImmutableMatrix(C),
                        sp.ImmutableMatrix(fin),
-                       sp.ImmutableMatrix.zeros(len(residuals), len(model.faults)),
+                       sp.ImmutableMatrix(g["Gr"] * Df if Df.cols else
+                                          sp.zeros(len(residuals), len(model.faults))),
                        tuple(str(d) for d in model.faults), residuals) if k >= 0 else None
 
 
