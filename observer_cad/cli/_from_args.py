@@ -263,8 +263,10 @@ def observer_options(args, result) -> dict:
     return {}
 
 
-def threshold_from_args(args, model, observer, scenario=None, *, seed=None):
-    """The observer with the bands --threshold asks for (None: unchanged)."""
+def threshold_from_args(args, model, observer, scenario=None, *, seed=None, sample_time=None):
+    """The observer with the bands --threshold asks for (None: unchanged). With the data's
+    ``sample_time`` on a continuous-time model that declares its operating envelope, the
+    guaranteed band is the sampled-data one of the algorithm that runs (RK4 at that step)."""
     if getattr(args, "threshold", None) is None:
         if getattr(args, "initial_error", "0") != "0":
             raise UsageError("--initial-error applies to --threshold guaranteed")
@@ -279,6 +281,11 @@ def threshold_from_args(args, model, observer, scenario=None, *, seed=None):
     if spec.kind == "quantile" and scenario is None:
         raise UsageError("--threshold quantile:RATE is estimated on a scenario: give --scenario FILE")
     report(f"computing the {spec.kind} threshold", stage=True)
+    if spec.kind == "guaranteed" and sample_time is not None and model.time == "continuous" \
+            and e0 == 0 and all(s in model.bounds for s in model.states + model.inputs):
+        import sympy as sp
+        from ..residuals import sampled_threshold
+        return sampled_threshold(model, observer, sp.Rational(repr(float(sample_time))))
     return apply_threshold(model, observer, spec, scenario=scenario, initial_error=e0,
                            runs=getattr(args, "quantile_runs", 200), seed=seed)
 

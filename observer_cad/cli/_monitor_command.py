@@ -44,7 +44,7 @@ def cmd_monitor(args) -> int:
     from ..observers import build_observer
     observer = build_observer(model, result, **observer_options(args, result))
     refuse_failed(observer)
-    observer = threshold_from_args(args, model, observer)
+    observer = threshold_from_args(args, model, observer, sample_time=_data_step(data, rename))
     refuse_failed(observer)
     rule = None
     if observer.threshold is not None:
@@ -63,6 +63,16 @@ def cmd_monitor(args) -> int:
     report("monitoring", stage=True)
     res = mon.run(data, rename=rename, source=str(args.data))
     return _finish(args, mon, res, how)
+
+
+def _data_step(data, rename):
+    """The first interval of the data's t column (None for a stream or a t that is not
+    numeric: the monitor's own checks report it)."""
+    try:
+        t = data[rename.get("t", "t")]
+        return float(t[1]) - float(t[0]) if len(t) > 1 and float(t[1]) > float(t[0]) else None
+    except (TypeError, KeyError, ValueError, IndexError):
+        return None
 
 
 def _engine(args, observer):

@@ -187,7 +187,13 @@ class PlantModel:
         Symbolic parameters and their default values (None: no default; numeric
         designs then fail with a clear error).
     bounds : mapping Symbol -> (low, high), optional
-        Bounds on faults, disturbances and noise.
+        Bounds on faults, disturbances and noise; bounds on states and inputs form the
+        operating envelope (the range the plant stays in while it runs), which sampled-data
+        guaranteed thresholds rest on (:func:`observer_cad.residuals.sampled_threshold`).
+    initial : mapping Symbol -> (low, high), optional
+        A box for the plant's unknown initial state x(0), e.g. ``{x1: (0, 1), x2: (-1, 1)}``
+        (every state, once one is named; low = high for a known one). Guaranteed bands
+        include the transient of the initial observer error from this box.
     domain : list of sympy relations, optional
         The state domain that nonlinear checks may assume, e.g. ``x1 >= x2``.
     linear_part : matrix, optional
@@ -223,6 +229,7 @@ class PlantModel:
     linear_part: Any = None
     units: Mapping = dataclasses.field(default_factory=dict)
     uncertainty: Mapping = dataclasses.field(default_factory=dict)
+    initial: Mapping = dataclasses.field(default_factory=dict)
     source: str | None = None
 
     def __post_init__(self) -> None:
@@ -260,6 +267,8 @@ class PlantModel:
                                                      where))
         set_("units", MappingProxyType(_units(self.units, roles, where)))
         set_("uncertainty", MappingProxyType(_uncertainty(self.uncertainty, params, where)))
+        set_("initial", MappingProxyType(_initial_box(self.initial, self.states, self.bounds,
+                                                      where)))
 
     @classmethod
     def from_statespace(cls, sys, **options) -> "PlantModel":
@@ -470,29 +479,56 @@ def _check_expression_symbols(model: "PlantModel", roles: dict, where: str) -> N
                                  " dynamics equation")
 
 
+def _declared_pair(s, b, what: str, where: str) -> tuple:
+    """One exact (low, high) pair, with one-line errors."""
+    if not isinstance(b, (tuple, list)) or len(b) != 2:
+        raise ModelError(f"{where}: {what} of '{s}' must be a pair (low, high)")
+    lo = to_rational(b[0], f"{where}: lower {what} of '{s}'")
+    hi = to_rational(b[1], f"{where}: upper {what} of '{s}'")
+    if bool(lo > hi):
+        raise ModelError(f"{where}: {what} of '{s}' have low {lo} > high {hi}")
+    problem = bound_problem(lo, hi)
+    if problem:
+        raise ModelError(f"{where}: {what} of '{s}' {problem}")
+    return (lo, hi)
+
+
 def _declared_bounds(raw: Any, roles: dict, where: str) -> dict:
-    """Bounds of faults, disturbances, noise and inputs: symbol → exact (low, high)."""
+    """Bounds of faults, disturbances, noise, inputs and states (the operating envelope):
+    symbol → exact (low, high)."""
     bounds = {}
+    if raw is not None and not isinstance(raw, Mapping):
+        raise ModelError(f"{where}: bounds must be a mapping {{symbol: (low, high)}}")
     for s, b in (raw or {}).items():
         if not isinstance(s, sp.Symbol) or s not in roles:
             raise ModelError(f"{where}: bounds given for undeclared symbol '{s}'")
-        if roles[s] not in ("faults", "disturbances", "noise", "inputs"):
+        if roles[s] not in ("faults", "disturbances", "noise", "inputs", "states"):
             raise ModelError(
-                f"{where}: bounds may be given for faults, disturbances, noise and inputs;"
-                f" '{s}' is in {roles[s]}")
-        try:
-            lo, hi = b
-        except (TypeError, ValueError):
-            raise ModelError(f"{where}: bounds of '{s}' must be a pair (low, high)") from None
-        lo = to_rational(lo, f"{where}: lower bound of '{s}'")
-        hi = to_rational(hi, f"{where}: upper bound of '{s}'")
-        if bool(lo > hi):
-            raise ModelError(f"{where}: bounds of '{s}' have low {lo} > high {hi}")
-        problem = bound_problem(lo, hi)
-        if problem:
-            raise ModelError(f"{where}: bounds of '{s}' {problem}")
-        bounds[s] = (lo, hi)
+                f"{where}: bounds may be given for states, inputs, faults, disturbances and"
+                f" noise; '{s}' is in {roles[s]}")
+        bounds[s] = _declared_pair(s, b, "bounds", where)
     return bounds
+
+
+def _initial_box(raw: Any, states: tuple, bounds: Mapping, where: str) -> dict:
+    """The box of the initial state: state → exact (low, high), inside the state's operating
+    envelope when it has one."""
+    if raw is not None and not isinstance(raw, Mapping):
+        raise ModelError(f"{where}: initial must be a mapping {{state: (low, high)}}")
+    box = {}
+    for s, b in (raw or {}).items():
+        if not isinstance(s, sp.Symbol) or s not in states:
+            raise ModelError(f"{where}: initial box given for '{s}', which is not a state")
+        lo, hi = _declared_pair(s, b, "initial box", where)
+        if s in bounds and (bool(lo < bounds[s][0]) or bool(hi > bounds[s][1])):
+            raise ModelError(f"{where}: initial box of '{s}' [{lo}, {hi}] leaves its bounds"
+                             f" [{bounds[s][0]}, {bounds[s][1]}]")
+        box[s] = (lo, hi)
+    missing = [s for s in states if s not in box]
+    if box and missing:
+        raise ModelError(f"{where}: the initial box names some states but not '{missing[0]}'"
+                         " (give a (low, high) pair for every state)")
+    return box
 
 
 #: the largest |bound| of a signal: interval arithmetic in double precision with bounds of

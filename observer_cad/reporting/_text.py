@@ -56,6 +56,7 @@ def structure_to_json(st: Structure) -> dict:
         "noise": [s.name for s in m.noise],
         "parameters": {p.name: (None if v is None else str(v)) for p, v in m.parameters.items()},
         "bounds": {s.name: [str(lo), str(hi)] for s, (lo, hi) in m.bounds.items()},
+        "initial": {s.name: [str(lo), str(hi)] for s, (lo, hi) in m.initial.items()},
         "domain": [str(r) for r in m.domain],
         "matrices": {name: rows(getattr(st, name))
                      for name in ("F", "G", "H", "C", "D", "L", "W", "Bw")},
@@ -81,6 +82,8 @@ def format_structure(st: Structure) -> str:
             f"{p} = {'(no value)' if v is None else v}" for p, v in m.parameters.items()))
     if m.bounds:
         out.append("  bounds       " + ", ".join(f"{s} in [{lo}, {hi}]" for s, (lo, hi) in m.bounds.items()))
+    if m.initial:
+        out.append("  initial      " + ", ".join(f"{s}(0) in [{lo}, {hi}]" for s, (lo, hi) in m.initial.items()))
     if m.domain:
         out.append("  domain       " + ", ".join(str(r) for r in m.domain))
     lhs = "x(t+1)" if m.time == "discrete" else "dx/dt"

@@ -50,12 +50,19 @@ from ..analysis import argument_range, format_number
 from ..observers import Observer, output_symbols
 
 __all__ = ["ErrorSystem", "Threshold", "ThresholdSpec", "guaranteed_threshold",
-           "constant_threshold", "residual_names", "min_detectable_fault", "DEFAULT_MARGIN"]
+           "constant_threshold", "residual_names", "min_detectable_fault", "DEFAULT_MARGIN",
+           "RELATIVE_ROUNDOFF"]
 
 #: Absolute allowance added to both ends of a guaranteed band for floating-point roundoff of
 #: the simulated or compiled residual (the band of a noise-free, exactly decoupled residual is
 #: [0, 0], while its computed value is of order 1e-16).
 DEFAULT_MARGIN = 1e-9
+
+#: with a positive margin, the band also widens by RELATIVE_ROUNDOFF · eps times the magnitude
+#: of the terms the computed residual and the observer's step add up (online, from |ξ|, |y|,
+#: |u|), so the allowance scales with the signals (an input of 1e8 leaves a roundoff of
+#: order 1e-8 in an exactly decoupled residual)
+RELATIVE_ROUNDOFF = 256
 
 _REF = "METHOD §3 (residual evaluation)"
 
@@ -104,7 +111,9 @@ class Threshold:
     user value) or ``"quantile"`` (a Monte-Carlo quantile, :func:`observer_cad.simulation.
     quantile_threshold`); ``values`` the constant half-widths (constant and quantile);
     ``conditions`` what the band rests on; ``error_system`` (guaranteed) the error system used,
-    ``margin`` the roundoff allowance added to both ends."""
+    ``margin`` the roundoff allowance added to both ends; ``sample_time`` and
+    ``discretisation`` (sampled-data bands, :func:`sampled_threshold`): the step h and how
+    the observer must be stepped ("rk4", "zoh", or "discrete" for a discrete-time model)."""
 
     kind: str
     residuals: tuple
@@ -113,8 +122,15 @@ class Threshold:
     error_system: ErrorSystem | None = None
     margin: float = 0.0
     description: str = ""
+    sample_time: float | None = None
+    discretisation: str = ""
 
     def text(self) -> str:
+        if self.kind == "guaranteed" and self.discretisation:
+            how = {"rk4": "RK4", "zoh": "exact ZOH"}.get(self.discretisation, "")
+            at = f" at h = {self.sample_time:g} ({how})" if self.sample_time else ""
+            return (f"guaranteed threshold of the sampled algorithm{at} (worst-case bounds of"
+                    f" the fault-free residual, margin ≤ {self.margin:.3g})")
         if self.kind == "guaranteed":
             return (f"guaranteed adaptive threshold (interval bounds of the fault-free residual,"
                     f" margin {self.margin:g})")
@@ -519,8 +535,10 @@ def _run_conditions(time: str, E0, margin: float) -> list:
         f"|e_i(0)| ≤ {format_number(E0)} for every observer state", _REF)]
     if margin:
         conds.append(Condition("roundoff margin", True,
-                               f"{margin:g} added to both ends of the band (floating-point roundoff"
-                               " of the computed residual)", _REF, required=False))
+                               f"{margin:g} plus {RELATIVE_ROUNDOFF}·eps × (the magnitude of the"
+                               " terms the residual and the observer's step add up, online from"
+                               " |ξ|, |y|, |u|) added to both ends of the band (floating-point"
+                               " roundoff of the computed residual)", _REF, required=False))
     if time == "continuous":
         conds.append(Condition(
             "continuous-time integration", True,
@@ -552,6 +570,31 @@ def _bound_equations(time: str, xi, C, Ad, Ap, An, bounds, where: str) -> tuple:
     return elo, ehi, nl, nh, rl, rh
 
 
+def _abs_terms(e) -> sp.Expr:
+    """Σ |term| of an expression (the magnitude its floating-point evaluation adds up)."""
+    e = sp.expand(e)
+    return sp.Add(*[sp.Abs(t) for t in sp.Add.make_args(e)]) if e != 0 else sp.Integer(0)
+
+
+def _roundoff(time: str, xi, upd, g, A, C) -> tuple:
+    """Online roundoff allowances: per observer state, RELATIVE_ROUNDOFF·eps·Σ|terms| of its
+    update (discrete: added to the error bounds each step), and per residual the same of
+    its expression plus, in continuous time, |C| times each state's step terms over its
+    decay rate |A_jj| (the accumulated roundoff of ξ)."""
+    eps = sp.Float(RELATIVE_ROUNDOFF * 2.0 ** -52)
+    step = [eps * _abs_terms(e) for e in upd]
+    res = []
+    for i, e in enumerate(g):
+        m = eps * _abs_terms(e)
+        if time == "continuous":
+            for j in range(len(xi)):
+                rate = abs(A[j, j]) if A[j, j] != 0 else 1
+                if C[i, j] != 0:
+                    m += abs(C[i, j]) * step[j] / rate
+        res.append(m)
+    return step, res
+
+
 def guaranteed_threshold(model: PlantModel, observer: Observer, *, initial_error=0,
                          margin: float = DEFAULT_MARGIN) -> Observer:
     """The residual generator with guaranteed adaptive thresholds (module docstring).
@@ -581,12 +624,17 @@ def guaranteed_threshold(model: PlantModel, observer: Observer, *, initial_error
     conds.append(stability)
     conds += _run_conditions(model.time, E0, margin)
     # the augmented observer
+    step_mag, res_mag = _roundoff(model.time, xi, upd, g, A, C) if margin else ([], [])
+    if margin and model.time == "discrete":  # the step's roundoff enters the error bounds
+        Dl = [lo - m for lo, m in zip(Dl, step_mag)]
+        Dh = [hi + m for hi, m in zip(Dh, step_mag)]
     elo, ehi, nl, nh, rl, rh = _bound_equations(model.time, xi, C, Ad, Ap, An,
                                                 (Dl, Dh, Gl, Gh), where)
     outputs = list(observer.outputs)
     for i, r in enumerate(residuals):
-        outputs.append((f"{r}_lower", rl[i] - sp.Float(margin) if margin else rl[i]))
-        outputs.append((f"{r}_upper", rh[i] + sp.Float(margin) if margin else rh[i]))
+        mg = sp.Float(margin) + res_mag[i] if margin else 0
+        outputs.append((f"{r}_lower", rl[i] - mg))
+        outputs.append((f"{r}_upper", rh[i] + mg))
     initial = dict(observer.initial)
     initial.update({s: -E0 for s in elo})
     initial.update({s: E0 for s in ehi})

@@ -220,12 +220,23 @@ class Monitor:
                                      sample_time=self.sample_time, source=source)
         self.reset()
         h = self.h0 if self.h0 is not None else rec.h
+        self._check_band_step(h)
         V = np.ascontiguousarray(np.column_stack([rec.columns[s] for s in self.signals])
                                  if self.signals else np.zeros((rec.t.size, 0)))
         with np.errstate(all="ignore"):
             O, x = self.engine.run(self.x0, V, h)
         self.x, self.h = x, h
         return self._table(rec.t, rec.columns, O)
+
+    def _check_band_step(self, h) -> None:
+        """A sampled-data band (threshold.sample_time) holds only at its own step."""
+        th = getattr(self.observer, "threshold", None)
+        hb = getattr(th, "sample_time", None)
+        if hb is not None and h is not None and self.model.time == "continuous" \
+                and abs(float(h) - hb) > 1e-9 * hb:
+            raise UsageError(f"monitor: the guaranteed band holds for the algorithm stepped at"
+                             f" h = {hb:g}; the data's sample time is {float(h):g} (build the"
+                             " threshold at the data's sample time)")
 
     def _in_bounds(self, cols: Mapping, n: int) -> np.ndarray:
         ok = np.ones(n, dtype=bool)
@@ -295,6 +306,7 @@ class Monitor:
             h = check_times(np.array([self._t[-1], t]), time=self.model.time,
                             sample_time=self.sample_time, source=self.source, first_row=n,
                             h=self.h)
+            self._check_band_step(h)
             if self._pending is not None:  # the first interval gives h: the first step now
                 with np.errstate(all="ignore"):
                     _, self.x = self.engine.run(self.x, self._pending, h)
