@@ -11,7 +11,9 @@ transfer H* (sI − F*)⁻¹ Φ D_j is not identically zero, i.e. iff
 
     O Φ D_j ≠ 0,        O = [H*; H* F*; …; H* F*^{k−1}]
 
-(Φ D_j outside the unobservable subspace of (F*, H*)). Φ D_j = 0 is decoupling in the
+(Φ D_j outside the unobservable subspace of (F*, H*)). A fault that also enters the
+outputs (y = … + Dy d) drives e through Φ D_j − J* Dy_j and r directly through R* Dy_j:
+it moves r iff R* Dy_j ≠ 0 or O (Φ D_j − J* Dy_j) ≠ 0. Φ D_j = 0 is decoupling in the
 strict sense; Φ D_j ≠ 0 with O Φ D_j = 0 means the fault enters rows the residual never
 reads. Nonlinear designs (C* ≠ 0): "decoupled" is exact (e is not driven by d_j), and
 "sensitive" is judged on the linear part.
@@ -106,12 +108,19 @@ def _nonzero(v, scale: float, floats: bool) -> bool:
 
 
 def fault_sensitivity(Phi, F_star, H_star, column, *, name: str = "d",
-                      role: str = "assumed zero") -> FaultSensitivity:
+                      role: str = "assumed zero", feed=None, direct=None) -> FaultSensitivity:
     """Whether the residual of (Φ, F*, H*) responds to an input entering through
-    ``column`` (n × 1): O Φ D_j ≠ 0, with the relations that needs (module docstring)."""
+    ``column`` (n × 1): O Φ D_j ≠ 0, with the relations that needs (module docstring).
+    An input that also enters the outputs gives ``feed`` = J* Dy_j (subtracted from
+    Φ D_j) and ``direct`` = R* Dy_j (the residual's direct term, first in the response)."""
     Fs, Hs = F_star, H_star
     entry = (sp.Matrix(Phi) * sp.Matrix(column)).applyfunc(sp.cancel)
-    resp = residual_response(Phi, Fs, Hs, column)
+    if feed is None:
+        resp = residual_response(Phi, Fs, Hs, column)
+    else:
+        entry = (entry - sp.Matrix(feed)).applyfunc(sp.cancel)
+        resp = sp.Matrix.vstack(sp.Matrix(direct).applyfunc(sp.cancel),
+                                residual_response(sp.eye(entry.rows), Fs, Hs, entry))
     floats = _is_float(Phi) or _is_float(Fs) or _is_float(Hs)
     scale = 1.0
 
@@ -158,7 +167,14 @@ def fault_signature(matrices, structure: Structure, task: Task) -> tuple:
     model = structure.model
     names = [f.name for f in model.faults]
     names += [n for n in task.targets if n not in names]
-    return tuple(fault_sensitivity(matrices.Phi, matrices.F_star, Hs,
-                                   structure.unknown_input_columns([n]), name=n,
-                                   role=_role(task, n))
-                 for n in names)
+    out = []
+    for n in names:
+        feed = direct = None
+        Dy = structure.output_columns([n])
+        if not Dy.is_zero_matrix:  # the fault enters the outputs too
+            feed = sp.Matrix(matrices.J_star) * Dy
+            direct = sp.Matrix(matrices.R_star) * Dy
+        out.append(fault_sensitivity(matrices.Phi, matrices.F_star, Hs,
+                                     structure.unknown_input_columns([n]), name=n,
+                                     role=_role(task, n), feed=feed, direct=direct))
+    return tuple(out)
