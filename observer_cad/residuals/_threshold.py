@@ -388,9 +388,9 @@ def _error_terms(model: PlantModel, observer: Observer, xi, upd, g, where: str) 
         raise UsageError(f"{where}: the observer's map x*(0) = Φ x(0) is not in the plant states")
     Phi = sp.Matrix(phi).jacobian(model.states) if phi else sp.zeros(0, len(model.states))
     ys = list(output_symbols(len(model.outputs)))
-    ysub = dict(zip(ys, outs))
-    xsub = dict(zip(xi, phi))
     nofault = {d: 0 for d in model.faults}
+    ysub = dict(zip(ys, [sp.sympify(h).xreplace(nofault) for h in outs]))  # (faults in y too)
+    xsub = dict(zip(xi, phi))
     nofault.update({w: 0 for w in model.noise})  # process noise: _process_noise_term
     Fx = sp.Matrix([f.xreplace(nofault) for f in dyn])
     Delta = (Phi * Fx - sp.Matrix([e.xreplace(xsub).xreplace(ysub) for e in upd])).applyfunc(sp.expand)

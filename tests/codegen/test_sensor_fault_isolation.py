@@ -73,13 +73,13 @@ def test_simulated_bias_moves_both_residuals_only_after_it_appears(bank):
 @pytest.mark.skipif(CC is None, reason="no C compiler 'cc' on PATH")
 def test_ensemble_detects_and_isolates_the_sensor_bias(bank):
     m, b, o = bank
-    o = apply_threshold(m, o, ThresholdSpec.parse("0.1"))
+    o = apply_threshold(m, o, ThresholdSpec.parse("guaranteed"))
     sc = scenario_from_dict({
         "t_end": 6, "dt": 0.01, "seed": 3,
         "initial": {"x1": {"uniform": [0.4, 0.6]}, "x2": 0.2, "x3": 0.1},
         "signals": {"u1": "0.5", "u2": "0.3", "rho": {"uniform": [-0.2, 0.2]},
-                    "w1": {"uniform": [-0.01, 0.01]}, "w2": {"uniform": [-0.01, 0.01]},
-                    "w3": {"uniform": [-0.01, 0.01]}},
+                    "w1": {"uniform": [-0.02, 0.02]}, "w2": {"uniform": [-0.02, 0.02]},
+                    "w3": {"uniform": [-0.02, 0.02]}},
         "cases": {"fault-free": {}, "fs1": {"fs1": "Piecewise((0, t < 3), (0.3, True))"},
                   "fa1": {"fa1": "Piecewise((0, t < 3), (0.5, True))"}}})
     res = run_ensemble(m, o, sc, runs=20, rule=decision_rule(m, b), backend=Backend("serial"))

@@ -188,3 +188,43 @@ def test_a_fault_of_the_outputs_alone_is_refused_as_a_target(tanks):
 def test_robust_designs_refuse_feedthrough(tanks):
     with pytest.raises(UsageError, match="robust designs"):
         design(tanks, observer="virtual-sensor", estimate="x2", robust=True, form="canonical")
+
+
+def _input_feedthrough_plant():
+    """x1' = −x1 + u + f1, x2' = x1/2 − 2 x2; y1 = x1 + u/4 + f2 (a bias), y2 = x2 + ρ/2
+    (ρ a disturbance of sensor 2 only), from the matrices (A, B, C, D)."""
+    A = [[-1.0, 0.0], [0.5, -2.0]]
+    B = [[1.0, 1.0, 0.0, 0.0], [0.0, 0.0, 0.0, 0.0]]
+    C = [[1.0, 0.0], [0.0, 1.0]]
+    D = [[0.25, 0.0, 1.0, 0.0], [0.0, 0.0, 0.0, 0.5]]
+    return PlantModel.from_statespace((A, B, C, D), time="continuous", inputs=[0],
+                                      faults=[1, 2], disturbances=[3])
+
+
+@pytest.mark.parametrize("kw", [dict(form="jordan"),
+                                dict(form="canonical", eigenvalues=[-3])])
+def test_inputs_in_the_outputs_and_the_design_file_round_trip(kw):
+    import json
+    from observer_cad.synthesis import Design
+    m = _input_feedthrough_plant()
+    d = design(m, observer="diagnostic", faults=["f1"], **kw)
+    u = m.inputs[0]
+    (_, r), = d.outputs
+    xs = d.observer_states[0]
+    y1 = sp.Symbol("y1")
+    # r reads y1 − u/4; the observer's input matrix is G* = Φ G − J* Gy
+    assert sp.expand(r.subs(y1, y1 + u / 4)).coeff(u) == 0
+    st = d.structure
+    assert sp.Matrix(d.matrices.G_star) == sp.Matrix(d.matrices.Phi) * st.G \
+        - sp.Matrix(d.matrices.J_star) * st.Gy
+    if kw["form"] == "canonical":
+        assert d.matrices.K is not None and d.matrices.K != sp.zeros(1, 1)
+    back = Design.from_json(json.loads(json.dumps(d.to_json())), m)
+    assert back.certificate.passed
+    assert [i.name for i in back.certificate.identities if not i.name.startswith("model")] \
+        == [i.name for i in d.certificate.identities if not i.name.startswith("model")]
+    # a file whose residual forgets the feedthrough is refused
+    data = d.to_json()
+    data["outputs"] = {"r": str(sp.expand(r + sp.expand(r).coeff(y1) * u / 4))}
+    with pytest.raises(UsageError, match="output r is not the one"):
+        Design.from_json(json.loads(json.dumps(data)), m)

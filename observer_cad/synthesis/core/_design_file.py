@@ -181,6 +181,9 @@ def _recertify(data, st, task, mats, nonlinear, approximate):
         raise UsageError("a design's certificate 'exact' must be true or false")
     exact = exact and not approximate
     plant = dict(F=st.F, G=st.G, H=st.H, C=st.C, D=task.D(st), L=task.L(st))
+    if st.has_feedthrough:  # y = H x + Gy u + Dy d + Ly ρ: the identities with them
+        plant.update(Gy=st.Gy, Dy=st.output_columns(task.targets),
+                     Ly=st.output_columns(task.decoupled))
     M_task = task.M if "Hz" in mats else None
     tol = None if exact else _float_tolerance(cert_data.get("tolerance"), plant, mats, M_task)
     ar = arithmetic("exact" if exact else "float")
@@ -393,6 +396,10 @@ def _check_equations(d, work) -> None:
     m = d.matrices.as_dict()
     xs = tuple(d.observer_states)
     ys = output_symbols(len(work.outputs))
+    measured = ys  # residuals and estimates read y − Gy u (inputs in the outputs)
+    Gy = d.structure.Gy if d.structure is not None else None
+    if Gy is not None and work.inputs and not Gy.is_zero_matrix:
+        measured = tuple(sp.Matrix(ys) - sp.Matrix(Gy) * sp.Matrix(work.inputs))
     if d.observer == ObserverKind.SLIDING_MODE:
         fault = d.task.targets[0] if d.task.targets else ""
         options = [sliding_equations(m, work.inputs, xs[:1], ys, str(fault), inj,
@@ -403,12 +410,13 @@ def _check_equations(d, work) -> None:
     else:
         outs = {}
         if "Hz" in m:
-            z = list(estimate_outputs(m, xs, ys))
+            z = list(estimate_outputs(m, xs, measured))
             outs.update({("z" if len(z) == 1 else f"z{i + 1}"): e for i, e in enumerate(z)})
         if "R_star" in m and "H_star" in m:
-            r = list(residual_outputs(m, xs, ys))
+            r = list(residual_outputs(m, xs, measured))
             outs.update({("r" if len(r) == 1 else f"r{i + 1}"): e for i, e in enumerate(r)})
-        candidates = [(reduced_equations(m, work.inputs, xs, ys, nonlinear=d.nonlinear), outs)]
+        candidates = [(reduced_equations(m, work.inputs, xs, ys, nonlinear=d.nonlinear,
+                                         measured=measured), outs)]
     for update, outs in candidates:
         if len(update) == len(d.equations) and all(
                 _same_expression(a, b) for a, b in zip(d.equations, update)):
