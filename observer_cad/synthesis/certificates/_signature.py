@@ -60,6 +60,8 @@ class FaultSensitivity:
     conditions: tuple = ()
     role: str = "assumed zero"
     enters: bool = False  # Φ D_j ≠ 0 (within the float tolerance for float designs)
+    #: R* Dy_j for a fault that also enters the outputs (then ``entry`` is Φ D_j − J* Dy_j)
+    direct: sp.ImmutableMatrix | None = None
 
     @property
     def conditional(self) -> bool:
@@ -70,16 +72,27 @@ class FaultSensitivity:
         if self.sensitive:
             return "sensitive" + (f" if {' and '.join(map(str, self.conditions))}"
                                   if self.conditions else "")
+        pd = "Φ D" if self.direct is None else "Φ D − J* Dy"
         if self.enters:
-            return "decoupled (Φ D ≠ 0 but it enters only rows the residual does not read)"
-        return "decoupled (Φ D = 0)"
+            return f"decoupled ({pd} ≠ 0 but it enters only rows the residual does not read)"
+        return f"decoupled ({pd} = 0)" if self.direct is None else \
+            "decoupled (Φ D − J* Dy = 0, R* Dy = 0)"
+
+    def entry_text(self) -> str:
+        """``Φ D = [..]``, or ``Φ D − J* Dy = [..]; R* Dy = [..]`` with feedthrough."""
+        if self.direct is None:
+            return f"Φ D = {list(self.entry)}"
+        return f"Φ D − J* Dy = {list(self.entry)}; R* Dy = {list(self.direct)}"
 
     def to_json(self) -> dict:
-        return {"name": self.name, "sensitive": bool(self.sensitive), "role": self.role,
-                "enters": bool(self.enters),
-                "entry": [str(e) for e in self.entry],
-                "response": [str(e) for e in self.response],
-                "conditions": [str(c) for c in self.conditions]}
+        out = {"name": self.name, "sensitive": bool(self.sensitive), "role": self.role,
+               "enters": bool(self.enters),
+               "entry": [str(e) for e in self.entry],
+               "response": [str(e) for e in self.response],
+               "conditions": [str(c) for c in self.conditions]}
+        if self.direct is not None:
+            out["direct"] = [str(e) for e in self.direct]
+        return out
 
 
 def _is_float(M) -> bool:
@@ -115,6 +128,7 @@ def fault_sensitivity(Phi, F_star, H_star, column, *, name: str = "d",
     Φ D_j) and ``direct`` = R* Dy_j (the residual's direct term, first in the response)."""
     Fs, Hs = F_star, H_star
     entry = (sp.Matrix(Phi) * sp.Matrix(column)).applyfunc(sp.cancel)
+    dmat = None if direct is None else sp.ImmutableMatrix(sp.Matrix(direct).applyfunc(sp.cancel))
     if feed is None:
         resp = residual_response(Phi, Fs, Hs, column)
     else:
@@ -135,14 +149,14 @@ def fault_sensitivity(Phi, F_star, H_star, column, *, name: str = "d",
                  for e in entry)
     if not nz:
         return FaultSensitivity(name, False, sp.ImmutableMatrix(entry),
-                                sp.ImmutableMatrix(resp), (), role, enters)
+                                sp.ImmutableMatrix(resp), (), role, enters, dmat)
     if any(not e.free_symbols for e in nz):
         conds = ()
     else:  # the simplest nonzero entry: its factors nonzero suffice
         best = min((nonzero_conditions(e) for e in nz), key=lambda s: (len(s), str(sorted(s, key=str))))
         conds = tuple(sorted(best, key=str))
     return FaultSensitivity(name, True, sp.ImmutableMatrix(entry), sp.ImmutableMatrix(resp),
-                            conds, role, enters)
+                            conds, role, enters, dmat)
 
 
 def _role(task: Task, name: str) -> str:

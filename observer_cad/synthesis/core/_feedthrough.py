@@ -152,7 +152,10 @@ def lift_design(d, view: FeedthroughView):
     kept = tuple(i for i in old.identities
                  if not i.name.startswith(MODEL_PREFIX) and i.name.startswith("A_"))
     cert = Certificate(tuple(cert.identities) + kept, cert.exact, cert.tolerance)
+    conds = tuple(dataclasses.replace(c, holds=cert.passed, detail=cert.summary())
+                  if c.name == "certificate" else c for c in d.conditions)
     return dataclasses.replace(
         d, structure=st, task=task, matrices=mats, certificate=cert, nonlinear=nonlinear,
+        conditions=conds,
         equations=tuple(tr(e) for e in d.equations),
         outputs=tuple((name, tr(e)) for name, e in d.outputs))
