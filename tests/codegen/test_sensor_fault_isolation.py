@@ -137,3 +137,19 @@ def test_exported_c_reproduces_the_python_step_on_the_biased_sensor(bank, tmp_pa
     # the C residuals see the bias too (held samples: small transients before t = 10)
     assert np.max(np.abs(out_c[t > 10.5][:, [i1, i2]]), axis=0).min() > 0.1
     assert np.max(np.abs(out_c[t < 9.5][:, [i1, i2]])) < 0.05
+
+
+def test_guaranteed_threshold_sees_the_sensor_bias(bank):
+    """The error system of the guaranteed threshold carries the sensor fault into both the
+    observer (− J* Dy) and the residual (R* Dy): every fault has a finite smallest
+    detectable step, and the dc gain of fs1 to r1 is its direct gain R* Dy = 1 (r1 = y1 −
+    x*, x*' = −x* + y2 + u1: a bias on y1 enters r1 only directly)."""
+    from observer_cad.residuals import min_detectable_fault
+    m, b, o = bank
+    ot = apply_threshold(m, o, ThresholdSpec.parse("guaranteed"))
+    es = ot.threshold.error_system
+    G = es.dc_gain()
+    j = list(es.faults).index("fs1")
+    assert G[0, j] == 1 and G[1, j] != 0
+    found = min_detectable_fault(ot.threshold, [0.1, 0.1])
+    assert all(v is not None and v > 0 for v in found.values())
