@@ -228,3 +228,47 @@ def test_inputs_in_the_outputs_and_the_design_file_round_trip(kw):
     data["outputs"] = {"r": str(sp.expand(r + sp.expand(r).coeff(y1) * u / 4))}
     with pytest.raises(UsageError, match="output r is not the one"):
         Design.from_json(json.loads(json.dumps(data)), m)
+
+
+def test_nonlinear_plant_with_feedthrough_is_certified_and_decoupled():
+    """The nonlinear three-tank (√ outflows) with a bias on sensor 1 and the second pump's
+    command read by sensor 2 (y2 = x2 + u2/2): the argument substitution reads y2 − u2/2,
+    the design is certified against the model's own equations, and in simulation the
+    residual stays at zero under the disturbance until the pump fault appears."""
+    from observer_cad import build_observer, simulate
+    from observer_cad.simulation import scenario_from_dict
+    x1, x2, x3, u1, u2, f, fs, rho = sp.symbols("x1 x2 x3 u1 u2 f fs rho")
+    m = PlantModel(name="nl", time="continuous", states=[x1, x2, x3], inputs=[u1, u2],
+                   faults=[f, fs], disturbances=[rho], outputs=[x1 + fs, x2 + u2 / 2, x3],
+                   dynamics=[-sp.sqrt(x1 - x2) + u1 + f,
+                             sp.sqrt(x1 - x2) - sp.sqrt(x2 - x3) + u2,
+                             sp.sqrt(x2 - x3) - sp.sqrt(x3) + rho],
+                   domain=[x1 >= x2, x2 >= x3, x3 >= 0])
+    d = design(m, observer="diagnostic", faults=["f"])
+    names = [i.name for i in d.certificate.identities]
+    assert "model: Phi f - F* Phi x - J* h - G* u - C* Psi* - D* d" in names
+    assert "Phi G - J* Gy - G*" in names and d.certificate.passed
+    y2 = sp.Symbol("y2")
+    assert any(e.has(sp.sqrt(d.observer_states[0] - y2 + u2 / 2)) for e in d.equations)
+    assert d.signature_map == {"f": True, "fs": True}
+    sc = scenario_from_dict({"t_end": 10, "dt": 0.01, "initial": {"x1": 3, "x2": 2, "x3": 1},
+                             "signals": {"u1": "0.5", "u2": "0.3", "rho": "0.05*sin(t)",
+                                         "f": "Piecewise((0, t < 6), (0.2, True))"}})
+    res = simulate(m, build_observer(m, d), sc)
+    t = res["t"]
+    assert np.max(np.abs(res["r"][t < 6])) < 1e-9
+    assert np.max(np.abs(res["r"][t > 7])) > 0.05
+
+
+def test_symbolic_feedthrough_parameter_conditions_the_signature():
+    """Discrete time, y1 = x1 + k fs + u1/4: kept symbolic, the bias is seen if k ≠ 0."""
+    x1, x2, u1, f, fs, rho, k = sp.symbols("x1 x2 u1 f fs rho k")
+    m = PlantModel(name="sym", time="discrete", states=[x1, x2], inputs=[u1],
+                   faults=[f, fs], disturbances=[rho], outputs=[x1 + k * fs + u1 / 4, x2],
+                   dynamics=[x1 / 2 + u1 + f, x1 / 3 + x2 / 4 + rho], parameters={k: 2})
+    sig = {s.name: s.describe() for s in design(m, observer="diagnostic", faults=["f"],
+                                                symbolic=True).signature}
+    assert sig == {"f": "sensitive", "fs": "sensitive if Ne(k, 0)"}
+    d = design(m, observer="diagnostic", faults=["f"])
+    (_, r), = d.outputs
+    assert sp.expand(r).coeff(u1) == -sp.Rational(1, 4) * sp.expand(r).coeff(sp.Symbol("y1"))
