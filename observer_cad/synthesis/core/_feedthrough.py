@@ -35,7 +35,8 @@ from ...model import ObserverKind, PlantModel, Structure, Task, extract_structur
 from ..certificates import MODEL_PREFIX, Certificate, certify_design
 from ._reduced import output_symbols
 
-__all__ = ["has_output_feedthrough", "FeedthroughView", "feedthrough_view", "lift_design"]
+__all__ = ["has_output_feedthrough", "FeedthroughView", "feedthrough_view", "lift_design",
+           "feedthrough_outputs_error"]
 
 #: the observer kinds designed with feedthrough (the others are refused)
 FEEDTHROUGH_KINDS = (ObserverKind.DIAGNOSTIC, ObserverKind.VIRTUAL_SENSOR)
@@ -159,3 +160,29 @@ def lift_design(d, view: FeedthroughView):
         conditions=conds,
         equations=tuple(tr(e) for e in d.equations),
         outputs=tuple((name, tr(e)) for name, e in d.outputs))
+
+
+def feedthrough_outputs_error(d) -> str:
+    """Why a design's residual r or estimate z does not read y − Gy u when inputs enter the
+    outputs ("" when it does, or when there is nothing to check): a designer that ignores
+    Gy would leave R* Gy u in r, which no identity on the matrices sees."""
+    st = d.structure
+    if st is None or not st.model.inputs or st.Gy.is_zero_matrix or not d.outputs:
+        return ""
+    m = d.matrices
+    ys = sp.Matrix(output_symbols(st.l))
+    measured = ys - sp.Matrix(st.Gy) * sp.Matrix(st.model.inputs)
+    xs = sp.Matrix(d.observer_states) if d.observer_states else sp.zeros(0, 1)
+    want = {}
+    if m.R_star is not None and m.H_star is not None and xs.rows == m.H_star.cols:
+        r = sp.Matrix(m.R_star) * measured - sp.Matrix(m.H_star) * xs
+        want.update({("r" if r.rows == 1 else f"r{i + 1}"): e for i, e in enumerate(r)})
+    if m.Hz is not None and m.Q is not None and xs.rows == m.Hz.cols:
+        z = sp.Matrix(m.Hz) * xs + sp.Matrix(m.Q) * measured
+        want.update({("z" if z.rows == 1 else f"z{i + 1}"): e for i, e in enumerate(z)})
+    for name, e in d.outputs:
+        if name in want and sp.expand(sp.sympify(e) - want[name]) != 0:
+            return (f"its output {name} does not read the measurements less the inputs'"
+                    " feedthrough, y − Gy u (observer_cad.synthesis.design takes it into"
+                    " account)")
+    return ""
