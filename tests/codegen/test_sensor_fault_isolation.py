@@ -153,3 +153,29 @@ def test_guaranteed_threshold_sees_the_sensor_bias(bank):
     assert G[0, j] == 1 and G[1, j] != 0
     found = min_detectable_fault(ot.threshold, [0.1, 0.1])
     assert all(v is not None and v > 0 for v in found.values())
+
+
+@pytest.mark.skipif(CC is None, reason="no C compiler 'cc' on PATH")
+def test_inputs_in_the_outputs_through_simulation_and_the_compiled_ensemble():
+    """y1 = x1 + u1/4 + f2 (from the matrices (A, B, C, D)): the simulated outputs carry the
+    input's feedthrough, the residual r = R* (y − Gy u) − H* x* stays at zero without
+    faults (reference simulator and compiled ensemble) and sees the sensor bias f2."""
+    from observer_cad import PlantModel
+    from observer_cad.synthesis import design
+    A = [[-1.0, 0.0], [0.5, -2.0]]
+    B = [[1.0, 1.0, 0.0, 0.0], [0.0, 0.0, 0.0, 0.0]]
+    C = [[1.0, 0.0], [0.0, 1.0]]
+    D = [[0.25, 0.0, 1.0, 0.0], [0.0, 0.0, 0.0, 0.5]]
+    m = PlantModel.from_statespace((A, B, C, D), time="continuous", inputs=[0], faults=[1, 2],
+                                   disturbances=[3])
+    o = build_observer(m, design(m, observer="diagnostic", faults=["f1"]))
+    sc = scenario_from_dict({"t_end": 5, "dt": 0.01, "initial": {"x1": 1},
+                             "signals": {"u1": "1 + sin(3*t)", "rho1": "sin(t)"},
+                             "cases": {"free": {},
+                                       "f2": {"f2": "Piecewise((0, t < 2), (0.5, True))"}}})
+    res = simulate(m, o, sc, case="free")
+    np.testing.assert_allclose(res["y1"], res["x1"] + res["u1"] / 4, rtol=0, atol=1e-12)
+    assert np.max(np.abs(res["r"])) < 1e-12
+    ens = run_ensemble(m, o, sc, runs=3, backend=Backend("serial"))
+    assert ens.statistics.cases["free"].fields["r.max_abs"].max < 1e-12
+    assert abs(ens.statistics.cases["f2"].fields["r.max_abs"].max - 0.5) < 1e-9
