@@ -284,3 +284,10 @@ def test_a_designer_called_directly_cannot_ignore_the_inputs_feedthrough():
         design_jordan(m, observer="diagnostic", faults=["f1"])
     assert "\n" not in str(e.value)
     assert design(m, observer="diagnostic", faults=["f1"]).certificate.passed
+
+
+def test_full_state_intervals_refuse_feedthrough(tanks):
+    from observer_cad.observers import full_state_intervals
+    with pytest.raises(UsageError, match="output feedthrough") as e:
+        full_state_intervals(tanks)
+    assert "\n" not in str(e.value)
