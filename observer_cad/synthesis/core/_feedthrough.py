@@ -76,10 +76,12 @@ def feedthrough_view(work: PlantModel, task: Task) -> FeedthroughView:
     outputs_only = [n for n in task.targets if st.unknown_input_columns([n]).is_zero_matrix
                     and not st.output_columns([n]).is_zero_matrix]
     if outputs_only and len(outputs_only) == len(task.targets):
+        which = (f"{outputs_only[0]} enters" if len(outputs_only) == 1
+                 else f"{', '.join(outputs_only)} enter")
         raise InfeasibleDesignError(
-            f"{where}: {', '.join(outputs_only)} enter(s) the outputs only; a residual is not"
-            " designed for such faults alone yet: design for a fault of the dynamics (or"
-            " decouple it) and read the residual's sensitivity to them in its fault signature")
+            f"{where}: {which} the outputs only; a residual is not designed for such faults"
+            " alone yet: design for a fault of the dynamics (or decouple it) and read the"
+            " residual's sensitivity in its fault signature")
     inner = dataclasses.replace(task, targets=tuple(n for n in task.targets
                                                     if n not in outputs_only),
                                 assumed_zero=tuple(task.assumed_zero) + tuple(outputs_only))
