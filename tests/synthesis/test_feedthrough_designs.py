@@ -291,3 +291,26 @@ def test_full_state_intervals_refuse_feedthrough(tanks):
     with pytest.raises(UsageError, match="output feedthrough") as e:
         full_state_intervals(tanks)
     assert "\n" not in str(e.value)
+
+
+@pytest.mark.parametrize("form", ["jordan", "canonical"])
+def test_virtual_sensor_decoupled_from_a_disturbed_sensor(form):
+    """The linear three-tank with a second level sensor on tank 3 that a disturbance ρ2
+    reaches directly (y3 = x3 + ρ2/2): the virtual sensor for x1 does not read y3
+    (J* Ly = 0, Q Ly = 0) and its estimate equals x1 in simulation while ρ, ρ2 act."""
+    from observer_cad import build_observer, simulate
+    from observer_cad.simulation import scenario_from_dict
+    x1, x2, x3, u1, u2, rho, rho2 = sp.symbols("x1 x2 x3 u1 u2 rho rho2")
+    m = PlantModel(name="tanks_vs", time="continuous", states=[x1, x2, x3], inputs=[u1, u2],
+                   disturbances=[rho, rho2], outputs=[x2, x3, x3 + rho2 / 2],
+                   dynamics=[-x1 + x2 + u1, x1 - 2 * x2 + x3 + u2, x2 - 2 * x3 + rho])
+    d = design(m, observer="virtual-sensor", estimate="x1", form=form)
+    st = d.structure
+    assert d.certificate.passed and "Q Ly" in [i.name for i in d.certificate.identities]
+    assert (sp.Matrix(d.matrices.J_star) * st.Ly).is_zero_matrix
+    assert (sp.Matrix(d.matrices.Q) * st.Ly).is_zero_matrix
+    sc = scenario_from_dict({"t_end": 6, "dt": 0.01, "initial": {"x1": 0.5, "x2": 0.2},
+                             "signals": {"u1": "0.5", "u2": "0.2*sin(t)", "rho": "0.2*sin(2*t)",
+                                         "rho2": "Piecewise((0, t < 2), (0.4, True))"}})
+    res = simulate(m, build_observer(m, d), sc)
+    assert np.max(np.abs(res["x1_hat"] - res["x1"])) < 1e-9
