@@ -179,3 +179,36 @@ def test_inputs_in_the_outputs_through_simulation_and_the_compiled_ensemble():
     ens = run_ensemble(m, o, sc, runs=3, backend=Backend("serial"))
     assert ens.statistics.cases["free"].fields["r.max_abs"].max < 1e-12
     assert abs(ens.statistics.cases["f2"].fields["r.max_abs"].max - 0.5) < 1e-9
+
+
+@pytest.mark.skipif(CC is None, reason="no C compiler 'cc' on PATH")
+def test_zero_order_residual_exports_to_c(tmp_path):
+    """A residual without observer states (r = y1 − y3 of three sensors on one level)
+    compiles as standalone C and prints the residual of the recorded y."""
+    from observer_cad import PlantModel
+    from observer_cad.synthesis import design
+    import sympy as sp
+    x, u, f1, f2, f3 = sp.symbols("x u f1 f2 f3")
+    m = PlantModel(name="triplex", time="continuous", states=[x], inputs=[u],
+                   faults=[f1, f2, f3], outputs=[x + f1, x + f2, x + f3], dynamics=[-x + u])
+    o = build_observer(m, design(m, observer="diagnostic", faults=["f1"], disturbances=["f2"]))
+    assert not o.states
+    sc = scenario_from_dict({"t_end": 1, "dt": 0.01, "initial": {"x": 1},
+                             "signals": {"u": "1", "f1": "Piecewise((0, t < 0.5), (0.5, True))"}})
+    ref = simulate(m, o, sc)
+    c, _, ex = export_observer(o, tmp_path, dt=0.01)
+    r = subprocess.run(["cc", *EXAMPLE_FLAGS, c.name, ex.name, "-lm"], cwd=tmp_path,
+                       capture_output=True, text=True, timeout=120)
+    assert r.returncode == 0, r.stderr
+    ys, us = split_signals(o)
+    names = [str(s) for s in ys + us]
+    lines = [",".join(names)] + [",".join(repr(float(ref[n][i])) for n in names)
+                                 for i in range(ref["t"].shape[0])]
+    (tmp_path / "in.csv").write_text("\n".join(lines) + "\n")
+    run = subprocess.run([str(tmp_path / "a.out"), "in.csv"], cwd=tmp_path,
+                         capture_output=True, text=True, timeout=120)
+    assert run.returncode == 0, run.stderr
+    rows = list(csv.reader(io.StringIO(run.stdout)))
+    assert rows[0] == ["step", "r"]
+    got = np.array([float(row[1]) for row in rows[1:]])
+    np.testing.assert_allclose(got, ref["r"], rtol=0, atol=1e-12)

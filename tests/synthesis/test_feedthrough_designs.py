@@ -314,3 +314,44 @@ def test_virtual_sensor_decoupled_from_a_disturbed_sensor(form):
                                          "rho2": "Piecewise((0, t < 2), (0.4, True))"}})
     res = simulate(m, build_observer(m, d), sc)
     assert np.max(np.abs(res["x1_hat"] - res["x1"])) < 1e-9
+
+
+def _triplex():
+    """One state measured by three sensors, each with its own bias (a redundant-sensor
+    plant): x' = −x + u, y_i = x + f_i, sensor 2 also reading u/2."""
+    x, u, f1, f2, f3 = sp.symbols("x u f1 f2 f3")
+    return PlantModel(name="triplex", time="continuous", states=[x], inputs=[u],
+                      faults=[f1, f2, f3], outputs=[x + f1, x + f2 + u / 2, x + f3],
+                      dynamics=[-x + u])
+
+
+def test_zero_order_residual_for_sensor_faults():
+    """Faults that enter the outputs only get r = R* (y − Gy u) with R* H = 0: no observer
+    state, certified, read back from its JSON, exact in simulation; refused in one line
+    when the outputs alone cannot give one."""
+    import json
+    from observer_cad import build_observer, simulate
+    from observer_cad.simulation import scenario_from_dict
+    from observer_cad.synthesis import Design
+    m = _triplex()
+    d = design(m, observer="diagnostic", faults=["f1"], disturbances=["f2"])
+    assert d.k == 0 and d.certificate.passed and not d.equations
+    (_, r), = d.outputs
+    y1, y3 = sp.symbols("y1 y3")
+    assert sp.expand(r - (y1 - y3)) == 0
+    assert d.signature_map == {"f1": True, "f2": False, "f3": True}
+    assert Design.from_json(json.loads(json.dumps(d.to_json())), m).k == 0
+    # with f2 decoupled the residual uses y2 − u/2 when it needs sensor 2
+    d2 = design(m, observer="diagnostic", faults=["f2"], disturbances=["f1"])
+    (_, r2), = d2.outputs
+    assert sp.expand(r2).coeff(m.inputs[0]) == -sp.expand(r2).coeff(sp.Symbol("y2")) / 2
+    sc = scenario_from_dict({"t_end": 3, "dt": 0.01, "initial": {"x": 1},
+                             "signals": {"u": "sin(t)", "f2": 0.3,
+                                         "f1": "Piecewise((0, t < 1), (0.5, True))"}})
+    res = simulate(m, build_observer(m, d), sc)
+    t = res["t"]
+    assert np.max(np.abs(res["r"][t < 1])) < 1e-12
+    np.testing.assert_allclose(res["r"][t > 1.01], 0.5, atol=1e-12)
+    with pytest.raises(InfeasibleDesignError, match="no zero-order residual") as e:
+        design(m, observer="diagnostic", faults=["f1"], disturbances=["f2", "f3"])
+    assert "\n" not in str(e.value)

@@ -59,14 +59,17 @@ def design_from_json(cls, data, model: PlantModel):
                          f" {work.time}-time")
     st = problem.structure
     k = data["k"]
-    if not isinstance(k, int) or isinstance(k, bool) or k < 1:
-        raise UsageError("a design's k must be a positive integer")
+    if not isinstance(k, int) or isinstance(k, bool) or k < 0:
+        raise UsageError("a design's k must be a non-negative integer (0: a zero-order"
+                         " residual)")
     names, xs, params = _names(data, model, work)
 
     def expr(text, where):
         return parse_json_expression(text, names, where)
 
     mats = _matrices(data, expr)
+    if k == 0:  # a zero-order residual: the empty matrices get their shapes back
+        mats = _zero_order_shapes(mats, st, task)
     nonlinear = _nonlinear(data, expr)
     outputs = data["outputs"]
     if not isinstance(outputs, dict):
@@ -151,6 +154,21 @@ def _matrices(data, expr) -> dict:
         if name not in mats:
             raise UsageError(f"not a design: matrix {name} is missing")
     return mats
+
+
+def _zero_order_shapes(mats: dict, st, task) -> dict:
+    """A k = 0 design's empty matrices (JSON ``[]`` has no column count) with the shapes
+    the plant gives them: Φ 0×n, F* 0×0, J* 0×l, G* 0×m, D* 0×targets, H* rows(R*)×0."""
+    shapes = {"Phi": (0, st.n), "F_star": (0, 0), "J_star": (0, st.l),
+              "G_star": (0, st.G.shape[1]), "D_star": (0, len(task.targets)),
+              "H_star": (sp.Matrix(mats["R_star"]).rows if "R_star" in mats else 0, 0)}
+    out = dict(mats)
+    for name, shape in shapes.items():
+        if name in out:
+            if sp.Matrix(out[name]).rows not in (0, shape[0]) or any(sp.Matrix(out[name])):
+                raise UsageError(f"a zero-order design's {name} must be empty")
+            out[name] = sp.zeros(*shape)
+    return out
 
 
 def _nonlinear(data, expr) -> list:

@@ -18,10 +18,11 @@ This is sufficient, not necessary: a design that uses the dynamics to cancel J* 
 found can exceed the least order. The lifted design is certified again on the plant with
 its feedthrough (the identities above, and against the model's own equations).
 
-Unknown-input, sliding-mode and interval observers and robust designs on plants with
-feedthrough are refused in one line, and so is a fault to detect that enters the outputs
-only (the designers' detectability test reads Φ D; the fault signature, which reads
-R* Dy and Φ D − J* Dy, reports every residual's sensitivity to it).
+Faults to detect that all enter the outputs only (sensor faults: no Φ D for the designers
+to search on) get a zero-order residual r = R* (y − Gy u) with R* H = 0, R* Ly = 0 and
+R* Dy ≠ 0 for each of them (:func:`zero_order_design`; no observer state), or a one-line
+refusal when the outputs alone cannot give one. Unknown-input, sliding-mode and interval
+observers and robust designs on plants with feedthrough are refused in one line.
 """
 from __future__ import annotations
 
@@ -34,9 +35,10 @@ from ...errors import InfeasibleDesignError, UsageError
 from ...model import ObserverKind, PlantModel, Structure, Task, extract_structure
 from ..certificates import MODEL_PREFIX, Certificate, certify_design
 from ._reduced import output_symbols
+from ._values import Condition
 
 __all__ = ["has_output_feedthrough", "FeedthroughView", "feedthrough_view", "lift_design",
-           "feedthrough_outputs_error"]
+           "feedthrough_outputs_error", "zero_order_design"]
 
 #: the observer kinds designed with feedthrough (the others are refused)
 FEEDTHROUGH_KINDS = (ObserverKind.DIAGNOSTIC, ObserverKind.VIRTUAL_SENSOR)
@@ -75,13 +77,6 @@ def feedthrough_view(work: PlantModel, task: Task) -> FeedthroughView:
     st = extract_structure(work)
     outputs_only = [n for n in task.targets if st.unknown_input_columns([n]).is_zero_matrix
                     and not st.output_columns([n]).is_zero_matrix]
-    if outputs_only and len(outputs_only) == len(task.targets):
-        which = (f"{outputs_only[0]} enters" if len(outputs_only) == 1
-                 else f"{', '.join(outputs_only)} enter")
-        raise InfeasibleDesignError(
-            f"{where}: {which} the outputs only; a residual is not designed for such faults"
-            " alone yet: design for a fault of the dynamics (or decouple it) and read the"
-            " residual's sensitivity in its fault signature")
     inner = dataclasses.replace(task, targets=tuple(n for n in task.targets
                                                     if n not in outputs_only),
                                 assumed_zero=tuple(task.assumed_zero) + tuple(outputs_only))
@@ -188,3 +183,64 @@ def feedthrough_outputs_error(d) -> str:
                     " feedthrough, y − Gy u (observer_cad.synthesis.design takes it into"
                     " account)")
     return ""
+
+
+def _zero_order_row(st: Structure, task: Task):
+    """A row R* with R* [H, Ly] = 0 (Ly: the decoupled inputs' output columns) and
+    R* Dy_t ≠ 0 for every target t, exactly; None when the outputs alone give none."""
+    Ly, Dy = sp.Matrix(st.output_columns(task.decoupled)), sp.Matrix(st.output_columns(task.targets))
+    M = sp.Matrix.hstack(sp.Matrix(st.H), Ly)
+    if M.free_symbols or Dy.free_symbols:
+        return None
+    basis = [v.T for v in M.T.nullspace()]
+    if not basis:
+        return None
+    candidates = basis + [sum(((i + 1) * b for i, b in enumerate(basis)), sp.zeros(1, st.l))]
+    for row in candidates:
+        if all(e != 0 for e in row * Dy):
+            den = next(e for e in row if e != 0)
+            return (row / den).applyfunc(sp.nsimplify)
+    return None
+
+
+def zero_order_design(view: FeedthroughView, design_cls, *, form: str):
+    """The zero-order residual r = R* (y − Gy u) for faults that enter the outputs only
+    (see the module docstring): a certified design with k = 0 (Φ, F*, J* empty), or an
+    :class:`InfeasibleDesignError` naming why none exists."""
+    st, task = view.structure, view.task
+    where = st.model.where
+    R = _zero_order_row(st, task)
+    which = (f"{task.targets[0]} enters" if len(task.targets) == 1
+             else f"{', '.join(task.targets)} enter")
+    if R is None:
+        dec = f" and the decoupled inputs' output columns ({', '.join(task.decoupled)})" \
+            if task.decoupled else ""
+        raise InfeasibleDesignError(
+            f"{where}: {which} the outputs only, and no combination R* y of the outputs is"
+            f" free of the states (R* H = 0){dec} while seeing it: no zero-order residual;"
+            " dynamic residuals for such faults are not designed yet (design for a fault of"
+            " the dynamics and read the residual's sensitivity in its fault signature)")
+    n, l, m_in = st.n, st.l, len(st.model.inputs)
+    mats = {"Phi": sp.zeros(0, n), "F_star": sp.zeros(0, 0), "J_star": sp.zeros(0, l),
+            "G_star": sp.zeros(0, m_in), "R_star": R, "H_star": sp.zeros(1, 0),
+            "D_star": sp.zeros(0, len(task.targets))}
+    plant = {"F": st.F, "G": st.G, "H": st.H, "C": st.C, "D": task.D(st), "L": task.L(st),
+             "Gy": st.Gy, "Dy": st.output_columns(task.targets),
+             "Ly": st.output_columns(task.decoupled)}
+    cert = certify_design(plant, mats)
+    ys = sp.Matrix(output_symbols(l))
+    u = sp.Matrix(st.model.inputs) if m_in else sp.zeros(0, 1)
+    r = sp.expand((R * (ys - sp.Matrix(st.Gy) * u))[0] if m_in else (R * ys)[0])
+    seen = [str(e) for e in R * sp.Matrix(st.output_columns(task.targets))]
+    conds = (
+        Condition("zero-order residual", True,
+                  f"R* = {R.tolist()[0]}: R* H = 0 and R* Ly = 0 (the decoupled inputs' output"
+                  f" columns), R* Dy = {seen} for {', '.join(task.targets)}; r = R* (y − Gy u)"
+                  " needs no observer state", "METHOD §2 (output feedthrough)"),
+        Condition("certificate", cert.passed, cert.summary(), "METHOD §2"))
+    return design_cls(
+        model_name=st.model.name, task=task, structure=st, form=form, k=0, matrices=mats,
+        conditions=conds, assumptions=(), certificate=cert, symbolic=False, method="exact",
+        choice="k = 0: the outputs alone give a residual (R* in the left null space of"
+               " [H, Ly]); no observer state", attempts=("k=0: a zero-order residual",),
+        time=st.model.time, equations=(), observer_states=(), outputs=(("r", r),))

@@ -57,7 +57,7 @@ def reduced_equations(mats, inputs, xs, ys, *, nonlinear=(), q: int | None = Non
     default ``ys``).
     """
     F, J = sp.Matrix(_get(mats, "F_star")), sp.Matrix(_get(mats, "J_star"))
-    rhs = F * sp.Matrix(xs) + J * sp.Matrix(ys)
+    rhs = F * sp.Matrix(len(xs), 1, list(xs)) + J * sp.Matrix(ys)
     if inputs:
         rhs += sp.Matrix(_get(mats, "G_star")) * sp.Matrix(inputs)
     if nonlinear:
@@ -75,7 +75,7 @@ def reduced_equations(mats, inputs, xs, ys, *, nonlinear=(), q: int | None = Non
 def residual_outputs(mats, xs, ys) -> sp.Matrix:
     """r = R* y − H* x* (one entry per measured combination)."""
     return sp.Matrix(_get(mats, "R_star")) * sp.Matrix(ys) \
-        - sp.Matrix(_get(mats, "H_star")) * sp.Matrix(xs)
+        - sp.Matrix(_get(mats, "H_star")) * sp.Matrix(len(xs), 1, list(xs))
 
 
 def estimate_outputs(mats, xs, ys) -> sp.Matrix:
