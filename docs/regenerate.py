@@ -23,7 +23,7 @@ How a command runs:
 
 - ``observer-cad ARGS`` runs this checkout's ``observer_cad.cli.main(ARGS)`` in-process
   (no interpreter start-up per block), in a fresh temporary directory in which ``models``
-  is a link to the repository's ``models/`` — so the paths shown are the ones a reader
+  and ``examples`` are links to the repository's ``models/`` and ``examples/`` — so the paths shown are the ones a reader
   types from a clone, and what the command writes (``sim/``, ``c/``) goes to the
   temporary directory. stdout is shown; stderr too when the exit status is not 0, then a
   last line ``[exit status N]``.
@@ -149,6 +149,7 @@ def _filter(text: str, argv: list[str]) -> str:
 def _workdir() -> tempfile.TemporaryDirectory:
     tmp = tempfile.TemporaryDirectory(prefix="observer_cad_docs_")
     os.symlink(ROOT / "models", Path(tmp.name) / "models")
+    os.symlink(ROOT / "examples", Path(tmp.name) / "examples")  # recorded data for monitor
     return tmp
 
 

@@ -26,7 +26,7 @@ _LAZY = {
                   "certify_reduced_model", "design", "design_canonical", "FaultSensitivity"),
     "analysis": ("Analysis", "analyze", "ResidualBank", "design_bank"),
     "observers": ("DremSpec", "Observer", "build_observer"),
-    "simulation": ("Scenario", "SimulationResult", "load_scenario", "simulate"),
+    "simulation": ("Scenario", "SimulationResult", "load_scenario", "simulate", "Monitor"),
     "codegen": ("CompiledSimulator",),
 }
 _WHERE = {name: sub for sub, names in _LAZY.items() for name in names}
@@ -38,7 +38,7 @@ __all__ = [
     "design", "design_canonical", "analyze", "Analysis", "Design", "DesignMatrices", "DesignRequest",
     "Condition", "Certificate", "certify_reduced_model",
     "design_bank", "ResidualBank", "FaultSensitivity",
-    "Observer", "build_observer", "DremSpec", "Scenario", "SimulationResult", "load_scenario", "simulate",
+    "Observer", "build_observer", "DremSpec", "Scenario", "SimulationResult", "load_scenario", "simulate", "Monitor",
     "CompiledSimulator",
     "ObserverCadError", "ModelError", "DimensionError", "InfeasibleDesignError",
     "CertificateError", "UsageError",

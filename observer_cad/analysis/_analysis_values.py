@@ -77,9 +77,23 @@ class StructureRow:
     decoupled: tuple
     sensitive: tuple
     via_substitution: bool = False
+    #: the least order of a residual with this row (computed for the strong rows)
+    order: int | None = None
 
     def row(self, faults) -> dict:
         return {f: int(f in self.sensitive) for f in faults}
+
+
+@dataclasses.dataclass(frozen=True)
+class StrongFault:
+    """Strong detectability of one fault, disturbances decoupled: a residual whose gain
+    to the fault is nonzero at every analysed frequency (at ω = 0: a nonzero
+    steady-state gain), and the least order of one; ``strongly_detectable`` None when
+    not computed (see the analysis notes)."""
+
+    fault: str
+    strongly_detectable: bool | None
+    min_order: int | None = None
 
 
 @dataclasses.dataclass(frozen=True)
@@ -127,6 +141,25 @@ class Analysis:
     assumptions: tuple
     notes: tuple = ()
     candidates: tuple = ()
+    #: the frequencies of the strong answers (exact rationals; rad per time unit, or per
+    #: sample in discrete time), one :class:`StrongFault` per fault, and the strong
+    #: structure matrix rows (:class:`StructureRow` with ``order``); empty when skipped
+    frequencies: tuple = ()
+    strong: tuple = ()
+    strong_structure: tuple = ()
+
+    @property
+    def strongly_detectable(self) -> dict:
+        """fault -> bool (None when strong detectability was not computed)."""
+        got = {s.fault: s.strongly_detectable for s in self.strong}
+        return {f: got.get(f) for f in self.faults}
+
+    @property
+    def transient_only(self) -> tuple:
+        """The faults detectable only as a transient (weakly, not strongly)."""
+        strong = self.strongly_detectable
+        return tuple(r.fault for r in self.fault_results
+                     if r.detectable and strong.get(r.fault) is False)
 
     def __repr__(self) -> str:
         det = sum(1 for r in self.fault_results if r.detectable)
@@ -204,4 +237,11 @@ class Analysis:
             "assumptions": [str(a) for a in self.assumptions],
             "notes": list(self.notes),
             "fault_results": [r.to_json() for r in self.fault_results],
+            "frequencies": [str(w) for w in self.frequencies],
+            "strongly_detectable": self.strongly_detectable,
+            "strong_min_order": {s.fault: s.min_order for s in self.strong},
+            "strong_structure_matrices": [s.row(self.faults) for s in self.strong_structure],
+            "strong_structure_rows": [{"decoupled": list(s.decoupled),
+                                       "sensitive": list(s.sensitive), "order": s.order}
+                                      for s in self.strong_structure],
         }

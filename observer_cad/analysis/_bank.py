@@ -104,6 +104,14 @@ def realised_row(d: Design, faults: Sequence[str]) -> tuple:
                  for f in faults)
 
 
+def strongly_realised(d: Design, faults: Sequence[str]) -> bool:
+    """Whether the residual's every sensitive fault among ``faults`` has a nonzero
+    steady-state gain (none is seen only as a transient, see
+    :func:`~observer_cad.synthesis.certificates.steady_state_gain`)."""
+    sig = d.signature or d.with_signature().signature
+    return not any(s.transient_only for s in sig if s.name in faults)
+
+
 def _pairs(rows, faults):
     """((a, b), isolable) for every pair: both detected, columns different."""
     out = []
@@ -190,7 +198,9 @@ class ResidualBank:
     @classmethod
     def from_json(cls, data, model: PlantModel) -> "ResidualBank":
         """The bank of :meth:`to_json`: every design re-read and re-certified by
-        :meth:`Design.from_json`, every row recomputed from the structure and compared."""
+        :meth:`Design.from_json`, every row recomputed from the structure and compared.
+        (:func:`~observer_cad.analysis.load_design` also designs the bank again and
+        compares everything else it records.)"""
         if not isinstance(data, dict) or not isinstance(data.get("designs"), list) \
                 or not isinstance(data.get("structure_matrix"), list):
             raise UsageError("not a residual bank: a JSON object with 'designs' and"
@@ -324,7 +334,8 @@ def _scheme_bank(attempt: _Rows, tried_txt: list):
 
 def _best_bank(attempt: _Rows, tried_txt: list) -> ResidualBank:
     """3. the best achievable rows, added greedily: each the row that isolates the most
-    further pairs (then detects the most further faults, then has the fewest states)."""
+    further pairs (then detects the most further faults, then sees every fault it is
+    sensitive to with a nonzero steady-state gain, then has the fewest states)."""
     model, names = attempt.model, attempt.names
     m = len(names)
     if m <= FULL_SEARCH_FAULTS:
@@ -355,7 +366,7 @@ def _best_bank(attempt: _Rows, tried_txt: list) -> ResidualBank:
             s = score([c for c, _ in chosen] + [r])
             if s <= base:
                 continue
-            key = (s, -d.k)
+            key = (s, strongly_realised(d, names), -d.k)
             if best is None or key > best[0]:
                 best = (key, r, d)
         if best is None:

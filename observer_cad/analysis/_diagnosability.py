@@ -68,7 +68,9 @@ unobservability subspace containing Im L) Massoumnia, Verghese & Willsky, IEEE T
 """
 from __future__ import annotations
 
+import dataclasses
 import itertools
+import re
 from typing import Sequence
 
 import sympy as sp
@@ -77,12 +79,14 @@ from ..errors import ModelError, UsageError
 from ..model import PlantModel, Structure, parse_estimate
 from ..numerics import exact_rank_value
 from ..synthesis.core import prepare
-from ._analysis_values import (Analysis, FaultAnalysis, PairAnalysis, StructureRow,
-                               Suggestion)
+from ._analysis_values import (Analysis, FaultAnalysis, PairAnalysis, StrongFault,
+                               StructureRow, Suggestion)
+from ._orders import GAIN_RTOL, evaluation_points, feedthrough_orders
 from ._reach import DiagnosisQuestions, detecting_orders
 
 __all__ = ["analyze", "Analysis", "FaultAnalysis", "PairAnalysis", "StructureRow",
-           "Suggestion", "detecting_orders", "MAX_ENUMERATED_FAULTS"]
+           "StrongFault", "Suggestion", "detecting_orders", "feedthrough_orders",
+           "MAX_ENUMERATED_FAULTS", "STRONG_MAX_STATES"]
 
 #: Up to this many faults every set of decoupled faults is enumerated for the structure
 #: matrix; above it only the sets of at most two faults (``structure_complete`` False).
@@ -144,7 +148,8 @@ def analyze(model: PlantModel, *, faults: Sequence[str] | None = None,
             candidates: Sequence | None = None, symbolic: bool = False,
             method: str = "auto", rtol: float | None = None,
             structure: Structure | None = None,
-            max_enumerated: int = MAX_ENUMERATED_FAULTS) -> Analysis:
+            max_enumerated: int = MAX_ENUMERATED_FAULTS,
+            frequencies: Sequence | None = (0,)) -> Analysis:
     """Detectability, minimal orders, isolability and the achievable structure matrix.
 
     Problem: for ``x' = F x + G u + C Ψ + D d + L ρ``, ``y = H x`` and the residual
@@ -178,6 +183,12 @@ def analyze(model: PlantModel, *, faults: Sequence[str] | None = None,
     max_enumerated : int, default 8
         Up to this many faults every set of decoupled faults is enumerated for the
         structure matrix; above it, only sets of at most two.
+    frequencies : sequence of numbers, default (0,)
+        The frequencies ω (rad per time unit; per sample in discrete time, in [0, π]) of
+        the strong answers: a fault is strongly detectable when a residual's gain to it
+        is nonzero at s = jω (z = e^{jω}) for every ω listed (ω = 0: a nonzero
+        steady-state gain). Decimals are read as exact rationals ("0.1" is 1/10). None
+        or empty: no strong answers.
 
     Returns
     -------
@@ -193,15 +204,97 @@ def analyze(model: PlantModel, *, faults: Sequence[str] | None = None,
     if method == "float" and symbolic and model.parameters:
         raise UsageError("the float path needs numeric parameters: analyse without --symbolic")
     # the given structure is the model's: the work model's only when parameters are kept
+    omegas = _frequencies(frequencies, model.time)
     problem = prepare(model, symbolic=symbolic, method=method,
-                      structure=structure if symbolic else None)
+                      structure=structure if (symbolic or not model.parameters) else None)
     work, st = problem.work, problem.structure
     fs, dist = _resolve(work, faults, disturbances)
     for c in candidates or ():  # read (and refused) now, whether or not they are needed
         parse_estimate(work, c, what="--candidate")
     P = DiagnosisQuestions(work, st, fs, dist, method=problem.method, rtol=rtol)
     with P.ops.threads():
-        return _analyze(P, candidates, symbolic, max_enumerated)
+        result = _analyze(P, candidates, symbolic, max_enumerated)
+        return _with_strong(P, result, omegas)
+
+
+#: Strong detectability is computed up to this many states (its order-by-order spaces
+#: have l (k + 1) rows); above it the analysis says it was skipped.
+STRONG_MAX_STATES = 40
+
+
+def _frequencies(frequencies, time: str) -> tuple:
+    """The frequencies as exact non-negative rationals (a decimal string or number is
+    read by its decimal digits, never evaluated)."""
+    out = []
+    for w in frequencies or ():
+        text = str(w).strip()
+        if isinstance(w, float):
+            text = repr(w)
+        if not re.fullmatch(r"[+]?(\d+(\.\d*)?|\.\d+)([eE][+-]?\d+)?(/\d+)?", text):
+            raise UsageError(f"frequency '{w}': expected a non-negative number (rad per"
+                             f" {'time unit' if time == 'continuous' else 'sample'})")
+        q = sp.Rational(text)
+        if time != "continuous" and q > sp.Rational(355, 113):
+            raise UsageError(f"frequency {w}: a discrete-time frequency lies in [0, π] (rad"
+                             " per sample)")
+        if q not in out:
+            out.append(q)
+    return tuple(out)
+
+
+def _with_strong(P, result: Analysis, omegas) -> Analysis:
+    """The analysis with the strong answers (or a note saying why there are none)."""
+    if not omegas:
+        return result
+    where = ", ".join(str(w) for w in omegas)
+    if P.n > STRONG_MAX_STATES:
+        return dataclasses.replace(result, frequencies=omegas, notes=result.notes + (
+            f"strong detectability not computed: {P.n} states > {STRONG_MAX_STATES}",))
+    points = evaluation_points(omegas, P.work.time)
+    strong, conds = [], set(result.assumptions)
+    for r in result.fault_results:
+        ok, k, c = P.ask_strong(r.fault, (), points, order=True) if r.detectable \
+            else (False, None, frozenset())
+        conds |= c
+        strong.append(StrongFault(r.fault, ok, k))
+    rows = _strong_rows(P, result.structure, points, conds)
+    var = "s = jω" if P.work.time == "continuous" else "z = e^{jω}"
+    notes = [f"strong detectability: a residual gain ≠ 0 at {var} for ω = {where} (ω = 0:"
+             " the steady-state gain; Varga 2017, Ch. 3)"]
+    if P.hidden:
+        notes.append("strong answers are those with the nonlinear terms of unmeasured"
+                     " arguments decoupled")
+    if P.work.time != "continuous" and any(w != 0 for w in omegas):
+        notes.append(f"gains at e^{{jω}}, ω ≠ 0, decided in floating point (relative"
+                     f" tolerance {GAIN_RTOL:.0e})")
+    kept = tuple(n for n in result.notes if "special case" not in n)
+    failing = _failing_at_defaults(conds, P.work.parameters) if result.symbolic else []
+    if failing:  # the strong answers' conditions join the weak ones'
+        notes.append(_special_case_note(failing))
+    return dataclasses.replace(
+        result, frequencies=omegas, strong=tuple(strong), strong_structure=rows,
+        assumptions=tuple(sorted(conds, key=str)), notes=kept + tuple(notes))
+
+
+def _strong_rows(P, weak_rows, points, all_conds) -> tuple:
+    """The strong structure matrix (Varga 2017 §5.2 with strong detectability): the
+    weak rows whose every 1 can be kept with a nonzero gain at every frequency while the
+    row's 0s stay decoupled (one residual has them all: each "gain = 0" is a proper
+    subspace of the members), with the least order of such a residual. A weak row that
+    loses a fault this way is not a strong row: the fault is still seen, as a transient,
+    so it is not decoupled either."""
+    out = []
+    for row in weak_rows:
+        orders = []
+        for f in row.sensitive:
+            ok, k, conds = P.ask_strong(f, row.requested, points, order=True)
+            all_conds |= conds
+            if not ok:
+                break
+            orders.append(k)
+        else:
+            out.append(dataclasses.replace(row, order=max(orders), via_substitution=False))
+    return tuple(out)
 
 
 def _failing_at_defaults(conditions, parameters) -> list:
@@ -345,12 +438,16 @@ def _notes(P, m, complete, max_enumerated, all_conds, symbolic) -> list:
                  " (design --form canonical) search k < n")
     failing = _failing_at_defaults(all_conds, work.parameters) if symbolic else []
     if failing:
-        notes.append(f"at the parameter defaults {', '.join(str(c) for c in failing)}"
-                     f" fail{'s' if len(failing) == 1 else ''}: the defaults are a special"
-                     " case this generic answer does not cover (analyse without --symbolic"
-                     " for the answer there)")
+        notes.append(_special_case_note(failing))
     if not P.ops.exact:
         notes.append(f"float path: rank decisions by SVD, cut at {P.ops.cut:.0e}·max(σ_1, 1); the"
                      f" closest decision was {P.ops.margin:.1e} times away from its cut"
                      " (exact: method='exact')")
     return notes
+
+
+def _special_case_note(failing) -> str:
+    return (f"at the parameter defaults {', '.join(str(c) for c in failing)}"
+            f" fail{'s' if len(failing) == 1 else ''}: the defaults are a special"
+            " case this generic answer does not cover (analyse without --symbolic"
+            " for the answer there)")

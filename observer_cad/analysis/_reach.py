@@ -21,6 +21,16 @@ from ..synthesis import krylov_blocks, member_to_phi
 from ..synthesis import substitute_arguments
 from ..synthesis import observer_symbols, output_symbols
 from ..synthesis.core import arithmetic
+from ._orders import OrderSpaces, Products
+
+
+def _feedthrough_columns(st: Structure, names) -> sp.ImmutableMatrix:
+    """Columns of Dy or Ly for the named faults / disturbances, in that order."""
+    m = st.model
+    cols = [st.Dy[:, m.faults.index(s)] if s in m.faults else st.Ly[:, m.disturbances.index(s)]
+            for s in names]
+    return sp.ImmutableMatrix(sp.Matrix.hstack(*cols)) if cols else \
+        sp.ImmutableMatrix(sp.zeros(st.l, 0))
 
 __all__ = ["ReachSpaces", "detecting_orders", "DiagnosisQuestions"]
 
@@ -178,6 +188,63 @@ class DiagnosisQuestions:
         self.b_D = {f: ops.mat(d, "cols") for f, d in self.Dcol.items()}
         self.b_C = ops.mat(C[:, self.hidden], "cols") if self.hidden else ops.zeros(self.n, 0)
         self._reach: dict = {}
+        # output feedthrough (Dy, Ly): answered by the order-by-order spaces of ._orders
+        self.feedthrough = st.has_feedthrough
+        self.Dycol = {f.name: sp.Matrix(_feedthrough_columns(st, [f])) for f in faults}
+        self.Ly0 = sp.Matrix(_feedthrough_columns(st, list(disturbances)))
+        self._orders: dict = {}
+        self._products = None
+
+    def spaces(self, decoupled: tuple, extra=None) -> OrderSpaces:
+        """The residual generators of every order with the disturbances, the faults
+        ``decoupled`` and the hidden nonlinear terms decoupled (:mod:`._orders`)."""
+        key = (decoupled, None if extra is None else tuple(extra))
+        if key not in self._orders:
+            # the columns in the order of ``names`` below: disturbances, hidden nonlinear
+            # terms, then the decoupled faults (the last one is the parent's addition)
+            hid = [sp.Matrix(self.st.C[:, j]) for j in self.hidden]
+            L = sp.Matrix.hstack(self.L0, *hid, *[self.Dcol[f] for f in decoupled])
+            Ly = sp.Matrix.hstack(self.Ly0, sp.zeros(self.H.rows, len(self.hidden)),
+                                  *[self.Dycol[f] for f in decoupled])
+            H = self.H
+            if extra is not None:
+                H = sp.Matrix.vstack(H, sp.Matrix(extra))
+                Ly = sp.Matrix.vstack(Ly, sp.zeros(1, Ly.cols))
+            if extra is None and self._products is None:
+                self._products = Products(self.ops, self.F, self.H)
+            names = [r.name for r in self.dist] + [("term", j) for j in self.hidden] + \
+                list(decoupled)
+            parent = self.spaces(decoupled[:-1], extra) if decoupled else None
+            products = parent.P if parent is not None else (
+                self._products if extra is None else None)
+            self._orders[key] = OrderSpaces(self.ops, self.F, H, L, Ly, products, names,
+                                            parent)
+        return self._orders[key]
+
+    def dy(self, f: str, extra=None) -> sp.Matrix:
+        d = self.Dycol[f]
+        return d if extra is None else sp.Matrix.vstack(d, sp.zeros(1, 1))
+
+    def ask_strong(self, f: str, decoupled: tuple, points, *, order: bool):
+        """``(strongly detectable, least order or None, conditions)``: a residual with
+        ``decoupled`` decoupled whose gain to f is nonzero at every point."""
+        conds: set = set()
+        sp_ = self.spaces(decoupled)
+        if order:
+            k = sp_.min_order(self.Dcol[f], self.dy(f), conds, points, name=f)
+            return k is not None, k, frozenset(conds | sp_.conds)
+        K = sp_.last
+        ok = all(sp_.gain_at(K, self.Dcol[f], self.dy(f), p, conds, f) for p in points)
+        return ok, None, frozenset(conds | sp_.conds)
+
+    def _ask_feedthrough(self, f: str, decoupled: tuple, order: bool, extra):
+        conds: set = set()
+        sp_ = self.spaces(decoupled, extra)
+        d = self.Dcol[f]
+        if not sp_.detects_at(sp_.last, d, self.dy(f, extra), conds, f):
+            return False, None, False, frozenset(conds | sp_.conds)
+        k = sp_.min_order(d, self.dy(f, extra), conds, name=f) if order else None
+        return True, k, False, frozenset(conds | sp_.conds)
 
     def L(self, decoupled: tuple, nonlinear_decoupled: bool):
         cols = [self.L0] + [self.Dcol[f] for f in decoupled]
@@ -201,6 +268,8 @@ class DiagnosisQuestions:
     # -- one question: fault f with the faults `decoupled` decoupled
     def ask(self, f: str, decoupled: tuple, *, order: bool, extra=None):
         """``(detectable, min_order or None, via_substitution, conditions)``."""
+        if self.feedthrough:
+            return self._ask_feedthrough(f, decoupled, order, extra)
         conds: set = set()
         r = self.reach(decoupled, True, extra)
         d = self.b_D[f]
@@ -258,6 +327,8 @@ class DiagnosisQuestions:
         else:
             head = f"{f} is undetectable" + (f" with {dec} decoupled" if names else "")
             cond = "with Φ L = 0" if names else ""
+        if self.feedthrough:
+            return self._reason_feedthrough(f, decoupled, head, dec)
         if all(e == 0 for e in d):
             return f"{head}: it does not enter the dynamics (its column of D is zero)"
         v = sp.Matrix(d)
@@ -282,3 +353,21 @@ class DiagnosisQuestions:
         return (f"{head}: every member {cond} has Φ D({f}) = 0, for every order k (D({f})"
                 f" lies in the smallest unobservability subspace containing Im L)"
                 ).replace("member  has", "member has")
+
+    def _reason_feedthrough(self, f, decoupled, head, dec) -> str:
+        d, dy = self.Dcol[f], self.Dycol[f]
+        if all(e == 0 for e in d) and all(e == 0 for e in dy):
+            return f"{head}: it enters neither the dynamics nor the outputs (D({f}) = 0," \
+                f" Dy({f}) = 0)"
+        L = self.L(decoupled, True)
+        Ly = sp.Matrix.hstack(self.Ly0, *[self.Dycol[g] for g in decoupled],
+                              sp.zeros(self.H.rows, len(self.hidden)))
+        col, cols = sp.Matrix.vstack(d, dy), sp.Matrix.vstack(L, Ly)
+        if cols.cols and exact_rank_value(sp.Matrix.hstack(cols, col)) == \
+                exact_rank_value(cols):
+            return (f"{head}: (D({f}); Dy({f})) is a combination of the columns of {dec}:"
+                    " the fault enters exactly as they do")
+        return (f"{head}: every residual generator with {dec or 'nothing'} decoupled"
+                f" (Φ L = J* Ly, R* Ly = 0) has R* Dy({f}) = 0 and Φ D({f}) = J* Dy({f}),"
+                " for every order k")
+

@@ -8,14 +8,14 @@ from pathlib import Path
 
 from ..errors import UsageError
 from ..progress import report
-from ._from_args import design_from_args, observer_options, refuse_failed, threshold_from_args
+from ._from_args import design_or_load, observer_options, refuse_failed, threshold_from_args
 
 __all__ = ["cmd_design", "cmd_codegen"]
 
 
 def cmd_design(args) -> int:
     from ..reporting import format_design, format_observer, format_observer_conditions
-    model, result = design_from_args(args)
+    model, result = design_or_load(args)
     if getattr(args, "isolate", False):
         return _cmd_bank(args, model, result)
     if args.observer == "drem":
@@ -90,7 +90,7 @@ def cmd_codegen(args) -> int:
         raise UsageError("codegen needs numeric parameters: drop --symbolic")
     if getattr(args, "fmi_version", None) is not None and not getattr(args, "fmu", False):
         raise UsageError("--fmi-version applies with --fmu")
-    model, result = design_from_args(args)
+    model, result = design_or_load(args, numeric=True)
     report("building the observer", stage=True)
     observer = build_observer(model, result, **observer_options(args, result))
     refuse_failed(observer)
@@ -118,7 +118,9 @@ def cmd_codegen(args) -> int:
     out = Path(args.out)
     fmu = None
     with staged_directory(out) as stage:  # the files together, or none changed
-        paths = export_observer(observer, stage, name=args.name, dt=dt, rule=rule)
+        from ..simulation import declared_envelope
+        paths = export_observer(observer, stage, name=args.name, dt=dt, rule=rule,
+                                envelope=declared_envelope(model))
         if getattr(args, "fmu", False):
             from ..codegen import export_fmu
             fmu = export_fmu(observer, stage, name=args.name, dt=dt, sample_time=sample_time,

@@ -9,7 +9,7 @@ from ..errors import UsageError
 from ..progress import report
 from ._parser import PROG
 
-__all__ = ["design_from_args", "observer_options", "threshold_from_args", "refuse_failed"]
+__all__ = ["design_or_load", "design_from_args", "observer_options", "threshold_from_args", "refuse_failed"]
 
 
 def design_from_args(args):
@@ -35,6 +35,151 @@ def design_from_args(args):
                                        else {"proof_seconds": args.proof_seconds}))
     _warn_conditioning(result)
     report(f"design done (k = {getattr(result, 'k', '?')})", stage=True)
+    return model, result
+
+
+def design_or_load(args, *, numeric: bool = False):
+    """``(model, design)`` for a command: designed from the options (:func:`design_from_args`),
+    or, with ``--design FILE``, the frozen design (or residual bank, or DREM design) in
+    FILE, loaded for the model, recomputed and compared, never believed
+    (:func:`observer_cad.analysis.load_design`). Design options given beside ``--design``
+    must agree with the file (one line naming the first that does not); options not given
+    are the file's. ``numeric``: a symbolic design file is refused (simulate, ensemble,
+    codegen). The one entry every command that runs an observer uses."""
+    path = getattr(args, "design", None)
+    if path is None:
+        return design_from_args(args)
+    from ..model import load_model
+    if getattr(args, "rtol", None) is not None and not (args.rtol > 0 and args.rtol < 1):
+        raise UsageError(f"--rtol {args.rtol}: a relative tolerance must lie in (0, 1)")
+    if args.observer == "drem":
+        return _drem_from_file(args, path)
+    report(f"reading the model {args.model}", stage=True)
+    model = _parse_bounds(load_model(args.model), getattr(args, "bound", None))
+    report(f"loading the design {path} (recomputed and compared)", stage=True)
+    from ..analysis import ResidualBank, load_design
+    result = load_design(path, model)
+    bank = isinstance(result, ResidualBank)
+    _agree(args, path, result, bank)
+    if numeric and (result.designs[0].symbolic if bank else result.symbolic):
+        raise UsageError(f"design file {path}: a symbolic design has no numeric observer:"
+                         f" design without --symbolic")
+    args.isolate = bank  # what the file is decides (the commands read these two)
+    args.symbolic = result.designs[0].symbolic if bank else result.symbolic
+    if not bank:
+        _warn_conditioning(result)
+        _check_observer_conditions(args, path, model, result)
+    report("design loaded", stage=True)
+    return model, result
+
+
+def _check_observer_conditions(args, path, model, result) -> None:
+    """A file written by ``design --json`` records its observer's conditions: they are
+    recomputed by building the observer (with this command's --gain) and compared, the
+    required ones by name and verdict, the others by name."""
+    from ..files import read_json_file
+    recorded = read_json_file(path, "design").get("observer_conditions")
+    if recorded is None or result.symbolic or result.approximate:
+        return
+    from ..observers import build_observer
+    observer = build_observer(model, result, **observer_options(args, result))
+    mine = {c.name: c for c in observer.own_conditions}
+    if not isinstance(recorded, list) or not all(isinstance(c, dict) for c in recorded):
+        raise UsageError(f"design file {path}: the recorded observer_conditions are not a list"
+                         " of objects")
+    names = [c.get("name") for c in recorded]
+    for c in recorded:
+        own = mine.get(c.get("name"))
+        if own is None:
+            raise UsageError(f"design file {path}: the recorded observer condition"
+                             f" {str(c.get('name'))[:80]!r} is not one building the observer"
+                             " gives (refused, never believed)")
+        if own.required and c.get("holds") is not bool(own.holds):
+            raise UsageError(f"design file {path}: the recorded observer condition"
+                             f" {own.name!r} says holds = {c.get('holds')!r}, recomputed"
+                             f" {bool(own.holds)} (refused, never believed)")
+    missing = [n for n in mine if n not in names]
+    if missing:
+        raise UsageError(f"design file {path}: the recorded observer_conditions lack"
+                         f" {missing[0]!r} (refused, never believed)")
+
+
+def _given(args, name, default) -> bool:
+    return getattr(args, name, default) not in (default, None, [], ())
+
+
+def _agree(args, path, result, bank: bool) -> None:
+    """Each design option given beside --design agrees with the file's design."""
+    def refuse(option, mine, theirs):
+        raise UsageError(f"--design {path}: {option} {mine} does not agree with the file"
+                         f" ({theirs}); drop {option} or design again")
+    kind = "diagnostic" if bank else result.observer.value
+    if args.observer != kind:
+        refuse("--observer", args.observer, kind)
+    if bank:
+        faults, dist = list(result.faults), list(result.disturbances)
+        req = result.designs[0].request
+        if _given(args, "structure", None):
+            from ..analysis import parse_structure
+            rows = parse_structure(args.structure, result.faults)
+            if rows != result.structure_matrix:
+                refuse("--structure", args.structure, ",".join(
+                    "".join(map(str, r)) for r in result.structure_matrix))
+    else:
+        req = result.request
+        faults, dist = list(req.faults), list(req.disturbances)
+        if getattr(args, "isolate", False) or _given(args, "structure", None):
+            refuse("--isolate" if getattr(args, "isolate", False) else "--structure",
+                   "(a bank)", "a single design")
+    if _given(args, "fault", []) and sorted(args.fault) != sorted(faults):
+        refuse("--fault", ",".join(args.fault), ",".join(faults) or "none")
+    if _given(args, "disturbance", []) and sorted(args.disturbance) != sorted(dist):
+        refuse("--disturbance", ",".join(args.disturbance), ",".join(dist) or "none")
+    for option, name, default, theirs in (
+            ("--form", "form", None, req.form), ("--variant", "variant", "plain", req.variant),
+            ("--method", "method", "auto", req.method), ("--robust", "robust", False, req.robust),
+            ("--symbolic", "symbolic", False, req.symbolic), ("--rtol", "rtol", None, req.rtol)):
+        if _given(args, name, default) and getattr(args, name) != theirs:
+            refuse(option, getattr(args, name), theirs)
+    if _given(args, "estimate", None) and "".join(args.estimate.split()) != "".join(
+            str(req.estimate or "").split()):
+        refuse("--estimate", args.estimate, req.estimate)
+    for option, name, theirs in (("--lambda", "lambdas", req.lambdas),
+                                 ("--eigenvalues", "eigenvalues", req.eigenvalues)):
+        if _given(args, name, None) and not _same_values(getattr(args, name), theirs, option):
+            refuse(option, " ".join(getattr(args, name)), " ".join(map(str, theirs or ())))
+    if _given(args, "proof_seconds", None):
+        from ..synthesis.jordan import proof_seconds_value
+        if proof_seconds_value(args.proof_seconds) != req.proof_seconds:
+            refuse("--proof-seconds", args.proof_seconds, req.proof_seconds)
+
+
+def _same_values(texts, values, option) -> bool:
+    from ..model import parse_number
+    if values is None or len(texts) != len(values):
+        return False
+    return all(parse_number(t, where=option) == v for t, v in zip(texts, values))
+
+
+def _drem_from_file(args, path):
+    """A frozen DREM design: its recorded choice designed again and compared
+    (:meth:`DremDesign.from_json`); --gamma, --poles, --include-epsilon must agree."""
+    from ..files import read_json_file
+    from ..observers import DremDesign, load_drem
+    model, spec = load_drem(args.model)
+    data = read_json_file(path, "design")
+    if not isinstance(data, dict) or "model_hash" not in data:
+        raise UsageError(f"design file {path}: not a DREM design with a 'model_hash' (the"
+                         " structure of the model it was made for): design again")
+    try:
+        result = DremDesign.from_json(data, model, spec)
+    except UsageError as exc:
+        raise UsageError(f"design file {path}: {exc}") from None
+    _, fresh = _drem_from_args(args) if (args.gamma is not None or args.poles
+                                         or args.include_epsilon) else (None, None)
+    if fresh is not None and fresh.to_json(equations=False) != result.to_json(equations=False):
+        raise UsageError(f"--design {path}: --gamma, --poles or --include-epsilon do not agree"
+                         " with the file; drop them or design again")
     return model, result
 
 

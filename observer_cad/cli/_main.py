@@ -1,4 +1,4 @@
-"""Command-line interface: ``observer-cad show|design|simulate|ensemble|codegen|analyze|demo``.
+"""Command-line interface: ``observer-cad show|design|simulate|ensemble|monitor|codegen|analyze|demo``.
 
 Every user error prints one line ``observer-cad: error: ...`` on stderr and exits with
 status 2; a simulation that produced a value that is not finite (NaN, ±inf) exits with
@@ -8,7 +8,7 @@ This module runs a command and turns its failures into those lines and exit stat
 The rooms: the parser in ``_parser``; what the options ask for (model, design, observer,
 threshold) in ``_from_args``; the commands by family — ``show`` and ``analyze`` in
 ``_model_commands``, ``design`` and ``codegen`` in ``_design_commands``, ``simulate`` and
-``ensemble`` in ``_run_commands``, ``demo`` in ``_demo_command``.
+``ensemble`` in ``_run_commands``, ``monitor`` in ``_monitor_command``, ``demo`` in ``_demo_command``.
 """
 from __future__ import annotations
 
@@ -19,6 +19,7 @@ from ..progress import reporting
 from ._demo_command import cmd_demo
 from ._design_commands import cmd_codegen, cmd_design
 from ._model_commands import cmd_analyze, cmd_show
+from ._monitor_command import cmd_monitor
 from ._parser import PROG, build_parser
 from ._run_commands import cmd_ensemble, cmd_simulate
 
@@ -53,7 +54,7 @@ def _main(argv=None) -> int:
             return 2
         run = {"show": cmd_show, "design": cmd_design, "simulate": cmd_simulate,
                "codegen": cmd_codegen, "analyze": cmd_analyze, "ensemble": cmd_ensemble,
-               "demo": cmd_demo}[args.command]
+               "monitor": cmd_monitor, "demo": cmd_demo}[args.command]
         if args.command == "demo":  # the demo prints its own progress
             return run(args)
         with reporting():  # stage lines on stderr after 2 s, on a terminal (progress.py)

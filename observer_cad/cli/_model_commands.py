@@ -26,7 +26,8 @@ def cmd_analyze(args) -> int:
     from ..analysis import analyze
     result = analyze(load_model(args.model), faults=args.fault or None,
                      disturbances=args.disturbance, candidates=args.candidate,
-                     symbolic=args.symbolic, method=args.method, rtol=args.rtol)
+                     symbolic=args.symbolic, method=args.method, rtol=args.rtol,
+                     frequencies=args.frequency if args.frequency is not None else (0,))
     if args.json:
         print(json.dumps(analysis_to_json(result), indent=2))
     else:

@@ -57,8 +57,8 @@ def build_parser() -> argparse.ArgumentParser:
                    help="print the version and exit")
     sub = p.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser,
                            required=True)
-    for add in (_add_show, _add_design, _add_simulate, _add_ensemble, _add_codegen, _add_analyze,
-                _add_demo):
+    for add in (_add_show, _add_design, _add_simulate, _add_ensemble, _add_monitor, _add_codegen,
+                _add_analyze, _add_demo):
         add(sub)
     return p
 
@@ -151,6 +151,43 @@ def _add_ensemble(sub) -> None:
     _add_threshold_options(en, quantile=True)
 
 
+def _add_monitor(sub) -> None:
+    """``monitor``: the observer over recorded data (a file, or rows on stdin)."""
+    mo = sub.add_parser("monitor", help="run the observer (and its threshold) over recorded data",
+                        description="Design the observer and run it over recorded data: a CSV "
+                                    "(or Parquet, with pyarrow) with a time column t and one "
+                                    "column per input and output the observer reads (u, y1, ...). "
+                                    "Writes DIR/monitor.csv (t, the signals, the observer's "
+                                    "outputs, alarm and diagnosis with a threshold, in_bounds) and "
+                                    "DIR/monitor.png. Continuous time: the discrete algorithm of "
+                                    "the exported C at the data's sample time, inputs held (ZOH).")
+    mo.add_argument("model", metavar="MODEL", help="path to a model file")
+    _add_design_options(mo)
+    mo.add_argument("--data", metavar="FILE", required=True,
+                    help="the recorded data (CSV, or .parquet with pyarrow); '-' reads CSV rows"
+                         " from stdin as they arrive and prints each change of alarm or"
+                         " diagnosis at once")
+    mo.add_argument("--out", metavar="DIR", required=True, help="output directory")
+    mo.add_argument("--column", metavar="SIGNAL=NAME", action="append", default=[],
+                    help="the column NAME holds the signal SIGNAL (e.g. y1=angle; repeatable;"
+                         " t=time for the time column)")
+    mo.add_argument("--sample-time", metavar="H", type=_positive_float("--sample-time"),
+                    default=None,
+                    help="discrete-time models: the interval of t between two steps (default 1:"
+                         " t counts the steps)")
+    mo.add_argument("--initial", metavar="NAME=VALUE", action="append", default=[],
+                    help="a plant state the observer's initial state depends on (default 0, as"
+                         " the exported C), or an observer state (repeatable)")
+    mo.add_argument("--engine", choices=["compiled", "reference"], default="compiled",
+                    help="compiled: the exported C step in a compiled loop (cached; without a"
+                         " C compiler the reference is used, with a warning); reference: Python"
+                         " (default compiled)")
+    _add_threshold_options(mo, quantile=False)
+    mo.add_argument("--persistence", metavar="N", type=_positive_int("--persistence"), default=1,
+                    help="alarm when a residual is outside its band for N consecutive samples"
+                         " (default 1)")
+
+
 def _add_codegen(sub) -> None:
     """``codegen``: the observer as standalone C."""
     cg = sub.add_parser("codegen", help="export the observer as standalone C",
@@ -202,6 +239,10 @@ def _add_analyze(sub) -> None:
                          "states for numeric models)")
     an.add_argument("--rtol", type=float, default=None,
                     help="relative rank tolerance of the float path (default 1e-9)")
+    an.add_argument("--frequency", metavar="W", action="append", default=None,
+                    help="a frequency ω for strong detectability (repeatable; rad per time "
+                         "unit, per sample in discrete time; default 0: the steady-state "
+                         "gain): a residual's gain to the fault must be nonzero at every ω")
     an.add_argument("--json", action="store_true", help="print one JSON object instead of text")
 
 
@@ -287,6 +328,12 @@ def _add_design_options(p) -> None:
                         "above 20 states for numeric models)")
     p.add_argument("--rtol", type=float, default=None,
                    help="relative rank tolerance of the float path (default 1e3·eps·size)")
+    p.add_argument("--design", metavar="FILE", default=None,
+                   help="use the frozen design in FILE (written by 'design --json' or"
+                        " write_design_json; a single design, a residual bank or a DREM design)"
+                        " instead of designing: it is loaded for MODEL, whose structure must"
+                        " be the one it was made for, and everything it reports is recomputed"
+                        " and compared; design options given beside it must agree with it")
     p.add_argument("--proof-seconds", metavar="S", default=None,
                    help="Jordan form: time budget of the proof that k is minimal (default 2; "
                         "'exhaustive' runs it to the end; when it runs out the condition gives "

@@ -8,7 +8,7 @@ from pathlib import Path
 
 from ..errors import UsageError
 from ..progress import report
-from ._from_args import design_from_args, observer_options, refuse_failed, threshold_from_args
+from ._from_args import design_or_load, observer_options, refuse_failed, threshold_from_args
 from ._parser import PROG
 
 __all__ = ["cmd_simulate", "cmd_ensemble", "CALIBRATION_OFFSET"]
@@ -21,7 +21,7 @@ def cmd_simulate(args) -> int:
     if args.symbolic:
         raise UsageError("simulate needs numeric parameters: drop --symbolic")
     scenario = load_scenario(args.scenario)  # validated before the design's work
-    model, result = design_from_args(args)
+    model, result = design_or_load(args, numeric=True)
     report("building the observer", stage=True)
     observer = build_observer(model, result, **observer_options(args, result))
     refuse_failed(observer)
@@ -35,7 +35,7 @@ def cmd_simulate(args) -> int:
         from ..reporting import with_decisions
         rule = decision_rule(model, result, persistence=args.persistence)
         decisions = decide(rule, res.columns)
-        written = with_decisions(res, decisions)
+        written, out_of_bounds = _with_bounds(model, with_decisions(res, decisions))
     elif args.persistence != 1:
         raise UsageError("--persistence applies with --threshold")
     from ..files import staged_directory
@@ -60,6 +60,7 @@ def cmd_simulate(args) -> int:
     print("\n".join(lines))
     if decisions is not None:
         _print_evaluation(model, observer, res, decisions)
+        _warn_bounds(written, out_of_bounds)
     if res.nonfinite is not None:
         print(f"{PROG}: warning: {res.nonfinite} (kept in the CSV as nan/inf)", file=sys.stderr)
         return 4
@@ -105,6 +106,34 @@ def _simulate_with_engine(args, model, observer, scenario):
         else:
             return sim.simulate(scenario, **kw), "compiled C" + (" (cache hit)" if sim.cached else "")
     return simulate(model, observer, scenario, **kw), "reference simulator (numpy)"
+
+
+def _with_bounds(model, res):
+    """(the result with ``in_bounds`` appended — 1 while every disturbance, noise and
+    bounded input the scenario drew lies in its declared range —, the first violation
+    ``(index, name, value, low, high)`` or None)."""
+    import dataclasses
+    import numpy as np
+    from ..simulation import bounds_check, declared_signal_bounds
+    n = int(np.asarray(res["t"]).size)
+    ok, first = bounds_check(declared_signal_bounds(model), res.columns, n)
+    cols = dict(res.columns)
+    cols["in_bounds"] = ok.astype(np.int64)
+    return dataclasses.replace(res, columns=cols, order=tuple(res.order) + ("in_bounds",)), first
+
+
+def _warn_bounds(res, first) -> None:
+    """One stderr line when the scenario left the declared bounds: the first time, the
+    signal, its range, how many samples."""
+    import numpy as np
+    if first is None:
+        return
+    k, name, v, lo, hi = first
+    bad = int(np.sum(np.asarray(res["in_bounds"]) == 0))
+    t = float(np.asarray(res["t"])[k])
+    print(f"{PROG}: warning: the scenario leaves the declared bounds at t = {t:g} ({name} ="
+          f" {v:g} outside [{lo:g}, {hi:g}]); {bad} of {np.asarray(res['t']).size} samples out"
+          " (in_bounds = 0): the threshold's guarantee does not hold there", file=sys.stderr)
 
 
 def _print_evaluation(model, observer, res, decisions) -> None:
@@ -181,7 +210,7 @@ def _backend(args):
 def _ensemble_observer(args, scenario) -> tuple:
     """(model, observer with its threshold, decision rule or None) of the ensemble."""
     from ..observers import build_observer
-    model, result = design_from_args(args)
+    model, result = design_or_load(args, numeric=True)
     report("building the observer", stage=True)
     observer = build_observer(model, result, **observer_options(args, result))
     refuse_failed(observer)

@@ -17,6 +17,7 @@ from ._decide_c import (DecisionSources)
 from ._export import (export_observer, export_sources, ExportedSources, EXAMPLE_FLAGS, silence_unused_parameters)
 from ._trajectory import (CompiledSimulator, simulate_compiled)
 from ._translate import (to_casadi, Translator, observer_step, plant_step, joint_step, describe, split_signals, rk4, zoh_matrices)
+from ._monitor_engine import (CompiledMonitorEngine)
 from ._library import (LibrarySpec, library_spec, load_library, loaded_libraries)
 from ._fmu import (export_fmu, FmuExport, FmuVariable, fmi_variable_name)
 from ._replay import (reference_run, fmu_samples, compare_columns, ColumnComparison, read_csv_columns)
@@ -31,5 +32,5 @@ __all__ = [
     "describe", "split_signals", "rk4", "zoh_matrices", "LibrarySpec", "library_spec",
     "load_library", "loaded_libraries", "export_fmu", "FmuExport", "FmuVariable",
     "fmi_variable_name", "reference_run", "fmu_samples", "compare_columns", "ColumnComparison",
-    "read_csv_columns"
+    "read_csv_columns", "CompiledMonitorEngine"
 ]

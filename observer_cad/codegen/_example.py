@@ -1,8 +1,12 @@
 """The example program of the standalone C export: ``NAME_example.c``.
 
-It reads a recorded input CSV (a header row; the observer's signals found by column name),
-steps the observer from its initial state and prints the states and outputs of every
-step as CSV (``%.17g``); with a decision rule, the alarms and the diagnosis after them.
+It reads a recorded input CSV (a header row; ``t`` and the observer's signals found by
+column name — the file ``observer-cad monitor --data`` reads), steps the observer from its
+initial state and prints, per row, the columns of ``monitor.csv``: ``t``, the signals, the
+observer's outputs, with a decision rule ``alarm`` and ``diagnosis``, then ``in_bounds``
+(numbers ``%.17g``). With the argument ``trace`` it prints instead the step number, the
+states before the step and the outputs, and with a rule ``<r>_alarm``, ``alarm``,
+``diagnosis_code`` and ``diagnosis`` (``t`` is then not needed).
 The C is assembled from its parts in source order: the preamble (usage comment,
 includes, the signal names), the helpers (line reader, list parser), the start of
 ``main`` (declarations, options, the work-vector check), reading the input's header,
@@ -10,26 +14,87 @@ and the steps.
 """
 from __future__ import annotations
 
+import math
+
+from ..simulation import monitor_signal_columns
 from ._ctext import c_comment, c_string
 
 __all__ = ["example_source"]
 
 
-def example_source(name, observer, h_arg, ys, us, xs, outs, dec=None) -> str:
+def example_source(name, observer, h_arg, ys, us, xs, outs, dec=None, envelope=None,
+                   dt=None) -> str:
     """The text of ``NAME_example.c`` for ``observer`` (``h_arg``: the step size is an
     argument; ``ys``, ``us``: the signals; ``xs``, ``outs``: the states' and outputs'
-    names; ``dec``: the :class:`~observer_cad.codegen.DecisionSources` of a rule, or None)."""
+    names; ``dec``: the :class:`~observer_cad.codegen.DecisionSources` of a rule, or None;
+    ``envelope``: signal name → (low, high), the declared ranges ``in_bounds`` checks;
+    ``dt``: the baked-in step size of a continuous-time observer, which the data's sample
+    time must equal)."""
     N = name
     sig = [str(s) for s in ys] + [str(s) for s in us]
     extra = dec.input_columns if dec is not None else []
     dec_decl, dec_head, dec_step, dec_doc = _decision_parts(N, dec)
     usage = (f"usage: {N}_example INPUT.csv" + (" dt=H" if h_arg else "")
-             + " [x0=v1,...] [p=v1,...]")
+             + " [x0=v1,...] [p=v1,...] [trace]")
     dt_decl, dt_opt, dt_check, h_set = _step_size_parts(h_arg)
-    sig_items = ", ".join([c_string(s) for s in sig + extra] + ["0"])
-    return (_preamble(N, observer, h_arg, sig, xs, outs, len(extra), sig_items, dec_doc)
+    sig_items = ", ".join([c_string(s) for s in sig + extra + ["t"]] + ["0"])
+    return (_preamble(N, observer, h_arg, sig, xs, outs, len(extra), sig_items, dec_doc,
+                      _monitor_tables(observer, sig, envelope or {}))
             + _HELPERS + _main_start(N, usage, dt_decl, dec_decl, dt_opt, dt_check)
-            + _READ_HEADER + _steps(N, h_set, dec_head, dec_step))
+            + _READ_HEADER + _steps(N, h_set, dec_head, dec_step,
+                                    _time_check(observer.time == "continuous", h_arg, dt)))
+
+
+def _time_check(continuous: bool, h_arg: bool, dt) -> str:
+    """The monitor format's checks of t per row: increasing, regular (every interval the
+    first within 0.1 %) and, in continuous time, the first interval equal to the step
+    size (within 0.1 %) — the checks of ``observer-cad monitor``."""
+    step = ""
+    if continuous:
+        h = "h" if h_arg else repr(float(dt))
+        step = f"""      if (step == 1 && fabs(h_t - {h}) > 1e-3 * {h}) {{
+        fprintf(stderr, "%s: %s line %ld: the sample time %.10g is not the step size %.10g"
+                " of this observer (export it with dt = the data's sample time)\\n", argv[0],
+                argv[1], lineno, h_t, (double){h});
+        status = 2;
+        break;
+      }}
+"""
+    return """    if (!trace) {
+      if (step == 1) h_t = v[TCOL] - t_prev;
+      if (step >= 1 && !(v[TCOL] > t_prev)) {
+        fprintf(stderr, "%s: %s line %ld: t does not increase\\n", argv[0], argv[1], lineno);
+        status = 2;
+        break;
+      }
+      if (step >= 1 && fabs(v[TCOL] - t_prev - h_t) > 1e-3 * h_t) {
+        fprintf(stderr, "%s: %s line %ld: t is not regular (the interval differs from the"
+                " first, %.10g, by more than 0.1 %%)\\n", argv[0], argv[1], lineno, h_t);
+        status = 2;
+        break;
+      }
+""" + step + """      t_prev = v[TCOL];
+    }
+"""
+
+
+def _c_double(v: float) -> str:
+    if math.isinf(v):
+        return "INFINITY" if v > 0 else "-INFINITY"
+    return repr(float(v))
+
+
+def _monitor_tables(observer, sig: list, envelope) -> str:
+    """The monitor format's tables: the order the signals are printed in (that of
+    ``monitor.csv``) and their declared ranges (±INFINITY: none)."""
+    order = [sig.index(c) for c in monitor_signal_columns(observer)]
+    lo = [_c_double(float(envelope[c][0])) if c in envelope else "-INFINITY" for c in sig]
+    hi = [_c_double(float(envelope[c][1])) if c in envelope else "INFINITY" for c in sig]
+    pad = lambda xs: ", ".join(xs) if xs else "0"  # noqa: E731 - C needs a non-empty list
+    return (f"static const int print_order[ASIZE(NSIG)] = {{{pad([str(i) for i in order])}}};\n"
+            f"/* declared ranges of the signals (in_bounds): the model's envelope */\n"
+            f"static const double env_lo[ASIZE(NSIG)] = {{{pad(lo)}}};\n"
+            f"static const double env_hi[ASIZE(NSIG)] = {{{pad(hi)}}};\n\n")
 
 
 def _decision_parts(N: str, dec) -> tuple:
@@ -41,19 +106,27 @@ def _decision_parts(N: str, dec) -> tuple:
     dec_decl = (f"  double rr[{N}_NRES], lo[{N}_NRES], hi[{N}_NRES];\n"
                 f"  int counters[{N}_NRES], alarms[{N}_NRES], code = 0;\n")
     dec_head = (f"  for (i = 0; i < {N}_NRES; ++i) counters[i] = 0;\n"
-                f"  for (i = 0; i < {N}_NRES; ++i) printf(\",%s_alarm\", {N}_residual_names[i]);\n"
-                "  printf(\",alarm,diagnosis_code,diagnosis\");\n")
+                "  if (trace) {\n"
+                f"    for (i = 0; i < {N}_NRES; ++i) printf(\",%s_alarm\", {N}_residual_names[i]);\n"
+                "    printf(\",alarm,diagnosis_code,diagnosis\");\n"
+                "  } else {\n"
+                "    printf(\",alarm,diagnosis\");\n"
+                "  }\n")
     lines = []
     for i, (ri, (lo, hi)) in enumerate(zip(dec.residual_index, dec.thresholds)):
         src = [f"out[{v}]" if k == "out" else f"v[NSIG + {extra.index(v)}]" for k, v in (lo, hi)]
         lines.append(f"    rr[{i}] = out[{ri}]; lo[{i}] = {src[0]}; hi[{i}] = {src[1]};")
     dec_step = ("\n".join(lines) + "\n"
                 f"    code = {N}_decide(rr, lo, hi, counters, alarms);\n"
-                f"    for (i = 0; i < {N}_NRES; ++i) printf(\",%d\", alarms[i]);\n"
-                f"    printf(\",%d,%d,\\\"%s\\\"\", code != 0, code, {N}_diagnosis_text[code]);\n")
-    dec_doc = (f" * Decisions ({N}_decide): after the outputs, <r>_alarm per residual, alarm"
-               " (any), diagnosis_code and\n"
-               " * diagnosis (quoted text); thresholds that are not observer outputs are read"
+                "    if (trace) {\n"
+                f"      for (i = 0; i < {N}_NRES; ++i) printf(\",%d\", alarms[i]);\n"
+                f"      printf(\",%d,%d,\\\"%s\\\"\", code != 0, code, {N}_diagnosis_text[code]);\n"
+                "    } else {\n"
+                f"      printf(\",%d,%s\", code != 0, {N}_diagnosis_text[code]);\n"
+                "    }\n")
+    dec_doc = (f" * Decisions ({N}_decide): after the outputs, alarm (any) and diagnosis (text);"
+               " with trace\n * <r>_alarm per residual, alarm, diagnosis_code and diagnosis"
+               " (quoted text); thresholds that are not observer outputs are read"
                " from the input columns\n"
                f" *   {', '.join(extra) or '(none: all are outputs)'} (an empty cell is NaN:"
                " not out).\n")
@@ -84,7 +157,7 @@ def _step_size_parts(h_arg: bool) -> tuple:
 
 
 def _preamble(N: str, observer, h_arg: bool, sig: list, xs: list, outs: list, nextra: int,
-              sig_items: str, dec_doc: str) -> str:
+              sig_items: str, dec_doc: str, tables: str) -> str:
     """The usage comment, the includes, the sizes and the signal names."""
     dt_doc = "; dt= gives the RK4 step size" if h_arg else ""
     oname = c_comment(observer.name)
@@ -93,12 +166,15 @@ def _preamble(N: str, observer, h_arg: bool, sig: list, xs: list, outs: list, ne
  * Build:  cc -std=c99 -Wall -Wextra -Werror {N}.c {N}_example.c -lm -o {N}_example
  * Run:    ./{N}_example INPUT.csv{' dt=H' if h_arg else ''} [x0=v1,...] [p=v1,...] > OUTPUT.csv
  *
- * INPUT.csv: a header row, then one row per step.  The observer's signals
+ * INPUT.csv: a header row, then one row per step (the file observer-cad monitor --data
+ * reads).  The time t and the observer's signals
  *   {', '.join(sig) or '(none)'}
- * are found by column name (any order; other columns, e.g. a simulator's t or states, are
- * ignored).  Output on stdout, CSV: step, the observer states before the step
- * ({', '.join(xs)}), and the outputs at that state ({c_comment(', '.join(outs))}),
- * every number printed with %.17g (doubles round-trip exactly).
+ * are found by column name (any order; other columns, e.g. a simulator's states, are
+ * ignored).  Output on stdout, CSV, the columns of observer-cad monitor's monitor.csv:
+ * t, the signals, the outputs ({c_comment(', '.join(outs))}), with decisions alarm and
+ * diagnosis, then in_bounds (1 while every signal lies in its declared range); every number
+ * printed with %.17g (doubles round-trip exactly).  With trace (t then optional): step,
+ * the observer states before the step ({', '.join(xs)}) and the outputs at that state.
  * x0= overrides the initial state {N}_x0, p= the parameters {N}_p_default{dt_doc}.
  * Exit status: 0 ok, 1 the step function failed or out of memory, 2 bad input or usage.
 {dec_doc} */
@@ -111,11 +187,11 @@ def _preamble(N: str, observer, h_arg: bool, sig: list, xs: list, outs: list, ne
 
 #define NSIG ({N}_NY + {N}_NU)
 #define NREAD (NSIG + {nextra})   /* signals, then threshold columns read from the input */
+#define TCOL NREAD                /* then the time t */
 #define ASIZE(n) ((n) > 0 ? (n) : 1)
 
-static const char* const sig_names[NREAD + 1] = {{{sig_items}}};
-
-"""
+static const char* const sig_names[NREAD + 2] = {{{sig_items}}};
+{tables}"""
 
 
 #: line reader, blank-line test and list parser of the example (fixed text)
@@ -184,10 +260,12 @@ def _main_start(N: str, usage: str, dt_decl: str, dec_decl: str, dt_opt: str,
   FILE* fp;
   char* line;
   int oom = 0, status = 0, ncol = 0, i, j, a, mem = -1;
-  int col_of[ASIZE(NREAD)];
+  int col_of[NREAD + 1];
   int* sig_of_col = NULL;
   long lineno = 1, step = 0;
-  double v[ASIZE(NREAD)];
+  int trace = 0, need = NREAD, ok = 1;
+  double t_prev = 0.0, h_t = 0.0;
+  double v[NREAD + 1];
   double x[ASIZE({N}_NX)], xn[ASIZE({N}_NX)], out[ASIZE({N}_NOUT)], p[ASIZE({N}_NP)];
 {dt_decl}{dec_decl}  const casadi_real* arg[ASIZE({N}_SZ_ARG)];
   casadi_real* res[ASIZE({N}_SZ_RES)];
@@ -212,7 +290,9 @@ def _main_start(N: str, usage: str, dt_decl: str, dec_decl: str, dt_opt: str,
         fprintf(stderr, "%s: p= needs %d comma-separated numbers\\n", argv[0], {N}_NP);
         return 2;
       }}
-{dt_opt}    }} else {{
+{dt_opt}    }} else if (strcmp(argv[a], "trace") == 0) {{
+      trace = 1;
+    }} else {{
       fprintf(stderr, "%s: unknown argument '%s'\\n{usage}\\n", argv[0], argv[a]);
       return 2;
     }}
@@ -241,7 +321,7 @@ _READ_HEADER = """  fp = fopen(argv[1], "r");
     fclose(fp);
     return oom ? 1 : 2;
   }
-  for (j = 0; j < NREAD; ++j) col_of[j] = -1;
+  for (j = 0; j <= NREAD; ++j) col_of[j] = -1;
   {
     char* s = line;
     for (ncol = 0;; ++ncol) {
@@ -252,7 +332,7 @@ _READ_HEADER = """  fp = fopen(argv[1], "r");
       t = s + strlen(s);
       while (*b == ' ' || *b == '\\t' || *b == '"') ++b;
       while (t > b && (t[-1] == ' ' || t[-1] == '\\t' || t[-1] == '"')) *--t = '\\0';
-      for (j = 0; j < NREAD; ++j)
+      for (j = 0; j <= NREAD; ++j)
         if (col_of[j] < 0 && strcmp(b, sig_names[j]) == 0) col_of[j] = ncol;
       if (e == NULL) break;
       s = e + 1;
@@ -260,13 +340,14 @@ _READ_HEADER = """  fp = fopen(argv[1], "r");
     ++ncol;
   }
   free(line);
-  for (j = 0; j < NREAD; ++j) {
-    if (col_of[j] < 0) {
+  for (j = 0; j <= NREAD; ++j) {
+    if (col_of[j] < 0 && (j < NREAD || !trace)) {
       fprintf(stderr, "%s: %s has no column '%s'\\n", argv[0], argv[1], sig_names[j]);
       fclose(fp);
       return 2;
     }
   }
+  if (col_of[TCOL] >= 0) need = NREAD + 1;
   sig_of_col = (int*)malloc(sizeof(int) * (size_t)ncol);
   if (sig_of_col == NULL) {
     fprintf(stderr, "%s: out of memory\\n", argv[0]);
@@ -274,12 +355,13 @@ _READ_HEADER = """  fp = fopen(argv[1], "r");
     return 1;
   }
   for (i = 0; i < ncol; ++i) sig_of_col[i] = -1;
-  for (j = 0; j < NREAD; ++j) sig_of_col[col_of[j]] = j;
+  for (j = 0; j <= NREAD; ++j)
+    if (col_of[j] >= 0) sig_of_col[col_of[j]] = j;
 
 """
 
 
-def _steps(N: str, h_set: str, dec_head: str, dec_step: str) -> str:
+def _steps(N: str, h_set: str, dec_head: str, dec_step: str, t_check: str) -> str:
     """The step function's arguments, the output header, one step per input row, and
     the clean-up."""
     return f"""  for (i = 0; i < ASIZE({N}_SZ_ARG); ++i) arg[i] = 0;
@@ -292,10 +374,16 @@ def _steps(N: str, h_set: str, dec_head: str, dec_step: str) -> str:
   res[1] = out;
   mem = {N}_checkout();
 
-  printf("step");
-  for (i = 0; i < {N}_NX; ++i) printf(",%s", {N}_x_names[i]);
+  if (trace) {{
+    printf("step");
+    for (i = 0; i < {N}_NX; ++i) printf(",%s", {N}_x_names[i]);
+  }} else {{
+    printf("t");
+    for (i = 0; i < NSIG; ++i) printf(",%s", sig_names[print_order[i]]);
+  }}
   for (i = 0; i < {N}_NOUT; ++i) printf(",%s", {N}_out_names[i]);
-{dec_head}  printf("\\n");
+{dec_head}  if (!trace) printf(",in_bounds");
+  printf("\\n");
 
   while ((line = read_line(fp, &oom)) != NULL) {{
     char* s = line;
@@ -312,7 +400,7 @@ def _steps(N: str, h_set: str, dec_head: str, dec_step: str) -> str:
         char* end;
         double val = strtod(s, &end);
         while (*end == ' ' || *end == '\\t') ++end;
-        int empty = sig_of_col[col] >= NSIG && blank(s);
+        int empty = sig_of_col[col] >= NSIG && sig_of_col[col] < NREAD && blank(s);
         if (empty) val = NAN;   /* an empty threshold cell: not available (NaN) */
         if (!empty && (end == s || *end != '\\0')) {{
           fprintf(stderr, "%s: %s line %ld: column '%s' is not a number\\n", argv[0], argv[1],
@@ -328,20 +416,31 @@ def _steps(N: str, h_set: str, dec_head: str, dec_step: str) -> str:
     }}
     free(line);
     if (status) break;
-    if (seen != NREAD) {{
+    if (seen != need) {{
       fprintf(stderr, "%s: %s line %ld: too few columns\\n", argv[0], argv[1], lineno);
       status = 2;
       break;
     }}
-    if ({N}(arg, res, iw, w, mem) != 0) {{
+{t_check}    if ({N}(arg, res, iw, w, mem) != 0) {{
       fprintf(stderr, "%s: the step function failed at step %ld\\n", argv[0], step);
       status = 1;
       break;
     }}
-    printf("%ld", step);
-    for (i = 0; i < {N}_NX; ++i) printf(",%.17g", x[i]);
+    if (trace) {{
+      printf("%ld", step);
+      for (i = 0; i < {N}_NX; ++i) printf(",%.17g", x[i]);
+    }} else {{
+      printf("%.17g", v[TCOL]);
+      for (i = 0; i < NSIG; ++i) printf(",%.17g", v[print_order[i]]);
+    }}
     for (i = 0; i < {N}_NOUT; ++i) printf(",%.17g", out[i]);
-{dec_step}    printf("\\n");
+{dec_step}    if (!trace) {{
+      ok = 1;
+      for (i = 0; i < NSIG; ++i)
+        if (!(v[i] >= env_lo[i] && v[i] <= env_hi[i])) ok = 0;
+      printf(",%d", ok);
+    }}
+    printf("\\n");
     for (i = 0; i < {N}_NX; ++i) x[i] = xn[i];
     ++step;
   }}

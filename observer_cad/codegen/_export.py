@@ -184,13 +184,14 @@ def _double_array(cname, vals):
 def export_sources(observer: Observer, *, name: str | None = None, dt: float | None = None,
                    initial: Mapping | None = None,
                    discretisation: str = "rk4",
-                   rule: DecisionRule | None = None) -> ExportedSources:
+                   rule: DecisionRule | None = None,
+                   envelope: Mapping | None = None) -> ExportedSources:
     """The text of the three files (nothing written); see :func:`export_observer`."""
     name, dt = _checked_options(observer, name, dt, discretisation)
     parts = _parts(observer, name, dt, discretisation, initial, rule)
     c_text, h_text = _c_source(parts), _header_source(parts)
     ex_text = example_source(name, observer, parts.h_arg, parts.ys, parts.us, parts.xs,
-                             parts.outs, parts.dec)
+                             parts.outs, parts.dec, envelope=envelope, dt=parts.dt)
     return ExportedSources(name, parts.f, c_text, h_text, ex_text, parts.x0, parts.dec)
 
 
@@ -507,7 +508,8 @@ def _header_declarations(parts: _Parts) -> list:
 
 def export_observer(observer: Observer, out_dir, *, name: str | None = None,
                     dt: float | None = None, initial: Mapping | None = None,
-                    discretisation: str = "rk4", rule: DecisionRule | None = None) -> list:
+                    discretisation: str = "rk4", rule: DecisionRule | None = None,
+                    envelope: Mapping | None = None) -> list:
     """Write ``NAME.c``, ``NAME.h`` and ``NAME_example.c`` into ``out_dir`` (created if
     missing); returns their paths in that order.
 
@@ -527,9 +529,11 @@ def export_observer(observer: Observer, out_dir, *, name: str | None = None,
     ``<r>_alarm`` per residual, ``alarm``, ``diagnosis_code`` and ``diagnosis`` after the
     outputs (thresholds ``<r>_lower``/``<r>_upper``: observer outputs when it has them,
     else columns of the input CSV; an empty cell there is NaN, i.e. not out).
+    ``envelope``: signal name → (low, high), the declared ranges the example's
+    ``in_bounds`` column checks (:func:`~observer_cad.simulation.declared_envelope`).
     """
     src = export_sources(observer, name=name, dt=dt, initial=initial,
-                         discretisation=discretisation, rule=rule)
+                         discretisation=discretisation, rule=rule, envelope=envelope)
     out = Path(out_dir)
     try:
         out.mkdir(parents=True, exist_ok=True)

@@ -9,6 +9,7 @@ from ._random import (random_matrices, random_model, random_structure, generic_k
 from ._identity import ZeroTest, is_identically_zero
 from ._structure import (NonlinearTerm, Structure, extract_structure, certify_structure,
                          ModelCertificate, EquationCheck)
+from ._digest import (ModelDigest, structure_digest, model_digest)
 from ._task import (ObserverKind, Task, resolve_task, parse_estimate)
 
 __all__ = [
@@ -17,5 +18,5 @@ __all__ = [
     "to_rational", "statespace_model_arguments", "random_matrices", "random_model", "random_structure",
     "generic_k", "NonlinearTerm", "Structure", "extract_structure", "certify_structure",
     "ModelCertificate", "EquationCheck", "ZeroTest", "is_identically_zero", "ObserverKind",
-    "Task", "resolve_task", "parse_estimate"
+    "Task", "resolve_task", "parse_estimate", "ModelDigest", "structure_digest", "model_digest"
 ]

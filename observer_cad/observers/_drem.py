@@ -76,9 +76,9 @@ from typing import Sequence
 
 import sympy as sp
 
-from ..synthesis import Condition, parse_json_expression, shift_matrix
+from ..synthesis import Condition, check_model_hash, parse_json_expression, shift_matrix
 from ..errors import UsageError
-from ..model import PlantModel, to_rational
+from ..model import PlantModel, model_digest, to_rational
 from ..numerics import rational_approximation
 from ._observer import Observer
 from ._drem_class import DremClass, DremSpec, DremTerm, analyse
@@ -251,6 +251,7 @@ class DremDesign:
         (Δ and ρ print as l!-term expressions: ≈ 0.5 MB and seconds for l = 6)."""
         out = {
             "observer": "drem", "model": self.cls.model.name,
+            "model_hash": model_digest(self.cls.model).to_json(),
             "N": self.cls.N, "unknowns": list(self.labels),
             "coefficients": [str(s) for s in self.cls.unknowns],
             "terms": [{"name": t.name, "degree": t.degree, "polynomial": str(t.poly),
@@ -274,6 +275,8 @@ class DremDesign:
         :func:`drem_design`; the rebuilt filters and unknowns must match the recorded ones."""
         if not isinstance(data, dict) or data.get("observer") != "drem":
             raise UsageError("not a DREM design: a JSON object with observer = 'drem' is expected")
+        if "model_hash" in data:
+            check_model_hash(data["model_hash"], model_digest(model))
         filters = data.get("filters")
         if not isinstance(filters, list) or not filters:
             raise UsageError("a DREM design's 'filters' must be a non-empty list")
@@ -296,6 +299,22 @@ class DremDesign:
             if again[key] != data.get(key):
                 raise UsageError(f"{model.where}: the recorded DREM design does not match the"
                                  f" model: its '{key}' differs when rebuilt")
+        # what it reports is recomputed too; a recorded value only serves as a comparison
+        ob = (rebuilt.observer.to_json() if any(k in data for k in (
+            "observer_equations", "states", "equations")) else {})
+        if "observer_equations" in data:
+            again["observer_equations"] = ob
+        for key in ("states", "equations"):  # (what 'design --json' prints beside them)
+            if key in data:
+                again[key] = ob[key]
+        if "equations" in data:  # 'design --json' prints the observer's outputs too
+            again["outputs"] = ob["outputs"]
+        for key in ("coefficients", "terms", "Q", "known_term", "conditions", "outputs",
+                    "observer_equations", "states", "equations"):
+            if key in data and again[key] != data[key]:
+                raise UsageError(f"the recorded DREM design's '{key}' differs from the"
+                                 " recomputed one: the file is not what designing again gives"
+                                 " (refused, never believed)")
         return rebuilt
 
     def format(self) -> str:

@@ -133,11 +133,12 @@ def _conditions(red, ystar, tau, residual, params, process) -> list:
         f"ε = (y* − η)/τ − D*_1 {name}_f: τ (ε' + ε/τ) = y*' − f_1 − D*_1 {name} with y*' from"
         f" the plant's equations simplifies to {residual}; η(0) = y*(0)"
         f" gives ε ≡ 0, i.e. {name}_hat = {name} filtered by 1/({tau} s + 1)", _REF))
-    gain = sp.nsimplify(abs(1 / (tau * sp.sympify(D1).xreplace(params))))
+    gain = sp.nsimplify(abs(1 / (tau * sp.sympify(D1).xreplace(params))), rational=True)
     conds.append(Condition(
         "filter time constant τ > 0", bool(tau > 0),
         f"τ = {tau}: delay ≈ τ (a step reaches 63 % after τ, a ramp lags by τ ḋ), bandwidth"
-        f" 1/τ = {sp.nsimplify(1 / tau)} rad per time unit; noise on y* reaches {name}_hat"
+        f" 1/τ = {sp.nsimplify(1 / tau, rational=True)} rad per time unit; noise on y*"
+        f" reaches {name}_hat"
         f" amplified by up to 1/(τ |D*_1|) = {gain}",
         _REF))
     if process is not None:

@@ -66,6 +66,8 @@ def format_analysis(a: Analysis) -> str:
         out.append("  (partial: see the notes)")
     out.append("")
 
+    out += _strong_lines(a, w)
+
     if a.suggestions or a.unhelped:
         out.append("Suggestions (one extra measurement)")
         for s in a.suggestions:
@@ -82,3 +84,33 @@ def format_analysis(a: Analysis) -> str:
         out.append("Notes")
         out += [f"  {n}" for n in a.notes]
     return "\n".join(out).rstrip()
+
+
+def _strong_lines(a: Analysis, w: int) -> list:
+    """Strong detectability and the strong structure matrix (nothing when skipped)."""
+    if not a.strong:
+        return []
+    var = "s = jω" if a.time == "continuous" else "z = e^{jω}"
+    where = ", ".join(str(x) for x in a.frequencies)
+    out = [f"Strong detectability (a residual whose gain to the fault is nonzero at {var},"
+           f" ω = {where})"]
+    for s in a.strong:
+        if s.strongly_detectable:
+            out.append(f"  {_mark(True)} {s.fault.ljust(w)}  strongly detectable, minimal"
+                       f" order k = {s.min_order}")
+        elif a.fault(s.fault).detectable:
+            out.append(f"  {_mark(False)} {s.fault.ljust(w)}  detectable only as a transient"
+                       f" (every detecting residual has a zero gain at some ω = {where})")
+        else:
+            out.append(f"  {_mark(False)} {s.fault.ljust(w)}  not detectable")
+    out += ["", "Strong structure matrix (one residual per row; nonzero gain at every ω)"]
+    if a.strong_structure:
+        cw = max(3, w + 1)
+        out.append("       " + "".join(f.rjust(cw) for f in a.faults) + "   order")
+        for i, row in enumerate(a.strong_structure):
+            vals = row.row(a.faults)
+            out.append(f"  s{i + 1:<4}" + "".join(str(vals[f]).rjust(cw) for f in a.faults)
+                       + f"   k = {row.order}")
+    else:
+        out.append("  (none: no fault is strongly detectable)")
+    return out + [""]

@@ -71,7 +71,7 @@ def _column(name: str, v) -> np.ndarray:
     if a.dtype.kind in "OUS":
         return a.astype(object)
     if a.dtype.kind in "bi" and (name in DECISION_COLUMNS or name.endswith("_alarm")
-                                 or name == "diagnosis_code"):
+                                 or name in ("diagnosis_code", "in_bounds")):
         return a
     return np.asarray(v, dtype=float)
 
@@ -84,11 +84,12 @@ def _any_cell(v: np.ndarray, i: int) -> str:
     return csv_cell(v[i])
 
 
-def write_signals_csv(result, out_dir) -> Path:
+def write_signals_csv(result, out_dir, *, name: str = "signals.csv") -> Path:
     """``DIR/signals.csv``: a header row, then one row per time step; and
     ``DIR/signals.units.json`` (:data:`UNITS_FILE`), the units of the columns that have one
     (``{}`` when none do), rewritten every time so that it never describes an older CSV.
-    Returns the CSV's path.
+    Returns the CSV's path. ``name``: another file name (``monitor.csv``; its units then
+    in ``monitor.units.json``).
 
     An empty cell means *not available*: the last rows of an estimate produced
     ``delay`` steps late (``result.delays``). Any other value that is not finite — only
@@ -113,11 +114,12 @@ def write_signals_csv(result, out_dir) -> Path:
     w.writerow(cols)
     for i in range(n):
         w.writerow(["" if i >= a else _any_cell(v, i) for v, a in zip(data, avail)])
-    path = out / "signals.csv"
+    path = out / name
     units = getattr(result, "units", None) or {}
+    units_file = UNITS_FILE if name == "signals.csv" else f"{Path(name).stem}.units.json"
     try:
         atomic_write_text(path, buf.getvalue())
-        atomic_write_text(out / UNITS_FILE, json.dumps(
+        atomic_write_text(out / units_file, json.dumps(
             {c: units[c] for c in cols if c in units}, indent=2, ensure_ascii=False) + "\n")
     except OSError as exc:
         raise UsageError(f"{path}: cannot write: {exc.strerror or exc}") from None

@@ -23,6 +23,7 @@ from pathlib import Path
 import sympy as sp
 
 from ..files import atomic_write_text, read_json_file
+from ..analysis import BANK_KIND, load_design
 from ..synthesis import Design
 from ..errors import UsageError
 from ..model import parse_expression
@@ -162,8 +163,9 @@ def write_design_latex(design: Design, path, *, standalone: bool = True) -> Path
 
 
 # ---------------------------------------------------------------- JSON
-def write_design_json(design: Design, path) -> Path:
-    """``design.to_json()`` written atomically (UTF-8, indented, sorted keys kept in order)."""
+def write_design_json(design, path) -> Path:
+    """``design.to_json()`` written atomically (UTF-8, indented, sorted keys kept in order):
+    a :class:`Design` or a residual bank, each read back by :func:`read_design_json`."""
     path = Path(path)
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
@@ -177,18 +179,17 @@ def read_design_json(path, model=None):
     """What :func:`write_design_json` wrote; one-line error for a missing or bad file.
 
     With ``model`` (the :class:`PlantModel` the design is for) the result is the
-    :class:`Design` itself — parsed by the whitelist reader and re-certified
-    (:meth:`Design.from_json`), ready for ``build_observer(model, design)``; without it,
-    the JSON object (a dict)."""
+    :class:`Design` (or residual bank) itself — parsed by the whitelist reader,
+    re-certified, its model hash checked and everything it reports recomputed
+    (:func:`observer_cad.analysis.load_design`), ready for ``build_observer(model,
+    design)``; without it, the JSON object (a dict)."""
+    if model is not None:
+        return load_design(path, model)
     data = read_json_file(path, "design")
-    if not isinstance(data, dict) or not isinstance(data.get("matrices"), dict):
-        raise UsageError(f"{path}: not a design (no 'matrices')")
-    if model is None:
-        return data
-    try:
-        return Design.from_json(data, model)
-    except UsageError as exc:
-        raise UsageError(f"{path}: {exc}") from None
+    if not isinstance(data, dict) or not (isinstance(data.get("matrices"), dict)
+                                          or data.get("kind") == BANK_KIND):
+        raise UsageError(f"{path}: not a design (no 'matrices') nor a residual bank")
+    return data
 
 
 def matrices_from_json(data: dict) -> dict:

@@ -278,3 +278,35 @@ def plot_simulation(result, out_dir, *, time: str, title: str = "", units: dict 
         paths.append(plot_residuals(result, out / "residuals.png", decisions=decisions,
                                     time=time, title=title, units=units))
     return paths
+
+
+def plot_monitor(result, path, *, outputs, decisions=None, time: str = "discrete",
+                 title: str = "") -> Path:
+    """The figure of a monitor's run (``monitor.png``): with residual bands, that of
+    :func:`plot_residuals` (bands, samples out, alarm spans, diagnosis changes); else a
+    panel per observer output in ``outputs`` (its estimate over time). Samples where the
+    recorded data leave the declared envelope (``in_bounds`` 0) are shaded grey."""
+    if residual_names(result):
+        path = plot_residuals(result, path, decisions=decisions, time=time, title=title)
+        return path
+    plt = _plt()
+    names = list(outputs)
+    if not names:
+        raise UsageError("plot_monitor: the observer has no outputs to plot")
+    t = _run0(result["t"]).astype(float)
+    fig, axes = plt.subplots(len(names), 1, figsize=(7.5, 2.0 * len(names) + 0.8),
+                             sharex=True, squeeze=False)
+    for ax, n in zip(axes[:, 0], names):
+        ax.plot(t, _run0(result[n]).astype(float), lw=1.1, label=n)
+        if "in_bounds" in result.order:
+            dt = float(t[1] - t[0]) if t.size > 1 else 1.0
+            for a, b in _spans(_run0(result["in_bounds"]) == 0):
+                ax.axvspan(t[a] - dt / 2, t[b - 1] + dt / 2, color="0.5", alpha=0.2, lw=0)
+        ax.set_ylabel(n)
+        ax.grid(alpha=0.3)
+    axes[-1, 0].set_xlabel(_time_label(time))
+    fig.suptitle(f"{title}: observer outputs" if title else "observer outputs", fontsize=9)
+    fig.tight_layout()
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    return save_figure(fig, path)

@@ -182,6 +182,12 @@ def format_design(d: Design) -> str:
     return "\n".join(out)
 
 
+def _gain_text(gains) -> str:
+    """Steady-state gains as printed: exact values as they are, floats to 4 digits."""
+    parts = [f"{float(g):.4g}" if isinstance(g, sp.Float) else str(g) for g in gains]
+    return parts[0] if len(parts) == 1 else "[" + ", ".join(parts) + "]"
+
+
 def format_signature(signature, indent: str = "  ") -> str:
     """The "Fault signature" section: every declared fault, sensitive or decoupled, with
     Φ D_j, what the design does with it and the relations a sensitivity needs."""
@@ -194,8 +200,10 @@ def format_signature(signature, indent: str = "  ") -> str:
             note = f"  — not a target ({s.role}), yet a nonzero {s.name} moves r"
         elif not s.sensitive and s.role in ("detected", "estimated"):
             note = "  — a target the residual does NOT see"
+        gain = getattr(s, "steady_gain", None)
+        gain = "" if gain is None else f"; steady-state gain = {_gain_text(gain)}"
         out.append(f"{indent}{s.name.ljust(width)}  {int(bool(s.sensitive))}  {s.describe()}"
-                   f"  [{s.role}; {s.entry_text()}]{note}")
+                   f"  [{s.role}; {s.entry_text()}{gain}]{note}")
     return "\n".join(out)
 
 

@@ -11,7 +11,7 @@ method:
 and :func:`design`, the one entry that dispatches to them.
 """
 from .certificates import (Identity, Certificate, certify_reduced_model, certify_design, certify_against_model, MODEL_PREFIX, denominator_assumptions, complete_assumptions, CONDITIONING_LEVEL, CONDITIONING_NAME, conditioning_numbers, FaultSensitivity, fault_sensitivity)
-from .core import (Condition, Design, DesignMatrices, DesignRequest, Form, Method, NonlinearSubstitution, SlidingGainInputs, parse_json_expression, substitute_arguments, default_eigenvalues, place_poles, pole_placement, PolePlacement, certify_poles, closed_loop_eigenvalues, target_polynomial, PLACEMENT_SEED, observer_symbols, output_symbols, is_stable)
+from .core import (Condition, Design, DesignMatrices, DesignRequest, Form, Method, NonlinearSubstitution, SlidingGainInputs, parse_json_expression, check_model_hash, substitute_arguments, default_eigenvalues, place_poles, pole_placement, PolePlacement, certify_poles, closed_loop_eigenvalues, target_polynomial, PLACEMENT_SEED, observer_symbols, output_symbols, is_stable)
 from .canonical import (design_canonical, krylov_blocks, krylov_null_spaces, member_to_phi,
                         FLOAT_AUTO_N, design_diagnostic_canonical, observer_equations,
                         design_virtual_sensor_canonical, shift_matrix)
@@ -20,6 +20,7 @@ from .robust import (design_robust_canonical, design_robust_jordan, robust_basis
 from .sliding import (K1, EPS, TAU, design_sliding, sliding_pencil, admissible_sliding_lambdas, GainBound, GainTerm, gain_bound, reaching_time)
 from ._continuous_estimation import (continuous_estimation_check)
 from ._dispatch import (design)
+from ._frozen import (load_design_data, recomputed_design)
 
 __all__ = [
     "Identity", "Certificate", "certify_reduced_model", "certify_design",
@@ -37,5 +38,5 @@ __all__ = [
     "design_robust_canonical", "design_robust_jordan", "robust_basis", "jordan_candidates",
     "K1", "EPS", "TAU", "design_sliding", "sliding_pencil", "admissible_sliding_lambdas",
     "GainBound", "GainTerm", "gain_bound", "reaching_time", "continuous_estimation_check",
-    "design"
+    "design", "check_model_hash", "load_design_data", "recomputed_design"
 ]

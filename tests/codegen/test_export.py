@@ -138,7 +138,7 @@ def _input_csv(o, res, path):
 
 
 def _run(exe, args, cwd, valgrind=False):
-    cmd = [str(exe), *args]
+    cmd = [str(exe), *args, "trace"]   # step, states, outputs (not the monitor format)
     if valgrind:
         cmd = [VALGRIND, "-q", "--error-exitcode=1", "--leak-check=full", *cmd]
     r = subprocess.run(cmd, cwd=cwd, capture_output=True, text=True, timeout=600)

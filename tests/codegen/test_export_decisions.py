@@ -186,7 +186,7 @@ def test_example_prints_decisions_with_thresholds_as_outputs(drive, tmp_path):
     inp = tmp_path / "in.csv"
     inp.write_text("y1,y2,u\n" + "".join(",".join(repr(float(res[c][k])) for c in ("y1", "y2", "u")) + "\n"
                                          for k in range(res["t"].size)))
-    p = subprocess.run([str(exe), inp.name], cwd=tmp_path, capture_output=True, text=True,
+    p = subprocess.run([str(exe), inp.name, "trace"], cwd=tmp_path, capture_output=True, text=True,
                        timeout=120)
     assert p.returncode == 0, p.stderr
     got = _example_rows(p.stdout)
@@ -218,7 +218,7 @@ def test_example_reads_thresholds_from_the_input(bank, tmp_path):
             cells[names.index("r2_upper")] = ""       # not available: NaN, not out
         lines.append(",".join(cells))
     (tmp_path / "in.csv").write_text("\n".join(lines) + "\n")
-    p = subprocess.run([str(exe), "in.csv"], cwd=tmp_path, capture_output=True, text=True,
+    p = subprocess.run([str(exe), "in.csv", "trace"], cwd=tmp_path, capture_output=True, text=True,
                        timeout=120)
     assert p.returncode == 0, p.stderr
     got = _example_rows(p.stdout)

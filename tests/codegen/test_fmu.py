@@ -89,12 +89,12 @@ def bank():
     return m, b, o, simulate(m, o, sc)
 
 
-def write_csv(path: Path, columns: dict, ts: float) -> Path:
+def write_csv(path: Path, columns: dict, ts: float, *, time: str = "time") -> Path:
     """A recorded-input CSV: ``time`` = k·Ts, then the columns (repr: exact doubles; NaN
     written as an empty cell is not what FMPy reads, so NaN as 'nan')."""
     names = list(columns)
     n = len(next(iter(columns.values())))
-    lines = [",".join(["time"] + names)]
+    lines = [",".join([time] + names)]
     for k in range(n):
         lines.append(",".join([repr(k * ts)] + [repr(float(columns[c][k])) for c in names]))
     path.write_text("\n".join(lines) + "\n")
@@ -160,9 +160,11 @@ def test_the_c_example_agrees_with_the_same_reference(drive, tmp_path):
                        cwd=tmp_path, capture_output=True, text=True, timeout=300)
     assert r.returncode == 0, r.stderr
     cols = {c: np.asarray(res[c], dtype=float) for c in ("y1", "y2", "u")}
-    write_csv(tmp_path / "in.csv", cols, 0.01)
+    # the example reads the monitor's CSV: t (steps of a discrete model), then the signals
+    write_csv(tmp_path / "in.csv", cols, 1, time="t")
     with open(tmp_path / "out.csv", "w") as fh:
-        p = subprocess.run(["./ex", "in.csv"], cwd=tmp_path, stdout=fh, stderr=subprocess.PIPE,
+        p = subprocess.run(["./ex", "in.csv", "trace"], cwd=tmp_path, stdout=fh,
+                           stderr=subprocess.PIPE,
                            text=True, timeout=300)
     assert p.returncode == 0, p.stderr
     got = read_csv_columns(tmp_path / "out.csv")
@@ -497,3 +499,34 @@ def test_fmu_on_simulate_signals_csv(tmp_path, monkeypatch, capsys):
     cmp = compare_columns(sim, got, columns=["r", "r_lower", "r_upper", "alarm"])
     assert cmp.ok, cmp.summary()
     assert list(got["diagnosis_code"]) == [1 if d == "d" else 0 for d in sim["diagnosis"]]
+
+
+def test_fmu_equals_the_monitor_on_the_recorded_example(tmp_path, monkeypatch, capsys):
+    """The FMU of the monitor example, run by FMPy on the recorded data
+    (examples/three_tank_recording.csv), gives ``observer-cad monitor``'s monitor.csv: the
+    residuals and their bands to 1e-12, the alarms exactly."""
+    from observer_cad.cli import main
+    monkeypatch.chdir(tmp_path)
+    model = str(ROOT / "models" / "three_tank_isolation.py")
+    recording = ROOT / "examples" / "three_tank_recording.csv"
+    common = [model, "--observer", "diagnostic", "--isolate", "--threshold", "guaranteed"]
+    assert main(["monitor", *common, "--data", str(recording), "--out", "mon"]) == 0
+    assert main(["codegen", *common, "--dt", "0.05", "--fmu", "--out", "c"]) == 0
+    capsys.readouterr()
+    mon = read_csv_columns(tmp_path / "mon" / "monitor.csv")
+    n = mon["t"].size
+    fmu_path = next((tmp_path / "c").glob("*.fmu"))
+    md = fmpy.read_model_description(str(fmu_path))
+    inputs = [v.name for v in md.modelVariables if v.causality == "input"]
+    outputs = [v.name for v in md.modelVariables if v.causality == "output"]
+    assert float(md.defaultExperiment.stepSize) == 0.05
+    cols = {c: mon[c] for c in inputs}
+    signals = read_csv(str(write_csv(tmp_path / "in.csv", cols, 0.05)))
+    result = fmpy.simulate_fmu(str(fmu_path), input=signals, stop_time=n * 0.05,
+                               output_interval=0.05, output=outputs)
+    got = fmu_samples(result, fmu_path, n)
+    bands = [c for c in mon if c.startswith("r") and c[1:2].isdigit()]
+    assert {"r1", "r1_lower", "r1_upper"} <= set(bands)
+    cmp = compare_columns(mon, got, columns=[*bands, "alarm"])
+    assert cmp.ok, cmp.summary()
+    assert 0 < np.asarray(got["alarm"], dtype=bool).sum() < n   # the fault at t = 20 is seen

@@ -165,9 +165,9 @@ def test_bank_exports_to_c_and_reproduces_the_simulator(tmp_path, monkeypatch):
     names = [str(s) for s in ys + us]
     with open(tmp_path / "in.csv", "w", newline="") as fh:
         w = csv.writer(fh)
-        w.writerow(names)
+        w.writerow(["t", *names])  # the monitor's CSV: t counts a discrete model's steps
         for i in range(len(res["t"])):
-            w.writerow([repr(float(res[n][i])) for n in names])
+            w.writerow([str(i)] + [repr(float(res[n][i])) for n in names])
     run = subprocess.run([str(tmp_path / "a.out"), "in.csv"], cwd=tmp_path,
                          capture_output=True, text=True, timeout=120)
     assert run.returncode == 0, run.stderr

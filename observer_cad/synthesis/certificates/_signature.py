@@ -34,6 +34,7 @@ import sympy as sp
 
 from ...model import Structure, Task
 from ...numerics import nonzero_conditions
+from ._gain import steady_state_gain
 
 __all__ = ["FaultSensitivity", "fault_signature", "fault_sensitivity", "residual_response",
            "SIGNATURE_RTOL"]
@@ -62,6 +63,15 @@ class FaultSensitivity:
     enters: bool = False  # Φ D_j ≠ 0 (within the float tolerance for float designs)
     #: R* Dy_j for a fault that also enters the outputs (then ``entry`` is Φ D_j − J* Dy_j)
     direct: sp.ImmutableMatrix | None = None
+    #: the residual rows' steady-state gains to the fault (:func:`steady_state_gain`;
+    #: None when not computed or without a steady state)
+    steady_gain: tuple | None = None
+
+    @property
+    def transient_only(self) -> bool:
+        """Sensitive, yet with a zero steady-state gain in every residual row."""
+        return bool(self.sensitive and self.steady_gain is not None
+                    and all(g == 0 for g in self.steady_gain))
 
     @property
     def conditional(self) -> bool:
@@ -69,6 +79,8 @@ class FaultSensitivity:
 
     def describe(self) -> str:
         """``sensitive``, ``sensitive if k1 != 0`` or ``decoupled (…)``."""
+        if self.transient_only:
+            return "transient only (responds, with a zero steady-state gain)"
         if self.sensitive:
             return "sensitive" + (f" if {' and '.join(map(str, self.conditions))}"
                                   if self.conditions else "")
@@ -181,14 +193,29 @@ def fault_signature(matrices, structure: Structure, task: Task) -> tuple:
     model = structure.model
     names = [f.name for f in model.faults]
     names += [n for n in task.targets if n not in names]
-    out = []
+    sig = []
     for n in names:
         feed = direct = None
         Dy = structure.output_columns([n])
         if not Dy.is_zero_matrix:  # the fault enters the outputs too
             feed = sp.Matrix(matrices.J_star) * Dy
             direct = sp.Matrix(matrices.R_star) * Dy
-        out.append(fault_sensitivity(matrices.Phi, matrices.F_star, Hs,
+        sig.append(fault_sensitivity(matrices.Phi, matrices.F_star, Hs,
                                      structure.unknown_input_columns([n]), name=n,
                                      role=_role(task, n), feed=feed, direct=direct))
-    return tuple(out)
+    return tuple(dataclasses.replace(s, steady_gain=steady_state_gain(
+        matrices, structure, structure.unknown_input_columns([s.name]),
+        _output_column(structure, s.name), rtol=SIGNATURE_RTOL)) if s.sensitive else s
+        for s in sig)
+
+
+def _output_column(structure: Structure, name: str):
+    """The fault's (or disturbance's) column of Dy (Ly) in the outputs (None: zero)."""
+    m = structure.model
+    sym = m.symbol(name)
+    Dy, Ly = getattr(structure, "Dy", None), getattr(structure, "Ly", None)
+    if sym in m.faults and Dy is not None:
+        return Dy[:, m.faults.index(sym)]
+    if sym in m.disturbances and Ly is not None:
+        return Ly[:, m.disturbances.index(sym)]
+    return None

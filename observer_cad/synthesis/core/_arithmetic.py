@@ -196,12 +196,12 @@ class RationalArithmetic(ExactArithmetic):
         if scale == "cols":
             return self.mat(M.T, "rows").transpose()
         if scale == "all":
-            den = sp.ilcm(*[sp.Rational(e).q for e in M])
+            den = sp.ilcm(1, *[sp.Rational(e).q for e in M])
             return DomainMatrix([[ZZ(int(e * den)) for e in M.row(i)] for i in range(M.rows)],
                                 M.shape, ZZ)
         rows = []
         for i in range(M.rows):
-            den = sp.ilcm(*[sp.Rational(e).q for e in M.row(i)])
+            den = sp.ilcm(1, *[sp.Rational(e).q for e in M.row(i)])
             rows.append([ZZ(int(e * den)) for e in M.row(i)])
         return self._primitive_rows(DomainMatrix(rows, M.shape, ZZ))
 

@@ -17,7 +17,7 @@ import sympy as sp
 from sympy.polys.matrices.exceptions import DMError
 
 from ...errors import CertificateError, ObserverCadError, UsageError
-from ...model import ObserverKind, PlantModel, Structure, Task
+from ...model import ObserverKind, PlantModel, Structure, Task, structure_digest
 from ...numerics import with_full_int_text
 from ..certificates import (CONDITIONING_NAME, CONDITIONING_REFERENCE, MODEL_PREFIX,
                             Certificate, certify_against_model, complete_assumptions,
@@ -231,6 +231,8 @@ class Design:
             return [[str(M[i, j]) for j in range(M.cols)] for i in range(M.rows)]
         return {
             "model": self.model_name,
+            **({"model_hash": structure_digest(self.structure).to_json()}
+               if self.structure is not None else {}),
             "k": self.k,
             "form": self.form.value,
             "method": self.method.value,
@@ -282,6 +284,12 @@ class Design:
         ones the matrices give. A design that does not fit the model or fails its
         certificate raises; nothing is trusted because it was on disk. A value of the wrong
         type or shape anywhere is one UsageError naming what Python or sympy refused.
+
+        This is the parsing and certifying step only: the conditions, assumptions and
+        λ it returns are the file's. A design file is loaded with
+        :func:`observer_cad.analysis.load_design` (or
+        :func:`observer_cad.synthesis.load_design_data`), which also checks the model
+        hash and recomputes every reported value, comparing the recorded ones.
         """
         try:
             return design_from_json(cls, data, model)

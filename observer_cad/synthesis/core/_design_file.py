@@ -20,18 +20,18 @@ from sympy.polys.matrices import DomainMatrix
 from sympy.polys.polyerrors import CoercionFailed
 
 from ...errors import UsageError
-from ...model import ObserverKind, PlantModel, Task
+from ...model import ObserverKind, PlantModel, Task, structure_digest
 from ...numerics import exact_rank_value, np_exact
 from ..certificates import fault_signature
 from ._arithmetic import ExactArithmetic, arithmetic
 from ._expr import parse_json_expression
 from ._prepare import prepare
-from ._reduced import (INJECTIONS, estimate_outputs, output_symbols, reduced_equations,
+from ._reduced import (EPS, INJECTIONS, K1, TAU, estimate_outputs, output_symbols, reduced_equations,
                        residual_outputs, sliding_equations)
 from ._values import (MATRIX_ORDER, Condition, DesignRequest, NonlinearSubstitution,
                       SlidingGainInputs)
 
-__all__ = ["design_from_json", "LOADED_TOLERANCE_RTOL"]
+__all__ = ["design_from_json", "check_model_hash", "LOADED_TOLERANCE_RTOL"]
 
 
 def design_from_json(cls, data, model: PlantModel):
@@ -45,15 +45,19 @@ def design_from_json(cls, data, model: PlantModel):
     for key in ("k", "form", "method", "observer", "time", "states", "equations", "outputs"):
         if key not in data:
             raise UsageError(f"not a design: the key '{key}' is missing")
+    symbolic = data.get("symbolic", False)
+    if not isinstance(symbolic, bool):
+        raise UsageError("a design's 'symbolic' must be true or false")
+    # the file's certificate says in which arithmetic it is re-checked (below), not prepare
+    problem = prepare(model, symbolic=symbolic, method="exact")
+    work = problem.work
+    if "model_hash" in data:  # first: a changed model makes every later check fail obscurely
+        check_model_hash(data["model_hash"], structure_digest(problem.structure))
     task_data = data.get("task") or {
         "observer": data["observer"],
         "targets": [data["unknown_input"]] if data.get("unknown_input") else [],
         "decoupled": list(data.get("decoupled", [])), "estimate": data.get("estimate")}
     task = Task.from_json(task_data, model)
-    symbolic = bool(data.get("symbolic", False))
-    # the file's certificate says in which arithmetic it is re-checked (below), not prepare
-    problem = prepare(model, symbolic=symbolic, method="exact")
-    work = problem.work
     if data["time"] != work.time:
         raise UsageError(f"{model.where}: the design is {data['time']}-time, the model"
                          f" {work.time}-time")
@@ -64,12 +68,20 @@ def design_from_json(cls, data, model: PlantModel):
                          " residual)")
     names, xs, params = _names(data, model, work)
 
+    declared = set(names.values())
+
     def expr(text, where):
-        return parse_json_expression(text, names, where)
+        e = parse_json_expression(text, names, where)
+        undeclared = sorted(str(s) for s in e.free_symbols if s not in declared)
+        if undeclared:
+            raise UsageError(f"{where}: '{undeclared[0]}' is not a symbol the model or the"
+                             " design declares")
+        return e
 
     mats = _matrices(data, expr)
     if k == 0:  # a zero-order residual: the empty matrices get their shapes back
         mats = _zero_order_shapes(mats, st, task)
+    _only_parameters(mats, work)
     nonlinear = _nonlinear(data, expr)
     outputs = data["outputs"]
     if not isinstance(outputs, dict):
@@ -110,6 +122,30 @@ def design_from_json(cls, data, model: PlantModel):
     return dataclasses.replace(made, signature=sig)
 
 
+def check_model_hash(recorded, digest) -> None:
+    """A recorded model hash (``{"sha256": …, "parts": {…}}``) that is not ``digest`` of
+    the model given: one line naming the parts that differ."""
+    if not isinstance(recorded, dict) or not isinstance(recorded.get("sha256"), str):
+        raise UsageError("a design's 'model_hash' must be an object with 'sha256'")
+    if recorded["sha256"] == digest.sha256:
+        return
+    parts = digest.differing(recorded.get("parts"))
+    raise UsageError(f"the design was made for a different model (structure hash"
+                     f" {recorded['sha256'][:12]}…, this model's {digest.sha256[:12]}…"
+                     + (f"; it differs in: {', '.join(parts)}" if parts else "")
+                     + "): design again")
+
+
+def _only_parameters(mats: dict, work) -> None:
+    """The matrices hold numbers and the model's parameters only (a symbolic design's);
+    any other symbol, even one the file declares elsewhere, is refused."""
+    allowed = set(work.parameters)
+    for name, M in mats.items():
+        extra = sorted(str(s) for s in M.free_symbols if s not in allowed)
+        if extra:
+            raise UsageError(f"matrices.{name}: '{extra[0]}' is not a parameter of the model")
+
+
 def _declared(model: PlantModel) -> list:
     return [s for role in ("states", "inputs", "faults", "disturbances", "noise")
             for s in getattr(model, role)] + list(model.parameters)
@@ -128,6 +164,8 @@ def _names(data, model, work):
         xs.append(names.setdefault(s, sp.Symbol(s)))
     for j in range(1, len(work.outputs) + 1):
         names.setdefault(f"y{j}", sp.Symbol(f"y{j}"))
+    for gain in (K1, EPS, TAU):  # the sliding-mode gains the tool's equations name
+        names.setdefault(gain.name, gain)
     params = {}
     for p, v in (data.get("parameters") or {}).items():
         if not isinstance(p, str) or not p.isidentifier():
@@ -222,6 +260,9 @@ def _check_made(made, ar, st, task, mats, plant, recorded, approximate, work) ->
         raise UsageError("'sliding_inputs' belong to a sliding-mode design only")
     # a gain K is re-checked too: det(sI − F* + K H*) = Π(s − μ) for the recorded μ
     m = made.matrices
+    if m.K is None and made.closed_loop_eigenvalues:
+        raise UsageError("the design records closed_loop_eigenvalues but has no gain K: not a"
+                         " design this tool writes")
     if m.K is not None:  # (a file that drops the eigenvalues does not skip the check)
         mu = made.closed_loop_eigenvalues
         if len(mu) != sp.Matrix(m.F_star).rows:

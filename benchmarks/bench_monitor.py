@@ -1,0 +1,133 @@
+#!/usr/bin/env python3
+"""Monitor throughput on recorded data against the compiled simulation loop.
+
+    python3 benchmarks/bench_monitor.py            # measure, print the table
+    python3 benchmarks/bench_monitor.py --write    # ... and update benchmarks/README.md
+
+For each case (a model, its observer with the guaranteed threshold and decision rule):
+
+* *compiled loop*: ``CompiledSimulator(model, observer).simulate(scenario)`` over N steps —
+  plant and observer stepped together in one compiled C call, the result's columns
+  built (what ``observer-cad simulate`` runs);
+* *monitor, arrays*: ``Monitor(...).run(columns)`` with the compiled engine on N recorded
+  rows already in memory (the checks of every row, the compiled observer loop, the
+  decisions with persistence, the table);
+* *monitor, CSV*: ``read_table(file)`` of those rows written as CSV, then the same run
+  (what ``observer-cad monitor --data FILE`` does after the design, without writing).
+
+Reported: rows per second (the best of ``--repeats`` runs, wall clock; the library is
+compiled before the timing) and the ratio compiled loop / monitor. The goal is a ratio
+≤ 2 (monitor within 2× of the compiled loop); it is measured, not asserted.
+"""
+from __future__ import annotations
+
+import argparse
+import datetime
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+import numpy as np  # noqa: E402
+
+from common import load as _load, machine, publish  # noqa: E402
+
+README = Path(__file__).resolve().parent / "README.md"
+BEGIN = "<!-- BEGIN MONITOR RESULTS (bench_monitor.py --write) -->"
+END = "<!-- END MONITOR RESULTS -->"
+GOAL = 2.0
+
+
+def _cases():
+    from observer_cad import build_observer, design, design_bank, load_model
+    from observer_cad.residuals import ThresholdSpec, decision_rule
+    from observer_cad.simulation import apply_threshold
+    g = ThresholdSpec.parse("guaranteed")
+    m = load_model(ROOT / "models" / "electric_drive_uncertain.py")
+    d = design(m, observer="diagnostic")
+    yield ("electric_drive_uncertain, diagnostic (discrete)", m,
+           apply_threshold(m, build_observer(m, d), g), decision_rule(m, d),
+           {"seed": 1, "initial": {}, "signals": {"u": "2*sin(t/10)",
+                                                  "rho": {"uniform": [-0.05, 0.05]},
+                                                  "w1": {"uniform": [0, 0.02]},
+                                                  "w2": {"uniform": [-0.01, 0.01]}}})
+    m = load_model(ROOT / "models" / "three_tank_isolation.py")
+    b = design_bank(m)
+    yield ("three_tank_isolation, bank of 3 (continuous, h = 0.01)", m,
+           apply_threshold(m, build_observer(m, b), g), decision_rule(m, b),
+           {"seed": 1, "initial": {}, "signals": {"u1": "1 + 0.5*sin(0.3*t)", "u2": "0.5",
+                                                  "rho": "0.1*sin(0.7*t)"}})
+
+
+def _best(fn, repeats: int) -> float:
+    best = float("inf")
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        fn()
+        best = min(best, time.perf_counter() - t0)
+    return best
+
+
+def _write_csv(cols: dict, path: Path) -> None:
+    names = list(cols)
+    a = np.column_stack([np.asarray(cols[c], dtype=float) for c in names])
+    np.savetxt(path, a, delimiter=",", header=",".join(names), comments="", fmt="%.17g")
+
+
+def measure(n: int, repeats: int) -> list:
+    from observer_cad import Monitor
+    from observer_cad.codegen import CompiledMonitorEngine, CompiledSimulator
+    from observer_cad.simulation import read_table, scenario_from_dict
+    rows = []
+    for name, m, obs, rule, spec in _cases():
+        spec = dict(spec)
+        if m.time == "discrete":
+            spec["steps"] = n
+        else:
+            spec.update(dt=0.01, t_end=0.01 * (n - 1))
+        sc = scenario_from_dict(spec, source="bench")
+        sim = CompiledSimulator(m, obs)
+        res = sim.simulate(sc)
+        t_sim = _best(lambda: sim.simulate(sc), repeats)
+        eng = CompiledMonitorEngine(obs)
+        mon = Monitor(m, obs, rule=rule, engine=eng)
+        cols = {"t": np.asarray(res["t"])}
+        cols.update({s: np.asarray(res[s]) for s in mon.signals})
+        t_arr = _best(lambda: mon.run(cols), repeats)
+        with tempfile.TemporaryDirectory() as d:
+            path = Path(d) / "rec.csv"
+            _write_csv(cols, path)
+            t_csv = _best(lambda: mon.run(read_table(path)), repeats)
+        rows.append((name, n, t_sim, t_arr, t_csv))
+    return rows
+
+
+def table(rows, repeats: int) -> str:
+    mach = machine()
+    when = datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M")
+    head = (f"Measured {when} UTC by `python3 benchmarks/bench_monitor.py --write`:"
+            f" {mach['nproc']} CPUs ({mach['cpu']}), Python {mach['python']}, numpy"
+            f" {mach['numpy']}. Load average {_load()}. Best of {repeats} runs, wall clock;"
+            f" rows per second; ratio = compiled loop / monitor (goal ≤ {GOAL:g}).\n\n")
+    out = ["| case | rows | compiled loop | monitor, arrays | ratio | monitor, CSV | ratio |",
+           "|---|---|---|---|---|---|---|"]
+    for name, n, ts, ta, tc in rows:
+        out.append(f"| {name} | {n:,} | {n / ts:,.0f}/s | {n / ta:,.0f}/s | {ta / ts:.2f}"
+                   f" | {n / tc:,.0f}/s | {tc / ts:.2f} |")
+    return head + "\n".join(out)
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--rows", type=int, default=100_000, help="rows per case (default 100000)")
+    ap.add_argument("--repeats", type=int, default=3, help="timed runs, best kept (default 3)")
+    ap.add_argument("--write", action="store_true", help="update benchmarks/README.md")
+    a = ap.parse_args()
+    publish(table(measure(a.rows, a.repeats), a.repeats), README, BEGIN, END, write=a.write)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,344 @@
+"""A monitor on recorded data: the observer (and its threshold and decision rule) stepped
+over measured inputs and outputs, in one call over a table or one row at a time.
+
+The algorithm is the discrete one the exported C runs
+(:func:`~observer_cad.codegen.observer_step`): row k gives the observer's outputs at
+its current state and the inputs and outputs of that row, then the state's next value.
+For a continuous-time observer the step is RK4 of size h, the sample time of the data,
+with the row's inputs and outputs held over the interval (zero-order hold); for a
+discrete-time one a row is a step. The rows' checks are those of
+:mod:`observer_cad.simulation` ``_recording``.
+
+The numbers come from an *engine*: :class:`ReferenceMonitorEngine` here (sympy →
+Python floats, a loop over rows), or the compiled C of
+:func:`observer_cad.codegen.compiled_monitor_engine` (the default of
+``observer-cad monitor``), both with ``run(x0, V, h) -> (O, x)``: ``V`` (N, ny + nu)
+rows of the observer's signals (measurements y1… first, then its known inputs, the
+order of :attr:`Monitor.signals`), ``O`` (N, no) the outputs per row, ``x`` the state
+after the last row.
+
+Decisions follow :func:`~observer_cad.residuals.decide` (persistence counters carried
+from row to row, so :meth:`Monitor.step` and :meth:`Monitor.run` agree).
+"""
+from __future__ import annotations
+
+import dataclasses
+import re
+from typing import Mapping
+
+import numpy as np
+import sympy as sp
+
+from ..errors import UsageError
+from ..model import PlantModel
+from ..numerics import algebraic_to_float
+from ..observers import Observer
+from ..residuals import DecisionRule, decide
+from ._recording import check_times, declared_envelope, recording_from_columns
+from ._simulate import SimulationResult, align_delay, column_units
+
+__all__ = ["Monitor", "MonitorStep", "ReferenceMonitorEngine", "monitor_signals",
+           "monitor_signal_columns",
+           "monitor_initial_state", "MONITOR_COLUMNS"]
+
+#: the columns a monitor adds after the observer's outputs: with a decision rule
+#: ``alarm`` (0/1) and ``diagnosis`` (text), then always ``in_bounds`` (1 while every
+#: recorded signal with a declared range lies in it, else 0)
+MONITOR_COLUMNS = ("alarm", "diagnosis", "in_bounds")
+
+
+def monitor_signals(observer: Observer) -> tuple:
+    """(measurements y1…, known inputs) the observer reads, as names in its order (the
+    order of the exported C's ``y`` and ``u`` arguments)."""
+    names = [str(s) for s in observer.signals]
+    ys = [s for s in names if re.fullmatch(r"y\d+", s)]
+    return tuple(ys), tuple(s for s in names if s not in ys)
+
+
+def monitor_signal_columns(observer: Observer) -> tuple:
+    """The signals' columns of ``monitor.csv`` (and of the exported C's output), in order:
+    the measurements by number (y1, y2, …), then the known inputs in the observer's order."""
+    ys, us = monitor_signals(observer)
+    return tuple(sorted(ys, key=lambda s: int(s[1:]))) + us
+
+
+def monitor_initial_state(observer: Observer, initial: Mapping | None = None, *,
+                          zeroed: list | None = None) -> np.ndarray:
+    """The observer's initial state: ``observer.initial`` with the plant symbols it
+    mentions set from ``initial`` (name → value; an observer state's name sets that
+    state) and the rest 0 — the default of the exported C. ``zeroed``: a list that
+    receives the names taken as 0."""
+    given = {str(k): float(v) for k, v in (initial or {}).items()}
+    par = dict(observer.parameters)
+    x0 = []
+    taken = set()
+    for s in observer.states:
+        if str(s) in given:
+            x0.append(given[str(s)])
+            continue
+        e = algebraic_to_float(sp.sympify(observer.initial.get(s, 0))).xreplace(par)
+        sub = {v: given.get(str(v), 0.0) for v in e.free_symbols}
+        taken.update(str(v) for v in e.free_symbols if str(v) not in given)
+        try:
+            x0.append(float(e.xreplace(sub)))
+        except TypeError:
+            raise UsageError(f"monitor: the initial value of {s} ({e}) is not a number") from None
+    if zeroed is not None:
+        zeroed.extend(sorted(taken))
+    return np.array(x0, dtype=float)
+
+
+class ReferenceMonitorEngine:
+    """The observer's step in Python floats (sympy lambdify; a loop over rows): the
+    reference the compiled engine is tested against."""
+
+    kind = "reference (Python)"
+
+    def __init__(self, observer: Observer):
+        ys, us = monitor_signals(observer)
+        par = dict(observer.parameters)
+        xs = list(observer.states)
+        sig = [sp.Symbol(n) for n in ys + us]
+        sym = {str(s): s for s in observer.signals}
+        args = xs + [sym[n] for n in ys + us]
+        fix = [algebraic_to_float(sp.sympify(e)).xreplace(par) for e in observer.update]
+        out = [algebraic_to_float(sp.sympify(e)).xreplace(par) for _, e in observer.outputs]
+        self._upd = sp.lambdify(args, fix or [0], modules="math")
+        self._out = sp.lambdify(args, out or [0], modules="math")
+        self.nx, self.no, self.nv = len(xs), len(out), len(sig)
+        self.continuous = observer.time == "continuous"
+
+    def run(self, x0, V, h: float):
+        x = [float(v) for v in x0]
+        V = np.asarray(V, dtype=float).reshape(-1, self.nv)
+        O = np.empty((V.shape[0], self.no))
+        upd, fo, n = self._upd, self._out, self.nx
+        for k, row in enumerate(V.tolist()):
+            O[k] = fo(*x, *row)[:self.no] if self.no else ()
+            if not n:
+                continue
+            if not self.continuous:
+                x = list(upd(*x, *row))
+                continue
+            k1 = upd(*x, *row)   # RK4 in the operation order of codegen.rk4
+            k2 = upd(*[h / 2 * a + b for a, b in zip(k1, x)], *row)
+            k3 = upd(*[h / 2 * a + b for a, b in zip(k2, x)], *row)
+            k4 = upd(*[h * a + b for a, b in zip(k3, x)], *row)
+            x = [h / 6 * (a + 2 * b + 2 * c + d) + xv
+                 for a, b, c, d, xv in zip(k1, k2, k3, k4, x)]
+        return O, np.array(x, dtype=float)
+
+
+@dataclasses.dataclass(frozen=True)
+class MonitorStep:
+    """One row's result: ``t``; ``outputs`` the observer's outputs by name (residuals,
+    their bands, estimates); ``alarm`` and ``diagnosis`` (None without a rule);
+    ``in_bounds`` whether the row's signals lie in their declared ranges; ``changed``
+    whether the alarm or the diagnosis differs from the row before."""
+
+    t: float
+    outputs: Mapping
+    alarm: bool | None
+    diagnosis: str | None
+    in_bounds: bool
+    changed: bool
+
+
+class Monitor:
+    """The observer over recorded data (module docstring).
+
+    ``rule``: a :class:`~observer_cad.residuals.DecisionRule` over the observer's
+    residuals (needs their bands ``<r>_lower``/``<r>_upper``: a threshold), or None;
+    ``h``: the sample time of a continuous-time observer (default: the data's first
+    interval); ``sample_time``: for a discrete-time model, the unit ``t`` counts in
+    (default 1: ``t`` is the step number); ``initial``: values of the plant states the
+    observer's initial state depends on (default 0, as the exported C); ``engine``: an
+    object with ``run(x0, V, h)`` (default :class:`ReferenceMonitorEngine`).
+    ``record=False``: :meth:`step` keeps no history (then :meth:`result` is empty).
+
+        mon = Monitor(model, observer, rule=rule)
+        table = mon.run(df)             # pandas DataFrame or mapping: t, u…, y1…
+        s = mon.step(t, u=[...], y=[...])
+    """
+
+    def __init__(self, model: PlantModel, observer: Observer, *, rule: DecisionRule | None = None,
+                 h: float | None = None, sample_time: float | None = None,
+                 initial: Mapping | None = None, engine=None, record: bool = True):
+        if observer.time != model.time:
+            raise UsageError(f"observer is {observer.time}-time but the model is {model.time}-time")
+        self.model, self.observer, self.rule = model, observer, rule
+        self.ys, self.us = monitor_signals(observer)
+        self.signals = self.ys + self.us
+        self.outputs = tuple(n for n, _ in observer.outputs)
+        if rule is not None:
+            missing = [n for n in rule.residuals + rule.lower_names + rule.upper_names
+                       if n not in self.outputs]
+            if missing:
+                raise UsageError(f"monitor: the observer has no output '{missing[0]}' for the"
+                                 " decision rule (a threshold gives <r>_lower, <r>_upper)")
+        if h is not None and not (np.isfinite(h) and h > 0):
+            raise UsageError(f"monitor: h must be a positive finite sample time, got {h!r}")
+        self.h0, self.sample_time = h, sample_time
+        #: the plant symbols the observer's initial state depends on that were taken as 0
+        #: (not given in ``initial``): an assumption the CLI states
+        self.assumed_zero = []
+        self.x0 = monitor_initial_state(observer, initial, zeroed=self.assumed_zero)
+        self.engine = engine if engine is not None else ReferenceMonitorEngine(observer)
+        self.envelope = declared_envelope(model)
+        self.record = record
+        #: the name the row checks of :meth:`step` give (e.g. ``<stdin>``)
+        self.source = "monitor.step"
+        self.reset()
+
+    # ------------------------------------------------------------------ state
+    def reset(self) -> None:
+        """Back to the initial state, before the first row."""
+        self.x = self.x0.copy()
+        self.h = self.h0 if self.model.time == "continuous" else None
+        self._t = []
+        self._pending = None          # (t, V row) of the first row while h is unknown
+        self._counters = np.zeros(len(self.rule.residuals) if self.rule else 0, dtype=np.int64)
+        self._last = (None, None)
+        self._rows = {"t": [], "V": [], "O": [], "code": [], "in": []}
+        self._extra = {}
+
+    @property
+    def columns(self) -> tuple:
+        """The columns of :meth:`run`'s table (and monitor.csv), in order."""
+        sig = list(monitor_signal_columns(self.observer))
+        dec = list(MONITOR_COLUMNS[:2]) if self.rule is not None else []
+        return tuple(["t"] + sig + list(self.outputs) + dec + ["in_bounds"])
+
+    # ------------------------------------------------------------------ a table
+    def run(self, data, *, rename: Mapping | None = None, source: str | None = None):
+        """The monitor over a whole table, from the initial state (``data``: a pandas
+        DataFrame or a mapping name → column, with ``t`` and the observer's signals;
+        ``rename``: signal → the column holding it). Returns a
+        :class:`~observer_cad.simulation.SimulationResult` with :attr:`columns`
+        (``.to_pandas()`` for a DataFrame), the table ``monitor.csv`` holds."""
+        rec = recording_from_columns(self.model, self.signals, data, rename=rename,
+                                     sample_time=self.sample_time, source=source)
+        self.reset()
+        h = self.h0 if self.h0 is not None else rec.h
+        V = np.ascontiguousarray(np.column_stack([rec.columns[s] for s in self.signals])
+                                 if self.signals else np.zeros((rec.t.size, 0)))
+        with np.errstate(all="ignore"):
+            O, x = self.engine.run(self.x0, V, h)
+        self.x, self.h = x, h
+        return self._table(rec.t, rec.columns, O)
+
+    def _in_bounds(self, cols: Mapping, n: int) -> np.ndarray:
+        ok = np.ones(n, dtype=bool)
+        for name, (lo, hi) in self.envelope.items():
+            if name in cols:
+                v = np.asarray(cols[name], dtype=float)
+                ok &= (v >= lo) & (v <= hi)
+        return ok
+
+    def _table(self, t, sigs: Mapping, O) -> SimulationResult:
+        cols = {"t": np.asarray(t, dtype=float)}
+        n = cols["t"].size
+        for s in self.columns:
+            if s in sigs:
+                cols[s] = np.asarray(sigs[s], dtype=float)
+        delays = {}
+        for j, name in enumerate(self.outputs):
+            delays[name] = int(self.observer.delays.get(name, 0))
+            v = np.ascontiguousarray(O[:, j], dtype=float)
+            cols[name] = align_delay(v[None, :], delays[name])[0] if delays[name] else v
+        if self.rule is not None:
+            dec = decide(self.rule, cols)
+            cols["alarm"] = dec.alarm.astype(np.int64)
+            if len(self.rule.residuals) <= 12:   # a table of every code: no sort
+                texts = np.array([self.rule.diagnosis(c) for c in range(self.rule.codes)],
+                                 dtype=object)
+                cols["diagnosis"] = texts[dec.code]
+            else:
+                cols["diagnosis"] = dec.diagnosis
+        cols["in_bounds"] = self._in_bounds(sigs, n).astype(np.int64)
+        order = self.columns
+        return SimulationResult(cols, order, delays, None,
+                                units=column_units(self.model, self.observer, cols),
+                                model=self.model.name, time=self.model.time)
+
+    # ------------------------------------------------------------------ a row
+    def _row(self, u, y) -> np.ndarray:
+        vals = {}
+        for what, v, names in (("u", u, [str(s) for s in self.model.inputs]),
+                               ("y", y, [f"y{i}" for i in range(1, len(self.model.outputs) + 1)])):
+            if isinstance(v, Mapping):
+                vals.update({str(k): float(x) for k, x in v.items()})
+            else:
+                v = [] if v is None else list(np.atleast_1d(np.asarray(v, dtype=float)))
+                if len(v) != len(names):
+                    raise UsageError(f"monitor.step: {what} needs {len(names)} values"
+                                     f" ({', '.join(names) or 'none'}), got {len(v)}")
+                vals.update(zip(names, (float(x) for x in v)))
+        for s in self.signals:
+            if s not in vals:
+                raise UsageError(f"monitor.step: no value for {s}")
+            if not np.isfinite(vals[s]):
+                raise UsageError(f"monitor.step: {s} = {vals[s]!r} is not a finite number")
+        return vals
+
+    def step(self, t: float, u=None, y=None) -> MonitorStep:
+        """One row: time ``t``, the inputs ``u`` and outputs ``y`` (sequences in the
+        model's order, or mappings name → value). Returns the row's
+        :class:`MonitorStep`; the rows' times are checked as :meth:`run` checks them."""
+        vals = self._row(u, y)
+        t = float(t)
+        if not np.isfinite(t):
+            raise UsageError(f"monitor.step: t = {t!r} is not a finite number")
+        row = np.array([[vals[s] for s in self.signals]], dtype=float).reshape(1, -1)
+        n = len(self._t)
+        if n:
+            h = check_times(np.array([self._t[-1], t]), time=self.model.time,
+                            sample_time=self.sample_time, source=self.source, first_row=n,
+                            h=self.h)
+            if self._pending is not None:  # the first interval gives h: the first step now
+                with np.errstate(all="ignore"):
+                    _, self.x = self.engine.run(self.x, self._pending, h)
+                self._pending = None
+            self.h = h
+        elif self.model.time == "discrete":
+            pass
+        with np.errstate(all="ignore"):
+            if self.model.time == "continuous" and self.h is None:
+                O, _ = self.engine.run(self.x, row, 0.0)   # outputs only; the step waits for h
+                self._pending = row
+            else:
+                O, self.x = self.engine.run(self.x, row, self.h if self.h is not None else 1.0)
+        self._t.append(t)
+        return self._decide(t, vals, O[0])
+
+    def _decide(self, t: float, vals: Mapping, o) -> MonitorStep:
+        outs = dict(zip(self.outputs, (float(v) for v in o)))
+        alarm = diag = None
+        code = 0
+        if self.rule is not None:
+            for i, (r, lo, hi) in enumerate(zip(self.rule.residuals, self.rule.lower_names,
+                                                self.rule.upper_names)):
+                out = outs[r] < outs[lo] or outs[r] > outs[hi]   # NaN: not out
+                self._counters[i] = self._counters[i] + 1 if out else 0
+                if self._counters[i] >= self.rule.persistence:
+                    code |= 1 << i
+            alarm, diag = code != 0, self.rule.diagnosis(code)
+        ok = bool(self._in_bounds({k: [v] for k, v in vals.items()}, 1)[0])
+        changed = (alarm, diag) != self._last
+        self._last = (alarm, diag)
+        if self.record:
+            r = self._rows
+            r["t"].append(t)
+            r["V"].append([vals.get(c) for c in self.columns if c in vals])
+            r["O"].append(list(o))
+            self._extra.update({k: None for k in vals})
+        return MonitorStep(t, outs, alarm, diag, ok, changed)
+
+    def result(self) -> SimulationResult:
+        """The table of the rows :meth:`step` has seen (as :meth:`run` returns it)."""
+        r = self._rows
+        names = [c for c in self.columns if c in self._extra]
+        V = np.array(r["V"], dtype=float).reshape(len(r["t"]), len(names))
+        sigs = {c: V[:, j] for j, c in enumerate(names)}
+        O = np.array(r["O"], dtype=float).reshape(len(r["t"]), len(self.outputs))
+        return self._table(np.array(r["t"], dtype=float), sigs, O)
