@@ -113,7 +113,7 @@ def test_exported_c_reproduces_the_python_step_on_the_biased_sensor(bank, tmp_pa
     for row in sig:
         w.writerow([repr(float(v)) for v in row])
     (tmp_path / "in.csv").write_text(buf.getvalue())
-    run = subprocess.run([str(tmp_path / "a.out"), "in.csv"], cwd=tmp_path,
+    run = subprocess.run([str(tmp_path / "a.out"), "in.csv", "trace"], cwd=tmp_path,
                          capture_output=True, text=True, timeout=300)
     assert run.returncode == 0, run.stderr
     rows = list(csv.reader(io.StringIO(run.stdout)))
@@ -205,7 +205,7 @@ def test_zero_order_residual_exports_to_c(tmp_path):
     lines = [",".join(names)] + [",".join(repr(float(ref[n][i])) for n in names)
                                  for i in range(ref["t"].shape[0])]
     (tmp_path / "in.csv").write_text("\n".join(lines) + "\n")
-    run = subprocess.run([str(tmp_path / "a.out"), "in.csv"], cwd=tmp_path,
+    run = subprocess.run([str(tmp_path / "a.out"), "in.csv", "trace"], cwd=tmp_path,
                          capture_output=True, text=True, timeout=120)
     assert run.returncode == 0, run.stderr
     rows = list(csv.reader(io.StringIO(run.stdout)))
