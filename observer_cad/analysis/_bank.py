@@ -92,8 +92,13 @@ def _describe_row(row, faults) -> str:
 
 
 def realised_row(d: Design, faults: Sequence[str]) -> tuple:
-    """The row a residual realises, recomputed from its structure: 1 where O Φ D_j ≠ 0."""
+    """The row a residual realises, recomputed from its structure: 1 where O Φ D_j ≠ 0
+    (with faults in the outputs, the design's signature: R* Dy_j ≠ 0 or
+    O (Φ D_j − J* Dy_j) ≠ 0)."""
     m = d.matrices
+    sig = d.signature_map
+    if d.structure.has_feedthrough and all(f in sig for f in faults):
+        return tuple(int(sig[f]) for f in faults)
     return tuple(int(fault_sensitivity(m.Phi, m.F_star, m.H_star,
                                        d.structure.unknown_input_columns([f]), name=f).sensitive)
                  for f in faults)

@@ -8,7 +8,11 @@ isolation decisions measured by Monte-Carlo ensembles.
 2. The isolating bank of ``models/three_tank_isolation.py`` with guaranteed thresholds: a step
    fault in each tank and the fault-free case over noisy runs, isolated by matching the alarm
    pattern against the structure matrix — the confusion matrix.
-3. An ensemble: the three-tank's interval observer for x1 over thousands of
+3. Sensor against actuator faults (``models/three_tank_sensor_faults.py``: a bias on each
+   level sensor, y = x + fs + w): a bank of two residuals over fa1, fa2, fs1 with guaranteed
+   thresholds isolates a bias on sensor 1 from the faults of both pumps — the confusion
+   matrix over noisy runs.
+4. An ensemble: the three-tank's interval observer for x1 over thousands of
    sampled initial states and noise and disturbance realisations
    (``models/scenarios/three_tank_ensemble.json``), summarised per run, the worst run
    replayed (needs the C compiler; skipped with a note without one).
@@ -33,7 +37,7 @@ from ..synthesis import design
 from ..analysis import design_bank
 
 __all__ = ["EvaluationOutcome", "run_evaluation", "evaluation_section", "evaluation_summary",
-           "DRIVE_MODEL", "BANK_MODEL", "ENSEMBLE_MODEL"]
+           "DRIVE_MODEL", "BANK_MODEL", "SENSOR_MODEL", "ENSEMBLE_MODEL"]
 
 DRIVE_MODEL = "electric_drive_uncertain.py"
 DRIVE_SCENARIO = "electric_drive_uncertain"
@@ -41,6 +45,12 @@ DRIVE_RUNS = 200
 BANK_MODEL = "three_tank_isolation.py"
 BANK_SCENARIO = "three_tank_isolation"
 BANK_RUNS = 40
+SENSOR_MODEL = "three_tank_sensor_faults.py"
+SENSOR_SCENARIO = "three_tank_sensor_faults"
+SENSOR_FAULTS = ("fa1", "fa2", "fs1")
+SENSOR_STRUCTURE = "101,011"
+SENSOR_RUNS = 40
+SENSOR_FIGURE = "evaluation_sensor_confusion.png"
 ENSEMBLE_MODEL = "three_tank.py"
 ENSEMBLE_SCENARIO = "three_tank_ensemble"
 ENSEMBLE_RUNS = 2000
@@ -61,6 +71,8 @@ class EvaluationOutcome:
     bank_metrics: object = None
     bank_conditions: tuple = ()
     bank_min_fault: dict = dataclasses.field(default_factory=dict)
+    sensor_metrics: object = None
+    sensor_conditions: tuple = ()
     ensemble: object = None  # an EnsembleResult
     ensemble_note: str | None = None  # why the ensemble was skipped
     figures: list = dataclasses.field(default_factory=list)  # (name, caption)
@@ -82,7 +94,7 @@ def run_evaluation(models_dir: Path, fig_dir: Path, log) -> EvaluationOutcome:
         rule = decision_rule(m, d)
         sc = load_scenario(models_dir / "scenarios" / f"{DRIVE_SCENARIO}.json")
         onset = 100.0
-        log(f"[evaluation 1/3] {m.name}: guaranteed threshold, {DRIVE_RUNS} fault-free runs and"
+        log(f"[evaluation 1/4] {m.name}: guaranteed threshold, {DRIVE_RUNS} fault-free runs and"
             f" {DRIVE_RUNS} runs with d = 0.2 from t = {onset:g} (k5 sampled per run from its"
             " declared uncertainty)")
         out.drive_metrics = evaluate_ensemble(m, ob, fault_free(m, sc), rule,
@@ -114,7 +126,7 @@ def run_evaluation(models_dir: Path, fig_dir: Path, log) -> EvaluationOutcome:
             **quiet.signals,
             **{w.name: {"uniform": [float(bm.bounds[w][0]), float(bm.bounds[w][1])]}
                for w in bm.noise}})
-        log(f"[evaluation 2/3] {bm.name}: bank of {len(bank.designs)} residuals with guaranteed"
+        log(f"[evaluation 2/4] {bm.name}: bank of {len(bank.designs)} residuals with guaranteed"
             f" thresholds; a step of 0.3 in each fault from t = 10 and the fault-free case,"
             f" {BANK_RUNS} noisy runs each")
         out.bank_metrics = evaluate_ensemble(
@@ -136,6 +148,9 @@ def run_evaluation(models_dir: Path, fig_dir: Path, log) -> EvaluationOutcome:
         out.timings["residual bank"] = time.perf_counter() - t0
         log(f"        {out.bank_metrics.summary()}")
 
+        step = "sensor faults"
+        _run_sensor_faults(out, models_dir, fig_dir, log)
+
         step = "ensemble"
         _run_ensemble(out, models_dir, fig_dir, log)
     except ObserverCadError as exc:
@@ -145,6 +160,32 @@ def run_evaluation(models_dir: Path, fig_dir: Path, log) -> EvaluationOutcome:
         out.error = f"{step}: {describe_failure(exc)[1]}"
         log(f"        FAILED: {out.error}")
     return out
+
+
+def _run_sensor_faults(out: EvaluationOutcome, models_dir: Path, fig_dir: Path, log) -> None:
+    """Part 3: a bias on sensor 1 isolated from the faults of both pumps (guaranteed
+    thresholds, noisy runs, the confusion matrix)."""
+    from ..reporting import plot_confusion
+    t0 = time.perf_counter()
+    m = load_model(models_dir / SENSOR_MODEL)
+    bank = design_bank(m, faults=SENSOR_FAULTS, structure=SENSOR_STRUCTURE)
+    o = guaranteed_threshold(m, build_observer(m, bank))
+    out.sensor_conditions = o.threshold.conditions
+    quiet = fault_free(m, load_scenario(models_dir / "scenarios" / f"{SENSOR_SCENARIO}.json"))
+    noisy = dataclasses.replace(quiet, signals={
+        **quiet.signals,
+        **{w.name: {"uniform": [float(m.bounds[w][0]), float(m.bounds[w][1])]} for w in m.noise}})
+    log(f"[evaluation 3/4] {m.name}: bank of {len(bank.designs)} residuals over"
+        f" {', '.join(SENSOR_FAULTS)} with guaranteed thresholds; a step of 0.3 in each from"
+        f" t = 10 and the fault-free case, {SENSOR_RUNS} noisy runs each")
+    out.sensor_metrics = evaluate_ensemble(
+        m, o, noisy, decision_rule(m, bank), cases=[FaultCase(f, 0.3, 10.0) for f in SENSOR_FAULTS],
+        runs=SENSOR_RUNS, seed=2)
+    plot_confusion(out.sensor_metrics, fig_dir / SENSOR_FIGURE, title=m.name)
+    out.figures.append((SENSOR_FIGURE, f"{m.name}: a bias on sensor 1 (fs1) against the pump"
+                                       f" faults fa1, fa2 ({out.sensor_metrics.runs} runs)"))
+    out.timings["sensor faults"] = time.perf_counter() - t0
+    log(f"        {out.sensor_metrics.summary()}")
 
 
 def _run_ensemble(out: EvaluationOutcome, models_dir: Path, fig_dir: Path, log) -> None:
@@ -161,9 +202,9 @@ def _run_ensemble(out: EvaluationOutcome, models_dir: Path, fig_dir: Path, log) 
         sim = CompiledSimulator(m, o)
     except CodegenError as exc:
         out.ensemble_note = f"not run: the ensemble needs the C compiler ({str(exc).splitlines()[0]})"
-        log(f"[evaluation 3/3] {out.ensemble_note}")
+        log(f"[evaluation 4/4] {out.ensemble_note}")
         return
-    log(f"[evaluation 3/3] {m.name}: interval observer for x1, ensemble of {ENSEMBLE_RUNS} runs"
+    log(f"[evaluation 4/4] {m.name}: interval observer for x1, ensemble of {ENSEMBLE_RUNS} runs"
         f" × {len(sc.case_names)} cases (compiled, every core)")
     res = run_ensemble(m, o, sc, runs=ENSEMBLE_RUNS, settle=ENSEMBLE_SETTLE,
                        backend=Backend("threads"), simulator=sim, keep=1)
@@ -206,6 +247,9 @@ def evaluation_summary(ev: EvaluationOutcome) -> str:
             f" (delay median {_fmt(med)}, max {_fmt(mx)} steps)")
     if ev.bank_metrics is not None:
         text += f"; three-tank bank isolation accuracy {ev.bank_metrics.isolation_accuracy:.3g}"
+    if ev.sensor_metrics is not None:
+        text += (f"; sensor against actuator faults isolation accuracy"
+                 f" {ev.sensor_metrics.isolation_accuracy:.3g}")
     if ev.ensemble is not None:
         v = ev.ensemble.statistics.overall.fields["x1.violations"]
         text += (f"; [ensemble](#ensemble) (the interval observer over sampled runs):"
@@ -219,6 +263,29 @@ def _conditions(conds) -> list:
     from ..reporting import md_escape
     return [f"- {'✅' if c.holds else '❌'} **{md_escape(c.name)}**: {md_escape(c.detail)}"
             for c in conds]
+
+
+def _sensor_section(ev: EvaluationOutcome) -> list:
+    """The sensor-against-actuator-faults part of the evaluation section."""
+    return [
+        "### Sensor faults against actuator faults", "",
+        f"Model `models/{SENSOR_MODEL}`: the linear three-tank with every level measured and an"
+        " additive bias on each sensor, y_i = x_i + fs_i + w_i (the fault enters the output"
+        " directly: Dy ≠ 0), besides a fault on each pump (fa1, fa2). Residual r1 is decoupled"
+        " from fa2, r2 from fa1 (both from the disturbance ρ); each sees the sensor-1 bias, r1"
+        " directly through R* Dy, r2 through the observer's input J* Dy — so the columns of"
+        f" the structure matrix over ({', '.join(SENSOR_FAULTS)}) are 10, 01 and 11: the bias is"
+        " told apart from either pump fault. Guaranteed thresholds, uniform noise at its"
+        f" declared bounds, a step of 0.3 in one fault from t = 10 s, {SENSOR_RUNS} runs per"
+        " case.", "",
+        "```sh",
+        f"observer-cad design models/{SENSOR_MODEL} --observer diagnostic --isolate --fault fa1"
+        f" --fault fa2 --fault fs1 --structure {SENSOR_STRUCTURE}",
+        f"observer-cad simulate models/{SENSOR_MODEL} --observer diagnostic --isolate --fault fa1"
+        f" --fault fa2 --fault fs1 --structure {SENSOR_STRUCTURE} --threshold guaranteed"
+        f" --scenario models/scenarios/{SENSOR_SCENARIO}.json --out sensor", "```", "",
+        "The threshold rests on:", "", *_conditions(ev.sensor_conditions), "",
+        ev.sensor_metrics.to_markdown(), ""]
 
 
 def evaluation_section(ev: EvaluationOutcome) -> str:
@@ -260,6 +327,8 @@ def evaluation_section(ev: EvaluationOutcome) -> str:
         if ev.bank_min_fault:
             out += ["Smallest step faults detected for sure once settled: "
                     + ", ".join(f"{f} ≥ {_fmt(v)}" for f, v in ev.bank_min_fault.items()), ""]
+    if ev.sensor_metrics is not None:
+        out += _sensor_section(ev)
     if ev.ensemble is not None or ev.ensemble_note:
         out += ['<a id="ensemble"></a>', "### Validation over an ensemble", ""]
     if ev.ensemble_note:

@@ -32,7 +32,7 @@ from ..model import load_model
 from ._cases import ANALYSIS_JSON, BANK_JSON, CASES, DIAGNOSABILITY, EXAMPLES_DIR
 from ._designs import Engine, Log, run_case
 from ._diagnosability import diagnosability_figure, run_diagnosability
-from ._evaluation import BANK_MODEL, DRIVE_MODEL, ENSEMBLE_MODEL, run_evaluation
+from ._evaluation import BANK_MODEL, DRIVE_MODEL, ENSEMBLE_MODEL, SENSOR_MODEL, run_evaluation
 from ._figures import FIGURES, render_figures
 from ._report import report_text
 
@@ -84,7 +84,7 @@ def run_demo(models_dir: Path = EXAMPLES_DIR, out_dir: Path = Path("out"), *,
     report_path = out_dir / "report.md"
     totals["report"] = time.perf_counter() - t0
     totals["total"] = time.perf_counter() - t_start
-    for name in (DRIVE_MODEL, BANK_MODEL, ENSEMBLE_MODEL):
+    for name in (DRIVE_MODEL, BANK_MODEL, SENSOR_MODEL, ENSEMBLE_MODEL):
         m = load_model(models_dir / name)
         used_models.setdefault(m.name, m)
     text = report_text(outcomes, figs, out_dir, totals, engine, used_models, diag, evaluation)

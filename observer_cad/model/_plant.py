@@ -7,7 +7,7 @@ are linear in the states, noise enters linearly (outputs, and optionally the dyn
 
 Plant (METHOD §1), continuous ``dx/dt`` or discrete ``x(t+1)``::
 
-    x' = F x + G u + C Ψ(x, u) + D d + L ρ + Bw w,     y = H x + W w
+    x' = F x + G u + C Ψ(x, u) + D d + L ρ + Bw w,     y = H x + Gy u + Dy d + Ly ρ + W w
 """
 from __future__ import annotations
 
@@ -176,7 +176,8 @@ class PlantModel:
     states : list of Symbol
         State variables x1 ... xn.
     outputs : list of Expr
-        Measured outputs y1 ... yl, linear in the states, plus noise symbols.
+        Measured outputs y1 ... yl, linear in the states, the noise and (feedthrough) the
+        inputs, faults and disturbances: ``x1 + fs1`` is a bias fault on a sensor.
     dynamics : list of Expr
         Right-hand side, one expression per state.
     inputs, faults, disturbances, noise : list of Symbol, optional
@@ -446,9 +447,10 @@ def _symbol_roles(model: "PlantModel", params: dict, where: str) -> dict:
 
 def _check_expression_symbols(model: "PlantModel", roles: dict, where: str) -> None:
     """Every symbol of the equations declared; noise in some output or dynamics equation
-    (process noise enters the dynamics linearly, checked at extraction); outputs free of inputs, faults and disturbances; every fault and disturbance
-    in some dynamics equation. Each expression's symbols are collected once (one walk
-    over its terms)."""
+    (process noise enters the dynamics linearly, checked at extraction); every fault and
+    disturbance in some dynamics equation or output (inputs, faults and disturbances may
+    enter the outputs: y = H x + Gy u + Dy d + Ly ρ + W w). Each expression's symbols are
+    collected once (one walk over its terms)."""
     declared = set(roles)
     noise = set(model.noise)
     dyn_syms = [free_symbols(f) for f in model.dynamics]
@@ -457,15 +459,10 @@ def _check_expression_symbols(model: "PlantModel", roles: dict, where: str) -> N
         for s in sorted(fs - declared, key=str):
             raise ModelError(
                 f"{where}: undeclared symbol '{s}' in dynamics equation {i + 1} (for {x})")
-    unknown = set(model.inputs) | set(model.faults) | set(model.disturbances)
     for i, (h, hs) in enumerate(zip(model.outputs, out_syms)):
         name = f"y{i + 1}"
         for s in sorted(hs - declared, key=str):
             raise ModelError(f"{where}: undeclared symbol '{s}' in output {name} = {h}")
-        for s in sorted(hs & unknown, key=str):
-            raise ModelError(
-                f"{where}: output {name} = {h} depends on {roles[s][:-1]} '{s}';"
-                " outputs may contain states, noise and parameters only")
     in_outputs = set().union(*out_syms)
     in_dynamics = set().union(*dyn_syms)
     for w in model.noise:
@@ -474,9 +471,9 @@ def _check_expression_symbols(model: "PlantModel", roles: dict, where: str) -> N
                              " and no dynamics equation")
     for role, syms in (("fault", model.faults), ("disturbance", model.disturbances)):
         for s in syms:
-            if s not in in_dynamics:
+            if s not in in_dynamics and s not in in_outputs:
                 raise ModelError(f"{where}: {role} '{s}' is declared but appears in no"
-                                 " dynamics equation")
+                                 " dynamics equation or output")
 
 
 def _declared_pair(s, b, what: str, where: str) -> tuple:

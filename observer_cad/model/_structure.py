@@ -2,10 +2,11 @@
 
 METHOD §1::
 
-    x' = F x + G u + C Ψ(x, u) + D d + L ρ + Bw w,     y = H x + W w
+    x' = F x + G u + C Ψ(x, u) + D d + L ρ + Bw w,     y = H x + Gy u + Dy d + Ly ρ + W w
 
 (process noise Bw w: a noise symbol entering the dynamics linearly with a constant
-coefficient; bounded, never decoupled).
+coefficient; bounded, never decoupled; feedthrough Gy, Dy, Ly: inputs, faults and
+disturbances entering the outputs linearly with constant coefficients).
     Ψ(x, u) = (φ_1(A_1 x, u), ..., φ_q(A_q x, u))ᵀ
 
 Every additive term of a right-hand side that is not linear in x and u is a
@@ -52,14 +53,16 @@ class EquationCheck:
 class ModelCertificate:
     """The extracted matrices rebuild the model's own equations (METHOD §1)::
 
-        F x + G u + C Ψ(A x, u) + D d + L ρ + Bw w − f(x, u, d, ρ, w) ≡ 0,   H x + W w − h(x, w) ≡ 0
+        F x + G u + C Ψ(A x, u) + D d + L ρ + Bw w − f(x, u, d, ρ, w) ≡ 0,
+        H x + Gy u + Dy d + Ly ρ + W w − h(x, u, d, ρ, w) ≡ 0
 
     one :class:`EquationCheck` per equation and output, every one passed (a failure is a
     :class:`ModelError`, never a certificate)."""
 
     checks: tuple
 
-    IDENTITY = "F x + G u + C Psi(A x, u) + D d + L rho + Bw w - f = 0,  H x + W w - h = 0"
+    IDENTITY = ("F x + G u + C Psi(A x, u) + D d + L rho + Bw w - f = 0,"
+                "  H x + Gy u + Dy d + Ly rho + W w - h = 0")
 
     @property
     def exact(self) -> bool:
@@ -119,20 +122,34 @@ class Structure:
     #: process noise in the dynamics: x' = ... + Bw w (zero when absent)
     Bw: sp.ImmutableMatrix | None = None
 
-    def __post_init__(self):
-        if self.Bw is None:
-            object.__setattr__(self, "Bw", sp.ImmutableMatrix.zeros(self.F.shape[0],
-                                                                    len(self.model.noise)))
-        l = self.H.shape[0]  # noqa: E741
-        for name, cols in (("Gy", self.G.shape[1]), ("Dy", self.D.shape[1]),
-                           ("Ly", self.L.shape[1])):
+    def __post_init__(self) -> None:
+        l, n = self.H.shape[0], self.F.shape[0]
+        for name, shape in (("Gy", (l, self.G.shape[1])), ("Dy", (l, self.D.shape[1])),
+                            ("Ly", (l, self.L.shape[1])), ("Bw", (n, self.W.shape[1]))):
             if getattr(self, name) is None:
-                object.__setattr__(self, name, sp.ImmutableMatrix(sp.zeros(l, cols)))
+                object.__setattr__(self, name, sp.ImmutableMatrix(sp.zeros(*shape)))
 
     @property
     def has_feedthrough(self) -> bool:
-        """Whether faults or disturbances enter the outputs directly (Dy or Ly nonzero)."""
-        return any(e != 0 for M in (self.Dy, self.Ly) for e in M)
+        """True when inputs, faults or disturbances enter the outputs (Gy, Dy, Ly ≠ 0)."""
+        return not (self.Gy.is_zero_matrix and self.Dy.is_zero_matrix
+                    and self.Ly.is_zero_matrix)
+
+    def output_columns(self, names) -> sp.ImmutableMatrix:
+        """Columns of Dy or Ly for the named faults / disturbances, in that order (the
+        outputs' counterpart of :meth:`unknown_input_columns`)."""
+        cols = []
+        for name in names:
+            sym = self.model.symbol(name) if isinstance(name, str) else name
+            if sym in self.model.faults:
+                cols.append(self.Dy[:, self.model.faults.index(sym)])
+            elif sym in self.model.disturbances:
+                cols.append(self.Ly[:, self.model.disturbances.index(sym)])
+            else:
+                raise ModelError(f"{self.model.where}: '{name}' is not a fault or disturbance")
+        if not cols:
+            return sp.ImmutableMatrix(sp.zeros(self.l, 0))
+        return sp.ImmutableMatrix(sp.Matrix.hstack(*cols))
 
     @property
     def n(self) -> int:
@@ -185,9 +202,11 @@ class Structure:
                                  (self.Bw, m.noise)])
 
     def outputs_rebuilt(self) -> sp.ImmutableMatrix:
-        """H x + W w rebuilt from the matrices (for checks)."""
+        """H x + Gy u + Dy d + Ly ρ + W w rebuilt from the matrices (for checks)."""
         m = self.model
-        return _rebuilt(self.H.rows, [(self.H, m.states), (self.W, m.noise)])
+        return _rebuilt(self.H.rows, [(self.H, m.states), (self.Gy, m.inputs),
+                                      (self.Dy, m.faults), (self.Ly, m.disturbances),
+                                      (self.W, m.noise)])
 
 
 def _rebuilt(rows: int, blocks) -> sp.ImmutableMatrix:
@@ -537,27 +556,25 @@ def _own_linear_part(model: PlantModel, F, C, info, n: int, where) -> sp.Matrix:
 
 
 def _read_outputs(model: PlantModel, where) -> tuple:
-    """Outputs: y = H x + W w, term by term (cheap for long outputs): (H, W) as exact
-    matrices."""
+    """Outputs: y = H x + Gy u + Dy d + Ly ρ + W w, term by term (cheap for long
+    outputs): (H, W, Gy, Dy, Ly) as exact matrices. Every term is a constant times one
+    variable; anything else (a product, a constant offset) is refused in one line."""
     xs = model.states
-    n = len(xs)
+    n, l = len(xs), len(model.outputs)
     zero = sp.Integer(0)
-    H = [[zero] * n for _ in model.outputs]
-    W = [[zero] * len(model.noise) for _ in model.outputs]
-    xidx = {x: k for k, x in enumerate(xs)}
-    widx = {w: k for k, w in enumerate(model.noise)}
-    out_simple = {x: (H, k) for x, k in xidx.items()}
-    out_simple.update({w: (W, k) for w, k in widx.items()})
-    xw_set = set(xs) | set(model.noise)
+    groups = (xs, model.noise, model.inputs, model.faults, model.disturbances)
+    mats = [[[zero] * len(g) for _ in model.outputs] for g in groups]
+    out_simple = {v: (M, k) for M, g in zip(mats, groups) for k, v in enumerate(g)}
+    all_set = set(out_simple)
     for i, h in enumerate(model.outputs):
         name = f"y{i + 1}"
         lin = _number_times_variable(h, out_simple)
         if lin is not None:
             _accumulate(lin, i)
             continue
-        for coef, part in _distributed_terms(h, xw_set):
+        for coef, part in _distributed_terms(h, all_set):
             for t in sp.Add.make_args(sp.expand(part, **EXPAND_HINTS)):
-                c, m = _split(t, xw_set)
+                c, m = _split(t, all_set)
                 c = coef * c
                 if c == 0:
                     continue
@@ -568,12 +585,12 @@ def _read_outputs(model: PlantModel, where) -> tuple:
                 elif m.free_symbols & set(xs):
                     raise ModelError(f"{where}: output {name} = {h} is not linear in the states")
                 else:
-                    w = sorted(m.free_symbols & set(model.noise), key=str)[0]
+                    v = sorted(m.free_symbols & all_set, key=str)[0]
                     raise ModelError(f"{where}: output {name} = {h} is not linear in the"
-                                     f" noise '{w}'")
-    H = exact_matrix(len(model.outputs), n, [e for row in H for e in row])
-    W = exact_matrix(len(model.outputs), len(model.noise), [e for row in W for e in row])
-    return H, W
+                                     f" {model.role_of(v).rstrip('s')} '{v}' (outputs are"
+                                     " linear: H x + Gy u + Dy d + Ly rho + W w)")
+    return tuple(exact_matrix(l, len(g), [e for row in M for e in row])
+                 for M, g in zip(mats, groups))
 
 
 def extract_structure(model: PlantModel) -> Structure:
@@ -611,19 +628,20 @@ def extract_structure(model: PlantModel) -> Structure:
         if first is not None and first.could_extract_minus_sign():
             C[:, j] = -C[:, j]
             info[j][0] = -info[j][0]
-    H, W = _read_outputs(model, where)
+    H, W, Gy, Dy, Ly = _read_outputs(model, where)
     terms = tuple(NonlinearTerm(fn, s, sp.ImmutableMatrix([row]))
                   for fn, s, row in info)
     C = exact_matrix(*C.shape, list(C)) if not isinstance(C, sp.ImmutableMatrix) else C
     st = Structure(model, *(sp.ImmutableMatrix(M) for M in (F, G, H, C, D, L, W)), terms,
-                   Bw=sp.ImmutableMatrix(Bw))
+                   Bw=sp.ImmutableMatrix(Bw), Gy=Gy, Dy=Dy, Ly=Ly)
     return dataclasses.replace(st, certificate=certify_structure(st))
 
 
 def certify_structure(st: Structure) -> "ModelCertificate":
     """The model certificate of an extracted structure (METHOD §1)::
 
-        F x + G u + C Ψ(A x, u) + D d + L ρ + Bw w − f(x, u, d, ρ, w) ≡ 0,    H x + W w − h(x, w) ≡ 0
+        F x + G u + C Ψ(A x, u) + D d + L ρ + Bw w − f(x, u, d, ρ, w) ≡ 0,
+        H x + Gy u + Dy d + Ly ρ + W w − h(x, u, d, ρ, w) ≡ 0
 
     each equation and output decided by :func:`is_identically_zero` (exactly, with the
     parameters kept as symbols; else numerically at random rational points, said so).

@@ -55,7 +55,7 @@ def virtual_sensor_observer(model: PlantModel, design: Design) -> Observer:
 
 def diagnostic_observer(model: PlantModel, design: Design) -> Observer:
     """Residual generator: the design's equations and r = R* y − H* x*."""
-    if not design.equations or "r" not in dict(design.outputs):
+    if (not design.equations and design.k) or "r" not in dict(design.outputs):
         raise UsageError("diagnostic_observer needs a design with a residual")
     l = len(model.outputs)
     return Observer(

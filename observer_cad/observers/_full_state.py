@@ -28,6 +28,9 @@ def full_state_intervals(model: PlantModel, *, lambdas=None, margin=None, domain
     from ..synthesis import design_jordan
     work = model.substitute_parameters() if model.parameters else model
     st = extract_structure(work)
+    if st.has_feedthrough:
+        raise UsageError(f"{work.where}: full-state intervals do not take inputs, faults or"
+                         " disturbances in the outputs (output feedthrough) yet")
     H, W = sp.Matrix(st.H), sp.Matrix(st.W)
     n, l = len(work.states), H.rows
     meas = [j for j in range(n) if any(H[i, j] != 0 for i in range(l))]

@@ -58,13 +58,22 @@ def structure_to_json(st: Structure) -> dict:
         "bounds": {s.name: [str(lo), str(hi)] for s, (lo, hi) in m.bounds.items()},
         "initial": {s.name: [str(lo), str(hi)] for s, (lo, hi) in m.initial.items()},
         "domain": [str(r) for r in m.domain],
-        "matrices": {name: rows(getattr(st, name))
-                     for name in ("F", "G", "H", "C", "D", "L", "W", "Bw")},
+        "matrices": {name: rows(getattr(st, name)) for name in _structure_matrices(st, True)},
         "nonlinear": [{"function": str(t.function.xreplace({t.argument: sp.Symbol("s")})),
                        "argument": str((t.row * sp.Matrix(m.states))[0, 0]),
                        "row": [str(e) for e in t.row]} for t in st.terms],
         "certificate": st.certificate.to_json() if st.certificate is not None else None,
     }
+
+
+def _structure_matrices(st: Structure, with_bw: bool = False) -> tuple:
+    """The matrices shown: Bw when the model has process noise (or ``with_bw``: the JSON
+    always has it), the output feedthrough Gy, Dy, Ly only for a model that has some
+    (inputs, faults or disturbances in the outputs)."""
+    names = ("F", "G", "H", "C", "D", "L", "W")
+    if with_bw or not st.Bw.is_zero_matrix:
+        names += ("Bw",)
+    return names + ("Gy", "Dy", "Ly") if st.has_feedthrough else names
 
 
 def format_structure(st: Structure) -> str:
@@ -88,9 +97,10 @@ def format_structure(st: Structure) -> str:
         out.append("  domain       " + ", ".join(str(r) for r in m.domain))
     lhs = "x(t+1)" if m.time == "discrete" else "dx/dt"
     process = not st.Bw.is_zero_matrix  # process noise: shown only when the model has it
+    y = "H x + Gy u + Dy d + Ly rho + W w" if st.has_feedthrough else "H x + W w"
     out.append(f"\n  {lhs} = F x + G u + C Psi(x, u) + D d + L rho{' + Bw w' if process else ''},"
-               "   y = H x + W w\n")
-    for name in ("F", "G", "H", "C", "D", "L", "W") + (("Bw",) if process else ()):
+               f"   y = {y}\n")
+    for name in _structure_matrices(st):
         out.append(format_matrix(name, getattr(st, name)))
     if st.terms:
         out.append("\n  nonlinear terms Psi_j = phi_j(A_j x, u):")
@@ -196,7 +206,7 @@ def format_signature(signature, indent: str = "  ") -> str:
         gain = getattr(s, "steady_gain", None)
         gain = "" if gain is None else f"; steady-state gain = {_gain_text(gain)}"
         out.append(f"{indent}{s.name.ljust(width)}  {int(bool(s.sensitive))}  {s.describe()}"
-                   f"  [{s.role}; Φ D = {list(s.entry)}{gain}]{note}")
+                   f"  [{s.role}; {s.entry_text()}{gain}]{note}")
     return "\n".join(out)
 
 

@@ -404,9 +404,9 @@ def _error_terms(model: PlantModel, observer: Observer, xi, upd, g, where: str) 
         raise UsageError(f"{where}: the observer's map x*(0) = Φ x(0) is not in the plant states")
     Phi = sp.Matrix(phi).jacobian(model.states) if phi else sp.zeros(0, len(model.states))
     ys = list(output_symbols(len(model.outputs)))
-    ysub = dict(zip(ys, outs))
-    xsub = dict(zip(xi, phi))
     nofault = {d: 0 for d in model.faults}
+    ysub = dict(zip(ys, [sp.sympify(h).xreplace(nofault) for h in outs]))  # (faults in y too)
+    xsub = dict(zip(xi, phi))
     nofault.update({w: 0 for w in model.noise})  # process noise: _process_noise_term
     Fx = sp.Matrix([f.xreplace(nofault) for f in dyn])
     Delta = (Phi * Fx - sp.Matrix([e.xreplace(xsub).xreplace(ysub) for e in upd])).applyfunc(sp.expand)
@@ -480,7 +480,8 @@ def _uncertainty_bounds(model: PlantModel, Delta, Gamma, outs, deltas, dbox, xi,
                 if a and gsym in model.states and gsym not in needed:
                     needed.append(gsym)
     needed = [x for x in model.states if x in needed]
-    xbox, xtexts = _state_boxes(model, outs, needed, cbox, deltas, where)
+    fault_free_outs = [sp.sympify(h).xreplace({d: 0 for d in model.faults}) for h in outs]
+    xbox, xtexts = _state_boxes(model, fault_free_outs, needed, cbox, deltas, where)
     Dl, Dh, Gl, Gh = [], [], [], []
     for i, e in enumerate(Delta):
         lo, hi = _bound_terms(e, gens, cbox, xbox, f"{where}: error equation of {xi[i]}")
@@ -638,9 +639,7 @@ def guaranteed_threshold(model: PlantModel, observer: Observer, *, initial_error
     initial = dict(observer.initial)
     initial.update({s: -E0 for s in elo})
     initial.update({s: E0 for s in ehi})
-    Bf = Phi * sp.Matrix([[sp.diff(f, d).xreplace({dl: 0 for dl in deltas.values()}) for d in model.faults]
-                          for f in dyn]) if model.faults else sp.zeros(k, 0)
-    Gf = sp.zeros(len(residuals), len(model.faults))
+    Bf, Gf = _fault_inputs(model, Phi, dyn, outs, upd, g, deltas)
     es = ErrorSystem(model.time, sp.ImmutableMatrix(A), sp.ImmutableMatrix(C),
                      sp.ImmutableMatrix(Bf), sp.ImmutableMatrix(Gf),
                      tuple(str(d) for d in model.faults), residuals)
@@ -678,6 +677,24 @@ def constant_threshold(observer: Observer, value, *, kind: str = "constant",
         outputs.append((f"{r}_upper", sp.Float(v)))
     th = Threshold(kind, residuals, (), tuple(out), None, 0.0, description)
     return dataclasses.replace(observer, outputs=tuple(outputs), threshold=th)
+
+
+def _fault_inputs(model: PlantModel, Phi, dyn, outs, upd, g, deltas) -> tuple:
+    """How a fault enters the error system: Δ gains Φ ∂f/∂d − ∂f_obs/∂y ∂h/∂d and Γ gains
+    ∂g_obs/∂y ∂h/∂d (a fault in the outputs, y = … + Dy d, reaches both: through the
+    observer's input and the residual directly)."""
+    k, q = Phi.rows, len(model.faults)
+    if not q:
+        return sp.zeros(k, 0), sp.zeros(len(g), 0)
+    nominal = {dl: 0 for dl in deltas.values()}
+    Bf = Phi * sp.Matrix([[sp.diff(f, d).xreplace(nominal) for d in model.faults] for f in dyn])
+    Gf = sp.zeros(len(g), q)
+    Hd = sp.Matrix([[sp.diff(h, d).xreplace(nominal) for d in model.faults] for h in outs])
+    if not Hd.is_zero_matrix:
+        ys = list(output_symbols(len(model.outputs)))
+        Bf = Bf - sp.Matrix(upd).jacobian(ys) * Hd
+        Gf = sp.Matrix(g).jacobian(ys) * Hd
+    return Bf.applyfunc(sp.expand), Gf.applyfunc(sp.expand)
 
 
 def min_detectable_fault(threshold: Threshold, width) -> dict:

@@ -19,7 +19,7 @@ allocated); :func:`check_memory` refuses arrays above ``$OBSERVER_CAD_MEMORY_LIM
 :class:`~observer_cad.errors.NonFiniteError` naming the first one (CLI exit status 4).
 Every input, fault, disturbance and noise not given is zero. Signals are held constant
 over a step. Continuous time: plant and observer are integrated as one system by
-fixed-step RK4 (the outputs y = H x + W w are evaluated inside the stages, so the
+fixed-step RK4 (the outputs y = h(x, u, d, ρ, w) are evaluated inside the stages, so the
 observer sees the plant exactly as the equations say). Discrete time: both step at once.
 
 :func:`simulate` runs one scenario; with ``runs=R`` it runs R seeded realisations of

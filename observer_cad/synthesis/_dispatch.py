@@ -23,6 +23,7 @@ from ..errors import InfeasibleDesignError, UsageError
 from ..model import ObserverKind, PlantModel, Task, resolve_task
 from .canonical import design_canonical
 from .core import PROOF_SECONDS, Design, DesignRequest, prepare
+from .core import feedthrough_view, has_output_feedthrough, lift_design, zero_order_design
 from .canonical import design_diagnostic_canonical
 from .jordan import design_jordan, design_jordan_unknown_input, proof_seconds_value
 from .core import default_eigenvalues
@@ -96,11 +97,25 @@ def design(model: PlantModel, *, observer: str, faults: Sequence[str] = (),
                         estimate=estimate)
     if kind == ObserverKind.DIAGNOSTIC and form == "canonical" and len(task.targets) > 1:
         raise UsageError("name the fault to detect with --fault NAME")
+    view = None
+    if has_output_feedthrough(problem.work):  # y = H x + Gy u + Dy d + Ly ρ + W w
+        view = feedthrough_view(problem.work, task)
+        if robust:
+            raise UsageError(f"{model.where}: robust designs do not take output feedthrough"
+                             " (inputs, faults or disturbances in the outputs) yet")
     if kind == ObserverKind.UNKNOWN_INPUT and not robust:  # continuous time: rank tests first
         continuous_estimation_check(model, task.targets[0], task.decoupled)
     try:
-        d = _exact(model, task, faults, disturbances, estimate, form, lambdas, eigenvalues,
-                   variant, symbolic, method, rtol, proof_seconds)
+        if view is not None and task.targets and not view.inner.targets:
+            # every fault to detect enters the outputs only: a zero-order residual
+            d = zero_order_design(view, Design, form=form)
+        else:
+            d = _exact(model if view is None else view.model,
+                       task if view is None else view.inner, faults, disturbances, estimate,
+                       form, lambdas, eigenvalues, variant, symbolic, method, rtol,
+                       proof_seconds)
+            if view is not None:
+                d = lift_design(d, view)
     except InfeasibleDesignError as exc:
         if not robust:
             raise

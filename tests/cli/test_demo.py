@@ -70,7 +70,7 @@ def test_report_references_existing_pngs(demo_run):
     written = {p.name for p in (out / "figures").glob("*.png")}
     assert written == {name for name, *_ in demo.FIGURES} | {cases.BANK_FIGURE} | {
         evaluation.DRIVE_FIGURE, evaluation.BANK_FIGURE, evaluation.BANK_RUN_FIGURE,
-        evaluation.ENSEMBLE_FIGURE, evaluation.ENSEMBLE_WORST_FIGURE}
+        evaluation.ENSEMBLE_FIGURE, evaluation.ENSEMBLE_WORST_FIGURE, evaluation.SENSOR_FIGURE}
     assert {r.split("/")[1] for r in refs} == written
     # the papers' figures are all there
     for name in ("000_fig1", "000_fig2", "000_fig3", "000_fig4", "002_fig2", "002_fig3", "001_fig2"):
@@ -238,6 +238,12 @@ def test_report_has_the_residual_evaluation(demo_run):
         assert f"| {f} | {row} | 0 |" in sec
     assert "comparison system stable" in sec and "594/625" in sec
     assert "0 false alarms in 200 fault-free runs" in report
+    # a bias on sensor 1 against the pump faults: every run isolated, no false alarm
+    sensor = sec[sec.index("### Sensor faults against actuator faults"):]
+    for f in ("fa1", "fa2", "fs1"):
+        row = {"fa1": "0 | 40 | 0 | 0", "fa2": "0 | 0 | 40 | 0", "fs1": "0 | 0 | 0 | 40"}[f]
+        assert f"| {f} | {row} | 0 |" in sensor
+    assert "sensor against actuator faults isolation accuracy 1" in report
 
 
 @pytest.mark.slow  # the whole demo run

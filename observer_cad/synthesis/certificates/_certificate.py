@@ -11,6 +11,10 @@ Identities (METHOD §2)::
 
     Φ F − F* Φ − J* H = 0,   H* Φ − R* H = 0,   Φ G − G* = 0,
     Φ D − D* = 0,            Φ L = 0,           Φ C − C* = 0 (nonlinear)
+
+with inputs, faults and disturbances in the outputs (y = H x + Gy u + Dy d + Ly ρ)::
+
+    Φ G − J* Gy − G* = 0,    Φ D − J* Dy − D* = 0,    Φ L − J* Ly = 0,    R* Ly = 0,  Q Ly = 0
 """
 from __future__ import annotations
 
@@ -277,6 +281,9 @@ def certify_design(plant: dict, mats: dict, *, M=None, substitutions=(), decoupl
     - ``Φ L`` (decoupled) or ``Φ L − L*`` (interval observers, not decoupled);
     - ``Φ C − C*`` for nonlinear models;
     - ``M − H_z Φ − Q H`` for an estimated z = M x;
+    - with feedthrough (``plant`` holds ``Gy``, ``Dy`` for the D columns, ``Ly`` for the L
+      columns): ``Φ G − J* Gy − G*``, ``Φ D − J* Dy − D*``, ``Φ L − J* Ly``, ``R* Ly``,
+      ``Q Ly``;
     - ``A_j − A*_1j Φ − A*_2j H`` for each argument substitution (A_j, A*_1j, A*_2j).
     """
     pr = _products(exact, list(plant.values()) + list(mats.values()) + (
@@ -285,15 +292,28 @@ def certify_design(plant: dict, mats: dict, *, M=None, substitutions=(), decoupl
     X = {k: pr.wrap(v) for k, v in mats.items() if v is not None or pr.exact}
     mat = pr.wrap
     Phi = X["Phi"]
-    checks = [("Phi F - F* Phi - J* H", Phi * P["F"] - X["F_star"] * Phi - X["J_star"] * P["H"])]
+    J = X["J_star"]
+    checks = [("Phi F - F* Phi - J* H", Phi * P["F"] - X["F_star"] * Phi - J * P["H"])]
     if "R_star" in X and "H_star" in X:
         checks.append(("H* Phi - R* H", X["H_star"] * Phi - X["R_star"] * P["H"]))
     if "G_star" in X and _cols(P["G"]):
-        checks.append(("Phi G - G*", Phi * P["G"] - X["G_star"]))
+        if "Gy" in P:
+            checks.append(("Phi G - J* Gy - G*", Phi * P["G"] - J * P["Gy"] - X["G_star"]))
+        else:
+            checks.append(("Phi G - G*", Phi * P["G"] - X["G_star"]))
     if "D_star" in X and _cols(P["D"]):
-        checks.append(("Phi D - D*", Phi * P["D"] - X["D_star"]))
+        if "Dy" in P:
+            checks.append(("Phi D - J* Dy - D*", Phi * P["D"] - J * P["Dy"] - X["D_star"]))
+        else:
+            checks.append(("Phi D - D*", Phi * P["D"] - X["D_star"]))
     if _cols(P["L"]):
-        if decoupled:
+        if decoupled and "Ly" in P:
+            checks.append(("Phi L - J* Ly", Phi * P["L"] - J * P["Ly"]))
+            if "R_star" in X:
+                checks.append(("R* Ly", X["R_star"] * P["Ly"]))
+            if "Q" in X:
+                checks.append(("Q Ly", X["Q"] * P["Ly"]))
+        elif decoupled:
             checks.append(("Phi L", Phi * P["L"]))
         elif "L_star" in X:
             checks.append(("Phi L - L*", Phi * P["L"] - X["L_star"]))
@@ -315,10 +335,12 @@ MODEL_PREFIX = "model: "
 
 
 def _model_jacobians(model):
-    """``(jacobians, outputs)``: ∂f/∂v for v in (x, u, d, ρ) and ∂h/∂x straight from the
+    """``(jacobians, outputs)``: ∂f/∂v and ∂h/∂v for v in (x, u, d, ρ) straight from the
     model's expressions — sympy's ``linear_eq_to_matrix``, nothing of the extraction —
     when f and h are linear (every coefficient free of the variables, no constant term),
-    else None; ``outputs`` are h with the noise at 0 (and f with the process noise at 0)."""
+    else None; ``outputs`` are h with the noise at 0 (and f with the process noise at 0).
+    The output Jacobians are ``h`` (∂h/∂x) and ``hu``, ``hd``, ``hrho`` (the feedthrough
+    Gy, Dy, Ly)."""
     from sympy.solvers.solveset import NonlinearError
     groups = {"x": model.states, "u": model.inputs, "d": model.faults,
               "rho": model.disturbances}
@@ -327,14 +349,15 @@ def _model_jacobians(model):
     order = [s for syms in groups.values() for s in syms]
     try:  # process noise (Bw w) is not decoupled: the identities hold with w = 0
         A, b = sp.linear_eq_to_matrix([f.xreplace(noise0) for f in model.dynamics], order)
-        Hm, c = sp.linear_eq_to_matrix(outs, list(model.states)) if outs else (None, None)
+        Hm, c = sp.linear_eq_to_matrix(outs, order) if outs else (None, None)
     except NonlinearError:
         return None, outs
     if not (b.is_zero_matrix and (c is None or c.is_zero_matrix)):
         return None, outs  # a constant term: affine, checked on the equation itself
-    jac, start = {"h": Hm}, 0
+    jac, start = {}, 0
     for key, syms in groups.items():
         jac[key] = A[:, start:start + len(syms)]
+        jac["h" if key == "x" else "h" + key] = Hm[:, start:start + len(syms)]
         start += len(syms)
     return jac, outs
 
@@ -407,24 +430,44 @@ def _linear_blocks(model, jac, m, task, targets, bounded, zero):
     r_rest = [s for s in model.disturbances if s not in zero and s not in targets
               and s not in bounded]
 
-    def column(s):
-        return jac["d"][:, model.faults.index(s)] if s in model.faults else \
-            jac["rho"][:, model.disturbances.index(s)]
+    def column(s, out=""):
+        return jac[out + "d"][:, model.faults.index(s)] if s in model.faults else \
+            jac[out + "rho"][:, model.disturbances.index(s)]
+    feed = any(not jac[k].is_zero_matrix for k in ("hu", "hd", "hrho") if jac[k].cols)
     blocks = [("Phi df/dx - F* Phi - J* dh/dx",
                [("Phi", "x"), ("F_star", "Phi"), ("J_star", "h")])]
     plant = {"x": jac["x"], "h": jac["h"]}
     if model.inputs:
-        blocks.append(("Phi df/du - G*", [("Phi", "u"), ("G_star", None)]))
+        if feed:
+            blocks.append(("Phi df/du - J* dh/du - G*",
+                           [("Phi", "u"), ("J_star", "hu"), ("G_star", None)]))
+            plant["hu"] = jac["hu"]
+        else:
+            blocks.append(("Phi df/du - G*", [("Phi", "u"), ("G_star", None)]))
         plant["u"] = jac["u"]
     if targets:
-        blocks.append(("Phi df/dd - D*", [("Phi", "T"), ("D_star", None)]))
         plant["T"] = sp.Matrix.hstack(*[column(s) for s in targets])
+        if feed:
+            blocks.append(("Phi df/dd - J* dh/dd - D*",
+                           [("Phi", "T"), ("J_star", "hT"), ("D_star", None)]))
+            plant["hT"] = sp.Matrix.hstack(*[column(s, "h") for s in targets])
+        else:
+            blocks.append(("Phi df/dd - D*", [("Phi", "T"), ("D_star", None)]))
     if bounded:
         blocks.append(("Phi df/drho - L*", [("Phi", "B"), ("L_star", None)]))
         plant["B"] = sp.Matrix.hstack(*[column(s) for s in bounded])
     if d_rest or r_rest:
-        blocks.append(("Phi df/d(decoupled)", [("Phi", "R")]))
         plant["R"] = sp.Matrix.hstack(*[column(s) for s in d_rest + r_rest])
+        if feed:
+            plant["hR"] = sp.Matrix.hstack(*[column(s, "h") for s in d_rest + r_rest])
+            blocks.append(("Phi df/d(decoupled) - J* dh/d(decoupled)",
+                           [("Phi", "R"), ("J_star", "hR")]))
+            if m.get("R_star") is not None:
+                blocks.append(("R* dh/d(decoupled)", [("R_star", "hR")]))
+            if m.get("Q") is not None:
+                blocks.append(("Q dh/d(decoupled)", [("Q", "hR")]))
+        else:
+            blocks.append(("Phi df/d(decoupled)", [("Phi", "R")]))
     if m.get("R_star") is not None and m.get("H_star") is not None:
         blocks.append(("R* dh/dx - H* Phi", [("R_star", "h"), ("H_star", "Phi")]))
     if task.M is not None and m.get("Hz") is not None:
@@ -445,9 +488,14 @@ def _equation_checks(model, m, task, outs, targets, bounded, zero, nonlinear,
     sub = {s: 0 for s in zero}
     sub.update({w: 0 for w in model.noise})  # process noise is bounded, not decoupled
     f = sp.Matrix([sp.sympify(e).xreplace(sub) for e in model.dynamics])
+    outs = [sp.sympify(e).xreplace(sub) for e in outs]
     z = dict(zip(xs, list(Phi * x)))
     z.update(dict(zip(ys, outs)))
     h = sp.Matrix(outs)
+    # the residual's identity reads the outputs without the inputs and the detected
+    # faults (r = R* (y − Gy u) − H* x* has R* Dy d as its direct fault term)
+    known0 = {s: 0 for s in list(model.inputs) + list(targets)}
+    h_r = sp.Matrix([e.xreplace(known0) for e in outs])
     terms = [Phi * f, sp.Matrix(m["F_star"]) * Phi * x, sp.Matrix(m["J_star"]) * h]
     if model.inputs:
         terms.append(sp.Matrix(m["G_star"]) * sp.Matrix(model.inputs))
@@ -461,12 +509,12 @@ def _equation_checks(model, m, task, outs, targets, bounded, zero, nonlinear,
         terms += [Cs[:, j] * psi[j + 1] for j in range(Cs.cols) if j + 1 in psi]
     checks = [("Phi f - F* Phi x - J* h - G* u - C* Psi* - D* d", terms)]
     if m.get("R_star") is not None and m.get("H_star") is not None:
-        checks.append(("R* h - H* Phi x", [sp.Matrix(m["R_star"]) * h,
+        checks.append(("R* h - H* Phi x", [sp.Matrix(m["R_star"]) * h_r,
                                             sp.Matrix(m["H_star"]) * Phi * x]))
     if task.M is not None and m.get("Hz") is not None:
         checks.append(("M x - Hz Phi x - Q h", [sp.Matrix(task.M) * x,
                                                  sp.Matrix(m["Hz"]) * Phi * x,
-                                                 sp.Matrix(m["Q"]) * h]))
+                                                 sp.Matrix(m["Q"]) * h_r]))
     return checks
 
 

@@ -11,7 +11,9 @@ transfer H* (sI − F*)⁻¹ Φ D_j is not identically zero, i.e. iff
 
     O Φ D_j ≠ 0,        O = [H*; H* F*; …; H* F*^{k−1}]
 
-(Φ D_j outside the unobservable subspace of (F*, H*)). Φ D_j = 0 is decoupling in the
+(Φ D_j outside the unobservable subspace of (F*, H*)). A fault that also enters the
+outputs (y = … + Dy d) drives e through Φ D_j − J* Dy_j and r directly through R* Dy_j:
+it moves r iff R* Dy_j ≠ 0 or O (Φ D_j − J* Dy_j) ≠ 0. Φ D_j = 0 is decoupling in the
 strict sense; Φ D_j ≠ 0 with O Φ D_j = 0 means the fault enters rows the residual never
 reads. Nonlinear designs (C* ≠ 0): "decoupled" is exact (e is not driven by d_j), and
 "sensitive" is judged on the linear part.
@@ -59,6 +61,8 @@ class FaultSensitivity:
     conditions: tuple = ()
     role: str = "assumed zero"
     enters: bool = False  # Φ D_j ≠ 0 (within the float tolerance for float designs)
+    #: R* Dy_j for a fault that also enters the outputs (then ``entry`` is Φ D_j − J* Dy_j)
+    direct: sp.ImmutableMatrix | None = None
     #: the residual rows' steady-state gains to the fault (:func:`steady_state_gain`;
     #: None when not computed or without a steady state)
     steady_gain: tuple | None = None
@@ -80,16 +84,27 @@ class FaultSensitivity:
         if self.sensitive:
             return "sensitive" + (f" if {' and '.join(map(str, self.conditions))}"
                                   if self.conditions else "")
+        pd = "Φ D" if self.direct is None else "Φ D − J* Dy"
         if self.enters:
-            return "decoupled (Φ D ≠ 0 but it enters only rows the residual does not read)"
-        return "decoupled (Φ D = 0)"
+            return f"decoupled ({pd} ≠ 0 but it enters only rows the residual does not read)"
+        return f"decoupled ({pd} = 0)" if self.direct is None else \
+            "decoupled (Φ D − J* Dy = 0, R* Dy = 0)"
+
+    def entry_text(self) -> str:
+        """``Φ D = [..]``, or ``Φ D − J* Dy = [..]; R* Dy = [..]`` with feedthrough."""
+        if self.direct is None:
+            return f"Φ D = {list(self.entry)}"
+        return f"Φ D − J* Dy = {list(self.entry)}; R* Dy = {list(self.direct)}"
 
     def to_json(self) -> dict:
-        return {"name": self.name, "sensitive": bool(self.sensitive), "role": self.role,
-                "enters": bool(self.enters),
-                "entry": [str(e) for e in self.entry],
-                "response": [str(e) for e in self.response],
-                "conditions": [str(c) for c in self.conditions]}
+        out = {"name": self.name, "sensitive": bool(self.sensitive), "role": self.role,
+               "enters": bool(self.enters),
+               "entry": [str(e) for e in self.entry],
+               "response": [str(e) for e in self.response],
+               "conditions": [str(c) for c in self.conditions]}
+        if self.direct is not None:
+            out["direct"] = [str(e) for e in self.direct]
+        return out
 
 
 def _is_float(M) -> bool:
@@ -118,12 +133,20 @@ def _nonzero(v, scale: float, floats: bool) -> bool:
 
 
 def fault_sensitivity(Phi, F_star, H_star, column, *, name: str = "d",
-                      role: str = "assumed zero") -> FaultSensitivity:
+                      role: str = "assumed zero", feed=None, direct=None) -> FaultSensitivity:
     """Whether the residual of (Φ, F*, H*) responds to an input entering through
-    ``column`` (n × 1): O Φ D_j ≠ 0, with the relations that needs (module docstring)."""
+    ``column`` (n × 1): O Φ D_j ≠ 0, with the relations that needs (module docstring).
+    An input that also enters the outputs gives ``feed`` = J* Dy_j (subtracted from
+    Φ D_j) and ``direct`` = R* Dy_j (the residual's direct term, first in the response)."""
     Fs, Hs = F_star, H_star
     entry = (sp.Matrix(Phi) * sp.Matrix(column)).applyfunc(sp.cancel)
-    resp = residual_response(Phi, Fs, Hs, column)
+    dmat = None if direct is None else sp.ImmutableMatrix(sp.Matrix(direct).applyfunc(sp.cancel))
+    if feed is None:
+        resp = residual_response(Phi, Fs, Hs, column)
+    else:
+        entry = (entry - sp.Matrix(feed)).applyfunc(sp.cancel)
+        resp = sp.Matrix.vstack(sp.Matrix(direct).applyfunc(sp.cancel),
+                                residual_response(sp.eye(entry.rows), Fs, Hs, entry))
     floats = _is_float(Phi) or _is_float(Fs) or _is_float(Hs)
     scale = 1.0
 
@@ -138,14 +161,14 @@ def fault_sensitivity(Phi, F_star, H_star, column, *, name: str = "d",
                  for e in entry)
     if not nz:
         return FaultSensitivity(name, False, sp.ImmutableMatrix(entry),
-                                sp.ImmutableMatrix(resp), (), role, enters)
+                                sp.ImmutableMatrix(resp), (), role, enters, dmat)
     if any(not e.free_symbols for e in nz):
         conds = ()
     else:  # the simplest nonzero entry: its factors nonzero suffice
         best = min((nonzero_conditions(e) for e in nz), key=lambda s: (len(s), str(sorted(s, key=str))))
         conds = tuple(sorted(best, key=str))
     return FaultSensitivity(name, True, sp.ImmutableMatrix(entry), sp.ImmutableMatrix(resp),
-                            conds, role, enters)
+                            conds, role, enters, dmat)
 
 
 def _role(task: Task, name: str) -> str:
@@ -170,10 +193,16 @@ def fault_signature(matrices, structure: Structure, task: Task) -> tuple:
     model = structure.model
     names = [f.name for f in model.faults]
     names += [n for n in task.targets if n not in names]
-    sig = tuple(fault_sensitivity(matrices.Phi, matrices.F_star, Hs,
-                                  structure.unknown_input_columns([n]), name=n,
-                                  role=_role(task, n))
-                for n in names)
+    sig = []
+    for n in names:
+        feed = direct = None
+        Dy = structure.output_columns([n])
+        if not Dy.is_zero_matrix:  # the fault enters the outputs too
+            feed = sp.Matrix(matrices.J_star) * Dy
+            direct = sp.Matrix(matrices.R_star) * Dy
+        sig.append(fault_sensitivity(matrices.Phi, matrices.F_star, Hs,
+                                     structure.unknown_input_columns([n]), name=n,
+                                     role=_role(task, n), feed=feed, direct=direct))
     return tuple(dataclasses.replace(s, steady_gain=steady_state_gain(
         matrices, structure, structure.unknown_input_columns([s.name]),
         _output_column(structure, s.name), rtol=SIGNATURE_RTOL)) if s.sensitive else s

@@ -23,6 +23,7 @@ from ..certificates import (CONDITIONING_NAME, CONDITIONING_REFERENCE, MODEL_PRE
                             Certificate, certify_against_model, complete_assumptions,
                             conditioning_numbers, conditioning_verdict, fault_signature)
 from ._design_file import design_from_json
+from ._feedthrough import feedthrough_outputs_error
 from ._values import Condition, DesignMatrices, DesignRequest, Form, Method, SlidingGainInputs
 
 __all__ = ["Design"]
@@ -101,6 +102,10 @@ class Design:
             tolerance=cert.tolerance if cert.tolerance is not None else 1e-9,
             approximate=self.approximate)
         full = Certificate(tuple(cert.identities) + ids, cert.exact, cert.tolerance)
+        why = feedthrough_outputs_error(self)
+        if why:  # (inputs in the outputs: r = R* (y − Gy u) − H* x*, z = Hz x* + Q (y − Gy u))
+            raise CertificateError(f"{self.structure.model.where}: the design fails its"
+                                   f" certificate against the model's own outputs: {why}")
         if not full.passed:
             raise CertificateError(
                 f"{self.structure.model.where}: the design fails its certificate against the"

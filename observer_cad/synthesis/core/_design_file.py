@@ -63,8 +63,9 @@ def design_from_json(cls, data, model: PlantModel):
                          f" {work.time}-time")
     st = problem.structure
     k = data["k"]
-    if not isinstance(k, int) or isinstance(k, bool) or k < 1:
-        raise UsageError("a design's k must be a positive integer")
+    if not isinstance(k, int) or isinstance(k, bool) or k < 0:
+        raise UsageError("a design's k must be a non-negative integer (0: a zero-order"
+                         " residual)")
     names, xs, params = _names(data, model, work)
 
     declared = set(names.values())
@@ -78,6 +79,8 @@ def design_from_json(cls, data, model: PlantModel):
         return e
 
     mats = _matrices(data, expr)
+    if k == 0:  # a zero-order residual: the empty matrices get their shapes back
+        mats = _zero_order_shapes(mats, st, task)
     _only_parameters(mats, work)
     nonlinear = _nonlinear(data, expr)
     outputs = data["outputs"]
@@ -191,6 +194,21 @@ def _matrices(data, expr) -> dict:
     return mats
 
 
+def _zero_order_shapes(mats: dict, st, task) -> dict:
+    """A k = 0 design's empty matrices (JSON ``[]`` has no column count) with the shapes
+    the plant gives them: Φ 0×n, F* 0×0, J* 0×l, G* 0×m, D* 0×targets, H* rows(R*)×0."""
+    shapes = {"Phi": (0, st.n), "F_star": (0, 0), "J_star": (0, st.l),
+              "G_star": (0, st.G.shape[1]), "D_star": (0, len(task.targets)),
+              "H_star": (sp.Matrix(mats["R_star"]).rows if "R_star" in mats else 0, 0)}
+    out = dict(mats)
+    for name, shape in shapes.items():
+        if name in out:
+            if sp.Matrix(out[name]).rows not in (0, shape[0]) or any(sp.Matrix(out[name])):
+                raise UsageError(f"a zero-order design's {name} must be empty")
+            out[name] = sp.zeros(*shape)
+    return out
+
+
 def _nonlinear(data, expr) -> list:
     """The argument substitutions (METHOD §2c), as recorded."""
     nonlinear = []
@@ -219,6 +237,9 @@ def _recertify(data, st, task, mats, nonlinear, approximate):
         raise UsageError("a design's certificate 'exact' must be true or false")
     exact = exact and not approximate
     plant = dict(F=st.F, G=st.G, H=st.H, C=st.C, D=task.D(st), L=task.L(st))
+    if st.has_feedthrough:  # y = H x + Gy u + Dy d + Ly ρ: the identities with them
+        plant.update(Gy=st.Gy, Dy=st.output_columns(task.targets),
+                     Ly=st.output_columns(task.decoupled))
     M_task = task.M if "Hz" in mats else None
     tol = None if exact else _float_tolerance(cert_data.get("tolerance"), plant, mats, M_task)
     ar = arithmetic("exact" if exact else "float")
@@ -434,6 +455,10 @@ def _check_equations(d, work) -> None:
     m = d.matrices.as_dict()
     xs = tuple(d.observer_states)
     ys = output_symbols(len(work.outputs))
+    measured = ys  # residuals and estimates read y − Gy u (inputs in the outputs)
+    Gy = d.structure.Gy if d.structure is not None else None
+    if Gy is not None and work.inputs and not Gy.is_zero_matrix:
+        measured = tuple(sp.Matrix(ys) - sp.Matrix(Gy) * sp.Matrix(work.inputs))
     if d.observer == ObserverKind.SLIDING_MODE:
         fault = d.task.targets[0] if d.task.targets else ""
         options = [sliding_equations(m, work.inputs, xs[:1], ys, str(fault), inj,
@@ -444,12 +469,13 @@ def _check_equations(d, work) -> None:
     else:
         outs = {}
         if "Hz" in m:
-            z = list(estimate_outputs(m, xs, ys))
+            z = list(estimate_outputs(m, xs, measured))
             outs.update({("z" if len(z) == 1 else f"z{i + 1}"): e for i, e in enumerate(z)})
         if "R_star" in m and "H_star" in m:
-            r = list(residual_outputs(m, xs, ys))
+            r = list(residual_outputs(m, xs, measured))
             outs.update({("r" if len(r) == 1 else f"r{i + 1}"): e for i, e in enumerate(r)})
-        candidates = [(reduced_equations(m, work.inputs, xs, ys, nonlinear=d.nonlinear), outs)]
+        candidates = [(reduced_equations(m, work.inputs, xs, ys, nonlinear=d.nonlinear,
+                                         measured=measured), outs)]
     for update, outs in candidates:
         if len(update) == len(d.equations) and all(
                 _same_expression(a, b) for a, b in zip(d.equations, update)):

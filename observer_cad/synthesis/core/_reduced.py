@@ -44,7 +44,7 @@ def _get(mats, name):
 
 
 def reduced_equations(mats, inputs, xs, ys, *, nonlinear=(), q: int | None = None,
-                      feedback: bool = True, deep: bool = False) -> tuple:
+                      feedback: bool = True, deep: bool = False, measured=None) -> tuple:
     """The one builder of a reduced model's right-hand sides (METHOD §2):
 
         F* x* + J* y + G* u + C* Ψ*(x*, y, u) + K (R* y − H* x*)
@@ -52,10 +52,12 @@ def reduced_equations(mats, inputs, xs, ys, *, nonlinear=(), q: int | None = Non
     ``mats`` is a design's matrices (a :class:`DesignMatrices` or the designers' working
     mapping); the K term is added when K is present and ``feedback``; Ψ*_j is the
     argument-substituted term of each :class:`NonlinearSubstitution` (``q`` columns of C*).
-    The unknown input is omitted (it is what the observer does not know).
+    The unknown input is omitted (it is what the observer does not know). ``measured``:
+    the outputs the residual in the K term reads (y − Gy u when inputs enter the outputs;
+    default ``ys``).
     """
     F, J = sp.Matrix(_get(mats, "F_star")), sp.Matrix(_get(mats, "J_star"))
-    rhs = F * sp.Matrix(xs) + J * sp.Matrix(ys)
+    rhs = F * sp.Matrix(len(xs), 1, list(xs)) + J * sp.Matrix(ys)
     if inputs:
         rhs += sp.Matrix(_get(mats, "G_star")) * sp.Matrix(inputs)
     if nonlinear:
@@ -66,14 +68,14 @@ def reduced_equations(mats, inputs, xs, ys, *, nonlinear=(), q: int | None = Non
         rhs += Cs * psi
     K = _get(mats, "K")
     if feedback and K is not None:
-        rhs += sp.Matrix(K) * residual_outputs(mats, xs, ys)
+        rhs += sp.Matrix(K) * residual_outputs(mats, xs, ys if measured is None else measured)
     return tuple(sp.expand(e, deep=deep) for e in rhs)
 
 
 def residual_outputs(mats, xs, ys) -> sp.Matrix:
     """r = R* y − H* x* (one entry per measured combination)."""
     return sp.Matrix(_get(mats, "R_star")) * sp.Matrix(ys) \
-        - sp.Matrix(_get(mats, "H_star")) * sp.Matrix(xs)
+        - sp.Matrix(_get(mats, "H_star")) * sp.Matrix(len(xs), 1, list(xs))
 
 
 def estimate_outputs(mats, xs, ys) -> sp.Matrix:
