@@ -92,7 +92,7 @@ class DetectionReport:
     def to_text(self) -> str:
         """The rates and the confusion matrix, as plain text."""
         n_all = self.fault_free_runs + self.faulty_runs
-        out = [f"detection (diagnosis at the last sample of each run):",
+        out = ["detection (diagnosis at the last sample of each run):",
                f"  false alarms: {_rate(self.false_alarm_runs, n_all)} runs (an alarm in a"
                " fault-free run, or before the fault's onset)"]
         if self.faulty_runs:

@@ -452,7 +452,6 @@ def _check_expression_symbols(model: "PlantModel", roles: dict, where: str) -> N
     enter the outputs: y = H x + Gy u + Dy d + Ly ρ + W w). Each expression's symbols are
     collected once (one walk over its terms)."""
     declared = set(roles)
-    noise = set(model.noise)
     dyn_syms = [free_symbols(f) for f in model.dynamics]
     out_syms = [free_symbols(h) for h in model.outputs]
     for i, (x, fs) in enumerate(zip(model.states, dyn_syms)):

@@ -560,7 +560,7 @@ def _read_outputs(model: PlantModel, where) -> tuple:
     outputs): (H, W, Gy, Dy, Ly) as exact matrices. Every term is a constant times one
     variable; anything else (a product, a constant offset) is refused in one line."""
     xs = model.states
-    n, l = len(xs), len(model.outputs)
+    l = len(model.outputs)  # noqa: E741
     zero = sp.Integer(0)
     groups = (xs, model.noise, model.inputs, model.faults, model.disturbances)
     mats = [[[zero] * len(g) for _ in model.outputs] for g in groups]

@@ -612,7 +612,6 @@ def guaranteed_threshold(model: PlantModel, observer: Observer, *, initial_error
     where = model.where
     residuals, E0, margin = _checked_options(model, observer, initial_error, margin)
     xi, upd, g, A, C = _linear_generator(observer, residuals, where)
-    k = len(xi)
     Delta, Gamma, Phi, dyn, outs, deltas, dbox = _error_terms(model, observer, xi, upd, g, where)
     conds = [_identity_condition(model, Delta, Gamma, deltas, where)]
     process, process_cond = _process_noise_term(model, Phi, dyn)
