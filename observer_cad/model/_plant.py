@@ -479,8 +479,9 @@ def _declared_pair(s, b, what: str, where: str) -> tuple:
     """One exact (low, high) pair, with one-line errors."""
     if not isinstance(b, (tuple, list)) or len(b) != 2:
         raise ModelError(f"{where}: {what} of '{s}' must be a pair (low, high)")
-    lo = to_rational(b[0], f"{where}: lower {what} of '{s}'")
-    hi = to_rational(b[1], f"{where}: upper {what} of '{s}'")
+    one = "bound" if what == "bounds" else what
+    lo = to_rational(b[0], f"{where}: lower {one} of '{s}'")
+    hi = to_rational(b[1], f"{where}: upper {one} of '{s}'")
     if bool(lo > hi):
         raise ModelError(f"{where}: {what} of '{s}' have low {lo} > high {hi}")
     problem = bound_problem(lo, hi)

@@ -72,21 +72,7 @@ def design(model: PlantModel, *, observer: str, faults: Sequence[str] = (),
         raise UsageError(f"unknown observer kind {observer!r}; choose from {', '.join(OBSERVERS)}")
     faults = [faults] if isinstance(faults, str) else list(faults or [])
     disturbances = [disturbances] if isinstance(disturbances, str) else list(disturbances or [])
-    if form is None:
-        form = "canonical" if kind == ObserverKind.UNKNOWN_INPUT else "jordan"
-    if form not in ("canonical", "jordan"):
-        raise UsageError(f"form must be 'canonical' or 'jordan', got {form!r}")
-    if lambdas and form != "jordan":
-        raise UsageError("--lambda applies to the Jordan form (use --eigenvalues for the canonical form)")
-    if eigenvalues and form != "canonical":
-        raise UsageError("--eigenvalues applies to the canonical form (use --lambda for the Jordan form)")
-    if variant != "plain" and not (kind == ObserverKind.VIRTUAL_SENSOR and form == "canonical"):
-        raise UsageError("--variant 004 applies to canonical-form virtual sensors")
-    if kind == ObserverKind.SLIDING_MODE and form != "jordan":
-        raise UsageError("the sliding-mode observer uses one Jordan row (--form jordan)")
-    if kind == ObserverKind.DIAGNOSTIC and form == "canonical" and len(faults) > 1:
-        raise UsageError("canonical-form diagnostic observers take one --fault; "
-                         "use --form jordan for several (seed 002 Remark 1)")
+    form = _checked_form(kind, form, faults, lambdas, eigenvalues, variant)
     # the arithmetic asked for is checked here for the designers that take it; the others
     # design in exact arithmetic whatever it says (the structure is left to the designer)
     takes_method = (form == "canonical" and kind == ObserverKind.UNKNOWN_INPUT) or (
@@ -148,6 +134,27 @@ def design(model: PlantModel, *, observer: str, faults: Sequence[str] = (),
             f"{model.where}: the residual found does not respond to {s.name}: Φ D_{s.name} ="
             f" {list(s.entry)} enters only rows r does not read (H* (sI − F*)⁻¹ Φ D = 0)")
     return d
+
+
+def _checked_form(kind, form, faults, lambdas, eigenvalues, variant) -> str:
+    """The form (default: canonical for unknown-input, else Jordan), with one-line errors for
+    options that do not go with it."""
+    if form is None:
+        form = "canonical" if kind == ObserverKind.UNKNOWN_INPUT else "jordan"
+    if form not in ("canonical", "jordan"):
+        raise UsageError(f"form must be 'canonical' or 'jordan', got {form!r}")
+    if lambdas and form != "jordan":
+        raise UsageError("--lambda applies to the Jordan form (use --eigenvalues for the canonical form)")
+    if eigenvalues and form != "canonical":
+        raise UsageError("--eigenvalues applies to the canonical form (use --lambda for the Jordan form)")
+    if variant != "plain" and not (kind == ObserverKind.VIRTUAL_SENSOR and form == "canonical"):
+        raise UsageError("--variant 004 applies to canonical-form virtual sensors")
+    if kind == ObserverKind.SLIDING_MODE and form != "jordan":
+        raise UsageError("the sliding-mode observer uses one Jordan row (--form jordan)")
+    if kind == ObserverKind.DIAGNOSTIC and form == "canonical" and len(faults) > 1:
+        raise UsageError("canonical-form diagnostic observers take one --fault; "
+                         "use --form jordan for several (seed 002 Remark 1)")
+    return form
 
 
 def _exact(model: PlantModel, task: Task, faults, disturbances, estimate, form, lambdas,
