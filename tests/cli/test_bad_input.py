@@ -450,6 +450,7 @@ def test_subprocess_module_infeasible_design(tmp_path):
     assert_one_line_error(rc, out, err, str(path), *case.needles)
 
 
+@pytest.mark.slow
 @pytest.mark.skipif(shutil.which("observer-cad") is None, reason="console script not installed")
 @pytest.mark.parametrize("cid", ["undeclared_in_dynamics", "parameter_without_value"])
 def test_subprocess_script(tmp_path, cid):

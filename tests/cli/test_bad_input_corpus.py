@@ -635,6 +635,7 @@ def test_cache_fault(tmp_path, capsys, fault):
 
 
 # ----------------------------------------------------------------------------- subprocesses
+@pytest.mark.slow
 @pytest.mark.parametrize("argv_kind", ["scenario_payload", pytest.param("gain_payload", marks=pytest.mark.slow),
                                        pytest.param("model_nan", marks=pytest.mark.slow), "nonfinite"])
 def test_through_a_real_process(work, argv_kind):

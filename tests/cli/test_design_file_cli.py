@@ -73,6 +73,7 @@ def _scenario(tmp_path, scen):
 SLOW = ("bank", "drem", "interval")
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", [pytest.param(n, marks=pytest.mark.slow) if n in SLOW else n
                                   for n in sorted(CASES)])
 def test_simulate_with_a_frozen_design_writes_the_same_csv(tmp_path, capsys, name):

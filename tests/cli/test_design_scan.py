@@ -93,6 +93,7 @@ def _scan(paths, forms=FORMS, symbolic=([], ["--symbolic"])) -> list:
     return bad
 
 
+@pytest.mark.slow
 def test_scan_one_model_without_defaults(tmp_path):
     """The default run: the electric drive without its defaults, every kind, symbolic (a
     parameter without a default once crashed a symbolic design)."""

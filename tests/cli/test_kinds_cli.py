@@ -57,6 +57,7 @@ CASES = [
 ]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("model,args,scen,prop", CASES,
                          ids=[f"{c[0]}-{' '.join(c[1][1:4])}" for c in CASES])
 def test_kind_designs_simulates_and_holds(models_dir, tmp_path, capsys, model, args, scen, prop):

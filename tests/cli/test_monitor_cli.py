@@ -114,6 +114,7 @@ def test_parquet_without_pyarrow_is_one_line(capsys, tmp_path):
     assert rc == 2 and "pyarrow" in se and len(se.strip().splitlines()) == 1
 
 
+@pytest.mark.slow
 def test_streaming_prints_each_change_as_it_happens(tmp_path):
     """Rows written over a pipe with pauses: the alarm line arrives while stdin is still
     open (before the rest is sent), and the files at the end equal those of the file."""
@@ -189,6 +190,7 @@ def test_simulate_flags_noise_beyond_its_declared_bounds(capsys, tmp_path):
     assert {r["in_bounds"] for r in read(tmp_path / "sim2" / "signals.csv")} == {"1"}
 
 
+@pytest.mark.slow
 def test_streaming_terminated_writes_the_rows_read(tmp_path):
     """SIGTERM while rows arrive: the rows read so far are written, nothing lost."""
     import signal

@@ -193,6 +193,7 @@ def test_every_kind_is_covered():
 
 
 # ------------------------------------------------------------------ whole trajectories
+@pytest.mark.slow
 @needs_cc
 @pytest.mark.parametrize("case", [  # the sliding-mode run takes ~4 s: slow step
     pytest.param(c, marks=pytest.mark.slow) if c == "sliding-mode" else c for c in CASES])
@@ -366,6 +367,7 @@ def _fine_rk4(A, b, x, h, sub=4000):
     return x
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("h", [pytest.param(0.01, marks=pytest.mark.slow), 0.3, 2.0])
 def test_zoh_step_is_the_exact_solution(h):
     o, A = _linear_observer()

@@ -182,6 +182,7 @@ def _observer_x0(o, sc):
 
 
 # ------------------------------------------------------------------ parity
+@pytest.mark.slow
 @needs_cc
 @pytest.mark.parametrize("kind", [  # the sliding-mode run takes ~2.5 s: slow step
     pytest.param(c, marks=pytest.mark.slow) if c == "sliding-mode" else c for c in CASES])

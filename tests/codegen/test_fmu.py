@@ -276,6 +276,7 @@ def test_sliding_mode_parameters_are_tunable(tmp_path):
     assert not np.allclose(reference_run(o, cols, dt=0.005)["d_hat"], ref["d_hat"])
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("version, with_rule", [("2.0", True), ("3.0", True), ("2.0", False),
                                                ("3.0", False)])
 def test_wrapper_compiles_against_the_standard_headers(drive, version, with_rule, tmp_path):
@@ -362,6 +363,7 @@ def test_a_failed_build_leaves_the_old_fmu(drive, tmp_path, monkeypatch):
     assert sorted(p.name for p in tmp_path.iterdir()) == [fmu.path.name]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("version", ["2.0", "3.0"])
 def test_cli_codegen_fmu(version, tmp_path):
     env = dict(os.environ, PYTHONPATH=str(ROOT))

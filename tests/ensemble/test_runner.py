@@ -191,6 +191,7 @@ def scen_file(tmp_path):
     return p
 
 
+@pytest.mark.slow
 def test_ensemble_command_writes_summary_statistics_figures_and_worst_runs(tmp_path, scen_file,
                                                                           capsys):
     from observer_cad.cli import main

@@ -149,6 +149,7 @@ def test_ensemble_obstacles_are_found_before_the_runs(tmp_path, capsys, monkeypa
         assert snapshot(out) == before
 
 
+@pytest.mark.slow
 @needs_cc
 def test_a_second_ensemble_replaces_the_first_ones_files(tmp_path, capsys):
     """The worst runs and histograms of an earlier ensemble go; a user's file stays."""

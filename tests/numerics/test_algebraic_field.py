@@ -8,6 +8,8 @@ expression it came from at 40 digits, ranks with sympy's ``from_Matrix(extension
 """
 import random
 
+import pytest
+
 import sympy as sp
 from sympy import CRootOf, sqrt
 from sympy.polys.matrices import DomainMatrix
@@ -29,6 +31,7 @@ def _random_matrix(rng, r, c):
     return M
 
 
+@pytest.mark.slow
 def test_same_numbers_and_ranks_as_sympy():
     rng = random.Random(1)
     drops = 0

@@ -121,6 +121,7 @@ def test_nonlinear_tank_observer_equations(tank, tank_observer):
     assert any("stays in its domain" in a for a in o.assumptions)
 
 
+@pytest.mark.slow
 def test_nonlinear_tank_inclusion(tank, tank_observer, models_dir):
     sc = scenario(models_dir, "three_tank_interval")
     res = simulate(tank, tank_observer, sc, runs=RUNS)
@@ -186,6 +187,7 @@ def test_full_state_structure(tank_full):
     assert "H = (H0 0) with H0 invertible" in names and "H0⁻¹ ≥ 0" in names
 
 
+@pytest.mark.slow
 def test_full_state_inclusion(tank, tank_full, models_dir):
     sc = scenario(models_dir, "three_tank_interval")
     res = simulate(tank, tank_full, sc, runs=RUNS)
@@ -254,6 +256,7 @@ def drive_design(drive, lam):
     return design_jordan(drive, observer="interval", estimate="x2", lambdas=[lam])
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("lam", [sp.Rational(4, 5), pytest.param(sp.Rational(3, 4), marks=pytest.mark.slow),
                                  sp.Rational(-1, 2)])
 def test_drive_inclusion(drive, models_dir, lam):

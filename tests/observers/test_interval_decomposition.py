@@ -172,6 +172,7 @@ def test_chain_premise_check_detects_understated_noise(chain, chain_design, chai
                           noise_factor=5) > 0
 
 
+@pytest.mark.slow
 def test_chain_monte_carlo_inclusion_reference(chain, chain_observer, chain_scenario):
     res = simulate(chain, chain_observer, chain_scenario, runs=RUNS)
     assert res["t"].shape == (RUNS, 2001)

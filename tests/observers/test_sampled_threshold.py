@@ -193,6 +193,7 @@ def test_transient_envelope_bounds_every_step():
         V = F @ V
 
 
+@pytest.mark.slow
 def test_correlated_noise_is_bounded_exactly(models_dir):
     """three_tank_faults, bank residual r1 = y1 − ξ1 (+ terms): the same w1 drives e1, e2 and r
     with opposite signs; the exact worst case is 0.040 (the interval band of the

@@ -51,6 +51,7 @@ def test_residual_figure_with_band_alarms_and_diagnoses(tmp_path):
         plot_residuals(bank_result(False), tmp_path / "x.png", decisions=d)
 
 
+@pytest.mark.slow
 def test_plot_simulation_uses_the_band_when_thresholds_exist(tmp_path):
     res = bank_result()
     d = decide(GOS, res)

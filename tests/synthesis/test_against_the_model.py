@@ -163,6 +163,7 @@ def _parity_cases():
                                  marks=() if seed == 2 else slow) for seed in range(10)]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("case", _parity_cases())
 def test_symbolic_analysis_at_the_defaults_equals_the_numeric(case):
     model = load_model(case) if isinstance(case, Path) else _parametric_random(case)
@@ -191,6 +192,7 @@ def test_a_special_case_at_the_defaults_is_reported():
     assert all(c in note for c in failing)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("case", [
     ("electric_drive.py", dict(observer="unknown-input", faults=["d"])),
     ("electric_drive.py", dict(observer="unknown-input", faults=["rho"])),

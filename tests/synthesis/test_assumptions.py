@@ -68,6 +68,7 @@ def _symbolic_designs(model):
     return made
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("which", [  # the two parametrised plants take 4–7 s each: slow step
     "electric_drive", pytest.param("three_tank_param", marks=pytest.mark.slow),
     pytest.param("uio_param", marks=pytest.mark.slow)])

@@ -71,6 +71,7 @@ def designed(models_dir):
     return out
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("key", sorted(CASES))
 def test_from_json_rebuilds_the_same_observer(designed, key):
     model, d = designed[key]

@@ -102,6 +102,7 @@ CASES = [(n, l, p, m, seed, density)
 
 
 # ---------------------------------------------------------------- against the oracle
+@pytest.mark.slow
 @pytest.mark.parametrize("n,l,p,m,seed,density", CASES)
 def test_detectability_and_isolability_agree_with_the_rank_criterion(n, l, p, m, seed, density):
     F, H, L, D = multi_fault_matrices(n, l, p, m, seed, density)
@@ -115,6 +116,7 @@ def test_detectability_and_isolability_agree_with_the_rank_criterion(n, l, p, m,
         assert pr.b_from_a == oracle_detectable(F, H, Lc + [Dc[i]], Dc[j]), pr.faults
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("n,l,p,m,seed,density", CASES)
 def test_structure_rows_agree_with_the_rank_criterion(n, l, p, m, seed, density):
     F, H, L, D = multi_fault_matrices(n, l, p, m, seed, density)

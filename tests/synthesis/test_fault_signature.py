@@ -108,6 +108,7 @@ def _random_multi_fault(seed, n=4, l=2, q=3, p=1):
                       faults=list(fs), disturbances=list(rs), outputs=outs, dynamics=dyn)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("seed", range(8))
 def test_signature_on_random_systems_matches_oracle(seed):
     m = _random_multi_fault(seed)

@@ -224,6 +224,7 @@ def _third_stable_roots(F, H, M, time, count=25):
     return worst
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("seed, time", [(0, "discrete"),
                                         pytest.param(1, "continuous", marks=pytest.mark.slow)])
 def test_q_plus_one_rows_proven_impossible(seed, time):
@@ -422,6 +423,7 @@ def _parts(n, l, p, seed, time):  # noqa: E741
     return sp.Matrix(st.F), sp.Matrix(st.H), sp.Matrix(st.L), _first_rows(n, 2)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("seed, time", [(0, "continuous"),
                                         pytest.param(0, "discrete", marks=pytest.mark.slow),
                                         pytest.param(1, "continuous", marks=pytest.mark.slow),
@@ -500,6 +502,7 @@ def test_stable_root_count_by_hand():
     assert stable_root_count(sp.Poly(x ** 2 + 1, x), "continuous") == 0
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("time, k", [("continuous", 4),
                                      pytest.param("discrete", 5, marks=pytest.mark.slow)])
 def test_three_rows_impossible_proves_the_design_minimal(time, k):
@@ -552,6 +555,7 @@ def _max_real_transversals(F, H, M, time, rng, count=600):
     return best
 
 
+@pytest.mark.slow
 def test_two_more_rows_impossible_and_checked_in_floats():
     """random_model(8, 2, 0, seed=8, time='discrete'), z = (x1, x2): q = 2, each λ has
     two rows whose images modulo [M; H] are planes of 4 dimensions; four rows (the

@@ -103,6 +103,7 @@ AGREE += [(8, 4, 1, 2, 0.5),  # H has dependent rows: R* H = 0 members must not 
           (8, 4, 1, 4, 0.3)]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("n,l,p,seed,dens", AGREE)
 def test_float_and_exact_agree_on_k(n, l, p, seed, dens):  # noqa: E741
     model, st = random_structure(n, l, p, seed=seed, density=dens)
@@ -196,6 +197,7 @@ def test_rank_decisions_carry_evidence(bench_design):
     assert "σ_" in d.choice
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("factor", [sp.Rational(1, 100), sp.Rational(1, 10), 3, 10])
 def test_k_does_not_depend_on_the_scale_of_F(factor):
     """(W L) for c·F is a row/column scaling of the one for F: same k. Without the

@@ -69,6 +69,7 @@ def _same_matrices(a, b):
                                        rtol=1e-13, atol=1e-15, err_msg=name)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("kind", sorted(KINDS))
 def test_every_kind_round_trips_with_the_same_simulation(tmp_path, kind):
     file, options, scen = KINDS[kind]
@@ -147,6 +148,7 @@ def test_the_structure_hash_is_stable_and_sees_a_change(tmp_path):
     assert structure_digest(extract_structure(load_model(changed))).sha256 == a.sha256
 
 
+@pytest.mark.slow
 def test_the_structure_hash_does_not_depend_on_the_process(tmp_path):
     """The same digest in processes with different string-hash seeds (sympy's printing
     order is canonical, not the order of a set)."""

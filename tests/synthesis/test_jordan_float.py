@@ -81,6 +81,7 @@ def _cases():
     return out
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("n,l,p,seed", _cases())
 @pytest.mark.parametrize("time", ["continuous", "discrete"])
 def test_virtual_sensor_same_k_as_exact(n, l, p, seed, time):  # noqa: E741
@@ -226,6 +227,7 @@ def test_design_jordan_auto_selects_the_float_path_for_large_models(models_dir):
     assert ds.method == "exact" and ds.certificate.exact
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("observer, time", [
     ("diagnostic", "discrete"), ("virtual-sensor", "continuous"),
     pytest.param("diagnostic", "continuous", marks=pytest.mark.slow),

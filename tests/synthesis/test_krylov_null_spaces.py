@@ -73,6 +73,7 @@ def case(seed, kind):
 CASES = [(seed, kind) for kind in ("dense", "sparse", "redundant", "HL = 0") for seed in range(12)]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("seed,kind", CASES)
 def test_every_k_equals_the_elimination_from_scratch(seed, kind, monkeypatch):
     n, l, p, (F, H, L) = case(seed, kind)

@@ -103,6 +103,7 @@ def test_five_rows_minimal_for_ten_states(seed, time):
         assert s[-1] < 1e-6 * s[0]  # and meeting W(λ)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("time", ["continuous",
                                   pytest.param("discrete", marks=pytest.mark.slow)])
 def test_four_rows_in_six_dimensions_impossible(time):
@@ -206,6 +207,7 @@ def _single_pencil_family(seed=0):
     return sp.Matrix(st_.F), sp.Matrix(st_.H), _first_rows(11, 3)
 
 
+@pytest.mark.slow
 def test_six_rows_impossible_through_one_pencil():
     """random_model(11, 2, 0, seed=0), z = (x1, x2, x3): q = 3, c = 6, π of degree 7, and
     the pencils annihilating every W(λ) are one line (a single 4-space X), so six rows
