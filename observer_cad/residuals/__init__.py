@@ -2,15 +2,14 @@
 """
 from ._decision import (DecisionRule, Decisions, decision_rule, decide, NO_FAULT, UNKNOWN_PATTERN)
 from ._evaluation import (RunOutcome, Metrics, FaultCase, evaluate_result, fault_onsets, true_labels)
-from ._threshold import (ErrorSystem, Threshold, ThresholdSpec, guaranteed_threshold, constant_threshold, residual_names, min_detectable_fault, RELATIVE_ROUNDOFF)
+from ._threshold import (ErrorSystem, Threshold, ThresholdSpec, guaranteed_threshold, constant_threshold, residual_names, min_detectable_fault)
 from ._l1 import (WorstCase, worst_case_sums, transient_envelope)
-from ._sampled import (sampled_threshold, SAMPLED_DISCRETISATIONS, ROUNDOFF_FACTOR)
+from ._sampled import (sampled_threshold)
 
 __all__ = [
     "DecisionRule", "Decisions", "decision_rule", "decide", "NO_FAULT", "UNKNOWN_PATTERN",
     "ErrorSystem", "Threshold", "ThresholdSpec", "guaranteed_threshold", "constant_threshold",
     "residual_names", "min_detectable_fault", "RunOutcome", "Metrics", "FaultCase",
-    "evaluate_result", "fault_onsets", "true_labels", "RELATIVE_ROUNDOFF",
-    "sampled_threshold", "SAMPLED_DISCRETISATIONS", "ROUNDOFF_FACTOR", "WorstCase",
+    "evaluate_result", "fault_onsets", "true_labels", "sampled_threshold", "WorstCase",
     "worst_case_sums", "transient_envelope"
 ]

@@ -7,8 +7,8 @@ from ._random import (RANDOM_C, mix64, stream_keys, uniform_samples, normal_samp
 from ._sampling import (Distribution, SignalProgram, signal_program, RunDraws, draw_runs, DrawPlan, draw_plan, parameter_layout)
 from ._quantile import (quantile_threshold, fault_free, apply_threshold)
 from ._summaries import (SummaryField, Monitors, monitors, RunSummaries, summarise)
-from ._recording import (TIME_RTOL, declared_envelope, declared_signal_bounds, bounds_check, check_times, recording_from_columns, read_table, parse_row)
-from ._monitor import (Monitor, MonitorStep, ReferenceMonitorEngine, monitor_signals, monitor_signal_columns, monitor_initial_state, MONITOR_COLUMNS)
+from ._recording import (TIME_RTOL, declared_envelope, declared_signal_bounds, bounds_check, read_table, parse_row)
+from ._monitor import (Monitor, MonitorStep, ReferenceMonitorEngine, monitor_signals, monitor_signal_columns)
 
 __all__ = [
     "evaluate_ensemble", "align_delay", "Scenario", "load_scenario", "scenario_from_dict",
@@ -17,7 +17,7 @@ __all__ = [
     "RANDOM_C", "mix64", "stream_keys", "uniform_samples", "normal_samples", "Distribution",
     "SignalProgram", "signal_program", "RunDraws", "draw_runs", "DrawPlan", "draw_plan",
     "parameter_layout", "SummaryField", "Monitors", "monitors", "RunSummaries", "summarise",
-    "TIME_RTOL", "declared_envelope", "declared_signal_bounds", "bounds_check", "check_times", "recording_from_columns", "read_table",
+    "TIME_RTOL", "declared_envelope", "declared_signal_bounds", "bounds_check", "read_table",
     "parse_row", "Monitor", "MonitorStep", "ReferenceMonitorEngine", "monitor_signals",
-    "monitor_signal_columns", "monitor_initial_state", "MONITOR_COLUMNS"
+    "monitor_signal_columns"
 ]

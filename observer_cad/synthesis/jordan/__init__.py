@@ -9,14 +9,13 @@ task), ``_admissible`` and ``_lambdas`` (2. the admissible λ and the λ strateg
 """
 from ._admissible import Admissible, admissible_lambdas
 from ._float import design_jordan_float
-from ._float_lambdas import admissible_lambdas_float, DEFAULT_RTOL
+from ._float_lambdas import (admissible_lambdas_float)
 from ._jordan import design_jordan, design_jordan_unknown_input
 from ._lambda_search import (SpecialLambdas, QRowsVerdict, one_row_lambdas, q_rows_possible, exact_real_roots)
 from .minimality import proof_seconds_value
 
 __all__ = [
-    "admissible_lambdas_float", "design_jordan_float", "DEFAULT_RTOL", "Admissible",
-    "admissible_lambdas", "design_jordan", "design_jordan_unknown_input", "SpecialLambdas",
-    "QRowsVerdict", "one_row_lambdas", "q_rows_possible", "exact_real_roots",
-    "proof_seconds_value"
+    "admissible_lambdas_float", "design_jordan_float", "Admissible", "admissible_lambdas",
+    "design_jordan", "design_jordan_unknown_input", "SpecialLambdas", "QRowsVerdict",
+    "one_row_lambdas", "q_rows_possible", "exact_real_roots", "proof_seconds_value"
 ]

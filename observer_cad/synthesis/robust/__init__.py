@@ -2,6 +2,7 @@
 """
 from ._canonical import (design_robust_canonical, robust_basis)
 from ._jordan import (design_robust_jordan, jordan_candidates)
-from ._robust import (TASK_RTOL)
 
-__all__ = ["design_robust_canonical", "design_robust_jordan", "robust_basis", "jordan_candidates", "TASK_RTOL"]
+__all__ = [
+    "design_robust_canonical", "design_robust_jordan", "robust_basis", "jordan_candidates"
+]
