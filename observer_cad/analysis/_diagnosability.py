@@ -230,10 +230,15 @@ def _frequencies(frequencies, time: str) -> tuple:
         text = str(w).strip()
         if isinstance(w, float):
             text = repr(w)
-        if not re.fullmatch(r"[+]?(\d+(\.\d*)?|\.\d+)([eE][+-]?\d+)?(/\d+)?", text):
-            raise UsageError(f"frequency '{w}': expected a non-negative number (rad per"
+        if len(text) > 40 or not re.fullmatch(
+                r"[+]?(\d+(\.\d*)?|\.\d+)([eE][+-]?\d{1,3})?(/\d+)?", text):
+            raise UsageError(f"frequency '{w}': expected a non-negative number of at most 40"
+                             f" characters (rad per"
                              f" {'time unit' if time == 'continuous' else 'sample'})")
         q = sp.Rational(text)
+        if q != 0 and not (sp.Rational(1, 10**12) <= q <= 10**12):
+            raise UsageError(f"frequency {w}: outside [1e-12, 1e12] (0, or a frequency in that"
+                             " range: the gains are evaluated at powers of it)")
         if time != "continuous" and q > sp.Rational(355, 113):
             raise UsageError(f"frequency {w}: a discrete-time frequency lies in [0, π] (rad"
                              " per sample)")

@@ -36,6 +36,10 @@ def test_gain_by_hand():
     # output injection changes the pole, not whether the gain vanishes
     k, _ = _first_order(-2, K=sp.Matrix([[3]]))
     assert steady_state_gain(k, st, [1]) == (sp.Rational(1, 5),)
+    # with K, the injected residual K r carries the sensor bias too: by hand,
+    # x*' = −2 x* − y + 3 (y − x*) = −5 x* + 2 y with y = 1 (a bias, x stays 0): x* = 2/5,
+    # r = y − x* = 3/5
+    assert steady_state_gain(k, st, [0], [1]) == (sp.Rational(3, 5),)
     # discrete time: the gain at z = 1
     d, dt = _first_order(sp.Rational(1, 2), time="discrete")
     assert steady_state_gain(d, dt, [1]) == (2,)

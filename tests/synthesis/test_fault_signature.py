@@ -191,3 +191,18 @@ def test_float_path_refusal_names_the_fault():
     with pytest.raises(InfeasibleDesignError) as exc:
         design(m, observer="diagnostic", method="float")
     assert "f3 is undetectable with rho decoupled" in str(exc.value)
+
+
+def test_float_rounding_of_an_output_only_fault_is_not_sensitivity():
+    """A fault that enters the outputs only has a zero column of D: in a float design its
+    terms J* Dy and R* Dy are judged against max(‖J*‖, ‖R*‖) ‖Dy‖, so rounding (1e-16) is
+    not "sensitive" while a unit bias is."""
+    from observer_cad.synthesis.certificates import fault_sensitivity
+    Phi, Fs, Hs = sp.Matrix([[1.0, 0.0]]), sp.Matrix([[-1.0]]), sp.Matrix([[1.0]])
+    zero = sp.Matrix([0, 0])
+    noise = fault_sensitivity(Phi, Fs, Hs, zero, feed=sp.Matrix([2e-16]),
+                              direct=sp.Matrix([3e-17]), feed_scale=1.0)
+    assert not noise.sensitive and not noise.enters
+    bias = fault_sensitivity(Phi, Fs, Hs, zero, feed=sp.Matrix([0.5]), direct=sp.Matrix([1.0]),
+                             feed_scale=1.0)
+    assert bias.sensitive and bias.enters

@@ -3,12 +3,14 @@
 A residual r = R* (y − Gy u) − H* x* with the error e = Φ x − x* (METHOD §1 with output
 feedthrough) obeys
 
-    e' = F_cl e + (Φ D_j − J* Dy_j) d_j,     r = H* e + R* Dy_j d_j,
+    e' = F_cl e + (Φ D_j − (J* + K R*) Dy_j) d_j,     r = H* e + R* Dy_j d_j,
 
-F_cl = F* − K H* once stabilised by output injection (F* when the design has no K).
+F_cl = F* − K H* once stabilised by output injection x*' = … + K r (F* and no K R* term
+when the design has no K: the injected residual carries the fault's output part too).
 Its gain to a constant fault is
 
-    g_j = R* Dy_j + H* (λ I − F_cl)⁻¹ (Φ D_j − J* Dy_j),   λ = 0 (continuous), 1 (discrete),
+    g_j = R* Dy_j + H* (λ I − F_cl)⁻¹ (Φ D_j − (J* + K R*) Dy_j),   λ = 0 (continuous),
+    1 (discrete),
 
 one entry per residual row. A fault the residual responds to (its signature says
 "sensitive") with g_j = 0 in every row is seen only as a transient: a constant fault
@@ -46,9 +48,10 @@ def steady_state_gain(matrices, structure, column, dy=None, *, rtol: float = 1e-
     Fcl = Fs - sp.Matrix(K) * Hs if K is not None else Fs
     lam = 0 if structure.model.time == "continuous" else 1
     dy = sp.zeros(R.cols, 1) if dy is None else sp.Matrix(dy)
-    b = Phi * sp.Matrix(column) - J * dy
+    inject = J + sp.Matrix(K) * R if K is not None else J  # K r carries R* Dy d as well
+    b = Phi * sp.Matrix(column) - inject * dy
     A = lam * sp.eye(Fcl.rows) - Fcl
-    floats = any(_is_float(M) for M in (Phi, Fs, Hs, R, A))
+    floats = any(_is_float(M) for M in (Phi, Fs, Hs, R, A, inject))
     try:
         if floats:
             import numpy as np

@@ -124,6 +124,12 @@ def residual_response(Phi, F_star, H_star, column) -> sp.Matrix:
     return (O * b).applyfunc(sp.cancel)
 
 
+def _size(*matrices) -> float:
+    """The largest absolute numeric entry of the matrices (0 when none is numeric)."""
+    vals = [abs(float(e)) for M in matrices for e in sp.Matrix(M) if e.is_number]
+    return max(vals, default=0.0)
+
+
 def _nonzero(v, scale: float, floats: bool) -> bool:
     if v == 0:
         return False
@@ -133,11 +139,14 @@ def _nonzero(v, scale: float, floats: bool) -> bool:
 
 
 def fault_sensitivity(Phi, F_star, H_star, column, *, name: str = "d",
-                      role: str = "assumed zero", feed=None, direct=None) -> FaultSensitivity:
+                      role: str = "assumed zero", feed=None, direct=None,
+                      feed_scale: float = 0.0) -> FaultSensitivity:
     """Whether the residual of (Φ, F*, H*) responds to an input entering through
     ``column`` (n × 1): O Φ D_j ≠ 0, with the relations that needs (module docstring).
     An input that also enters the outputs gives ``feed`` = J* Dy_j (subtracted from
-    Φ D_j) and ``direct`` = R* Dy_j (the residual's direct term, first in the response)."""
+    Φ D_j) and ``direct`` = R* Dy_j (the residual's direct term, first in the response);
+    ``feed_scale`` = max(‖J*‖, ‖R*‖) ‖Dy_j‖, the size those terms' rounding is relative to
+    in a float design."""
     Fs, Hs = F_star, H_star
     entry = (sp.Matrix(Phi) * sp.Matrix(column)).applyfunc(sp.cancel)
     dmat = None if direct is None else sp.ImmutableMatrix(sp.Matrix(direct).applyfunc(sp.cancel))
@@ -147,18 +156,20 @@ def fault_sensitivity(Phi, F_star, H_star, column, *, name: str = "d",
         entry = (entry - sp.Matrix(feed)).applyfunc(sp.cancel)
         resp = sp.Matrix.vstack(sp.Matrix(direct).applyfunc(sp.cancel),
                                 residual_response(sp.eye(entry.rows), Fs, Hs, entry))
-    floats = _is_float(Phi) or _is_float(Fs) or _is_float(Hs)
+    floats = _is_float(Phi) or _is_float(Fs) or _is_float(Hs) or any(
+        M is not None and _is_float(sp.Matrix(M)) for M in (feed, direct))
     scale = 1.0
 
     def norm(M):
         vals = [abs(float(e)) for e in sp.Matrix(M) if e.is_number]
         return max(vals) if vals else 1.0
     if floats:  # ‖O‖ ‖Φ‖ ‖D_j‖: the size r would have for a fully seen unit fault
-        scale = norm(Hs) * max(1.0, norm(Fs)) ** max(sp.Matrix(Fs).rows - 1, 0) \
-            * norm(Phi) * norm(column)
+        # (plus the output part's: a fault in the outputs only has a zero column)
+        size = norm(Phi) * norm(column) + feed_scale
+        scale = max(norm(Hs) * max(1.0, norm(Fs)) ** max(sp.Matrix(Fs).rows - 1, 0) * size,
+                    feed_scale)
     nz = [e for e in resp if _nonzero(e, scale, floats)]
-    enters = any(_nonzero(e, norm(Phi) * norm(column) if floats else 1.0, floats)
-                 for e in entry)
+    enters = any(_nonzero(e, size if floats else 1.0, floats) for e in entry)
     if not nz:
         return FaultSensitivity(name, False, sp.ImmutableMatrix(entry),
                                 sp.ImmutableMatrix(resp), (), role, enters, dmat)
@@ -196,13 +207,16 @@ def fault_signature(matrices, structure: Structure, task: Task) -> tuple:
     sig = []
     for n in names:
         feed = direct = None
+        feed_scale = 0.0
         Dy = structure.output_columns([n])
         if not Dy.is_zero_matrix:  # the fault enters the outputs too
             feed = sp.Matrix(matrices.J_star) * Dy
             direct = sp.Matrix(matrices.R_star) * Dy
+            feed_scale = _size(matrices.J_star, matrices.R_star) * _size(Dy)
         sig.append(fault_sensitivity(matrices.Phi, matrices.F_star, Hs,
                                      structure.unknown_input_columns([n]), name=n,
-                                     role=_role(task, n), feed=feed, direct=direct))
+                                     role=_role(task, n), feed=feed, direct=direct,
+                                     feed_scale=feed_scale))
     return tuple(dataclasses.replace(s, steady_gain=steady_state_gain(
         matrices, structure, structure.unknown_input_columns([s.name]),
         _output_column(structure, s.name), rtol=SIGNATURE_RTOL)) if s.sensitive else s
