@@ -7,7 +7,7 @@ sample, and optionally a step fault d from time ``fault_time``.
     python3 examples/dc_motor_data.py            # rewrites examples/dc_motor_sampled.csv
 
 :func:`records` integrates many records at once (one solve_ivp of the stacked linear
-systems), for the tests (tests/residuals/test_sampled_threshold.py).
+systems), for the tests (tests/observers/test_sampled_threshold.py).
 """
 from __future__ import annotations
 

@@ -33,6 +33,8 @@ def load_design(path, model: PlantModel) -> Design | ResidualBank:
         return design_from_data(data, model)
     except UsageError as exc:
         raise UsageError(f"design file {Path(path)}: {exc}") from None
+    except ObserverCadError as exc:  # e.g. a bank column the model does not declare
+        raise type(exc)(f"design file {Path(path)}: {exc}") from None
 
 
 def design_from_data(data, model: PlantModel) -> Design | ResidualBank:

@@ -118,7 +118,10 @@ def cmd_codegen(args) -> int:
     if args.scenario is not None:
         from ..simulation import load_scenario
         scenario = load_scenario(args.scenario)
-    observer = threshold_from_args(args, model, observer, scenario)
+    # the band of the algorithm the export runs: a continuous-time observer steps RK4 at --dt
+    band_step = (args.dt if args.dt is not None else 0.01) if observer.time == "continuous" \
+        else None
+    observer = threshold_from_args(args, model, observer, scenario, sample_time=band_step)
     refuse_failed(observer)
     try:
         from ..codegen import export_observer

@@ -6,6 +6,7 @@ import sys
 from pathlib import Path
 
 from ..errors import UsageError
+from ..residuals import ThresholdSpec
 from ..progress import report
 from ._from_args import design_or_load, observer_options, refuse_failed, threshold_from_args
 from ._parser import PROG
@@ -44,6 +45,13 @@ def cmd_monitor(args) -> int:
     from ..observers import build_observer
     observer = build_observer(model, result, **observer_options(args, result))
     refuse_failed(observer)
+    if data is None and model.time == "continuous" and args.threshold is not None \
+            and ThresholdSpec.parse(args.threshold).kind == "guaranteed" \
+            and all(s in model.bounds for s in model.states + model.inputs):
+        raise UsageError(f"--data - with --threshold guaranteed: {model.name} declares its"
+                         " operating envelope, and its guaranteed band is the sampled-data one"
+                         " of the data's own sample time, which a stream does not give before"
+                         " its rows arrive: monitor a recorded file (--data FILE)")
     observer = threshold_from_args(args, model, observer, sample_time=_data_step(data, rename))
     refuse_failed(observer)
     rule = None

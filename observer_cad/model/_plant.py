@@ -193,8 +193,12 @@ class PlantModel:
         guaranteed thresholds rest on (:func:`observer_cad.residuals.sampled_threshold`).
     initial : mapping Symbol -> (low, high), optional
         A box for the plant's unknown initial state x(0), e.g. ``{x1: (0, 1), x2: (-1, 1)}``
-        (every state, once one is named; low = high for a known one). Guaranteed bands
-        include the transient of the initial observer error from this box.
+        (every state, once one is named; low = high for a known one). Sampled-data
+        guaranteed bands (:func:`observer_cad.residuals.sampled_threshold`, which the
+        monitor and codegen use for a continuous-time model with a complete operating
+        envelope) include the transient of the initial observer error from this box; the
+        continuous-time band does not read it (its initial error is ``--initial-error``,
+        0 by default: x*(0) = Φ x(0), a listed condition).
     domain : list of sympy relations, optional
         The state domain that nonlinear checks may assume, e.g. ``x1 >= x2``.
     linear_part : matrix, optional

@@ -65,6 +65,9 @@ def worst_case_sums(F, N, B, Cd, lo, hi) -> WorstCase:
     if T == 0:
         return WorstCase(np.zeros(m), np.zeros(m), 0, 0.0)
     L, beta = contraction(F)
+    if L > _MAX_STEPS:
+        raise UsageError(f"the error system contracts only after {L} steps (more than"
+                         f" {_MAX_STEPS:,} summed): too slow for a worst-case band")
     rowN = np.sum(np.abs(N), axis=1)
     big = np.maximum(np.abs(lo), np.abs(hi))
 
@@ -114,8 +117,9 @@ def transient_envelope(F, N, V0, q: float) -> np.ndarray:
             ok = True
             break
         Pw, Lp = Pw @ Pw, 2 * Lp
-    if not ok:
-        raise UsageError(f"the transient decay rate {q:g} is not above the error system's")
+    if not ok or 2 * Lp > _MAX_STEPS:
+        raise UsageError(f"the transient decay rate {q:g} is not above the error system's"
+                         f" (or it is reached only after more than {_MAX_STEPS:,} steps)")
     rowN = np.sum(np.abs(N), axis=1)
     K = np.zeros(m)
     V, scale = V0.copy(), 1.0

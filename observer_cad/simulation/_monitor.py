@@ -34,7 +34,7 @@ from ..model import PlantModel
 from ..numerics import algebraic_to_float
 from ..observers import Observer
 from ..residuals import DecisionRule, decide
-from ._recording import check_times, declared_envelope, recording_from_columns
+from ._recording import TIME_RTOL, check_times, declared_envelope, recording_from_columns
 from ._simulate import SimulationResult, align_delay, column_units
 
 __all__ = ["Monitor", "MonitorStep", "ReferenceMonitorEngine", "monitor_signals",
@@ -219,8 +219,13 @@ class Monitor:
         rec = recording_from_columns(self.model, self.signals, data, rename=rename,
                                      sample_time=self.sample_time, source=source)
         self.reset()
+        if self.h0 is not None and rec.h is not None and self.model.time == "continuous" \
+                and abs(float(rec.h) - self.h0) > TIME_RTOL * self.h0:
+            raise UsageError(f"monitor: the data's sample time is {float(rec.h):g}, the"
+                             f" monitor's h = {self.h0:g}")
         h = self.h0 if self.h0 is not None else rec.h
         self._check_band_step(h)
+        self._check_band_step(rec.h)
         V = np.ascontiguousarray(np.column_stack([rec.columns[s] for s in self.signals])
                                  if self.signals else np.zeros((rec.t.size, 0)))
         with np.errstate(all="ignore"):
@@ -231,6 +236,11 @@ class Monitor:
     def _check_band_step(self, h) -> None:
         """A sampled-data band (threshold.sample_time) holds only at its own step."""
         th = getattr(self.observer, "threshold", None)
+        how = getattr(th, "discretisation", "") or ""
+        if how not in ("", "rk4", "discrete"):
+            raise UsageError(f"monitor: the guaranteed band holds for the {how} discretisation;"
+                             " the monitor steps RK4 (build the threshold with"
+                             " discretisation='rk4')")
         hb = getattr(th, "sample_time", None)
         if hb is not None and h is not None and self.model.time == "continuous" \
                 and abs(float(h) - hb) > 1e-9 * hb:

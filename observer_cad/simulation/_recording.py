@@ -26,6 +26,7 @@ import math
 from typing import Mapping
 
 import numpy as np
+import sympy as sp
 
 from ..errors import UsageError
 from ..model import PlantModel
@@ -48,18 +49,46 @@ TIME_RTOL = 1e-3
 
 def declared_envelope(model: PlantModel) -> dict:
     """The declared operating range of the recorded signals: name → (low, high) floats,
-    for the model's inputs that have bounds and — when the model declares an operating
-    envelope (``model.envelope``, name → (low, high)) — the outputs ``y1 …`` and
-    inputs it names. Signals without a declared range are absent (not checked)."""
+    for the model's inputs that have bounds, and for each output ``y1 …`` whose every
+    state, input, disturbance and noise term has declared bounds (the operating envelope of
+    the states included): the interval of its linear expression over them, faults taken as
+    zero (a fault is what the monitor is there to see). Signals without a declared range
+    are absent (not checked)."""
     env = {}
     for s in model.inputs:
         b = model.bounds.get(s)
         if b is not None:
             env[str(s)] = (float(b[0]), float(b[1]))
-    extra = getattr(model, "envelope", None) or {}
-    for k, (lo, hi) in dict(extra).items():
-        env[str(k)] = (float(lo), float(hi))
+    faults = {f: 0 for f in model.faults}
+    for i, h in enumerate(model.outputs):
+        rng = _linear_range(sp.sympify(h).xreplace(faults).xreplace(dict(model.parameters)),
+                            model.bounds)
+        if rng is not None:
+            env[f"y{i + 1}"] = rng
     return env
+
+
+def _linear_range(e, bounds) -> tuple | None:
+    """(low, high) of an affine expression over boxed symbols, or None (a symbol without
+    bounds, or a term that is not affine)."""
+    syms = sorted(e.free_symbols, key=str)
+    if any(s not in bounds for s in syms):
+        return None
+    try:
+        poly = sp.Poly(e, *syms) if syms else None
+    except sp.PolynomialError:
+        return None
+    if poly is not None and poly.total_degree() > 1:
+        return None
+    lo = hi = e.xreplace({s: 0 for s in syms})
+    for s in syms:
+        c = e.coeff(s)
+        a, b = c * bounds[s][0], c * bounds[s][1]
+        lo, hi = lo + sp.Min(a, b), hi + sp.Max(a, b)
+    try:
+        return float(lo), float(hi)
+    except TypeError:
+        return None
 
 
 def declared_signal_bounds(model: PlantModel) -> dict:

@@ -249,3 +249,46 @@ def test_monitor_runs_a_frozen_design_like_a_fresh_one(capsys, tmp_path):
                              tmp_path / "bad"])
     assert rc == 2 and len(se.strip().splitlines()) == 1 and "different model" in se, se
     assert not (tmp_path / "bad").exists()
+
+
+MOTOR = ROOT / "models" / "dc_motor_sampled.py"
+MOTOR_DATA = ROOT / "examples" / "dc_motor_sampled.csv"
+MOTOR_BAND = ["--observer", "diagnostic", "--lambda=-4", "--threshold", "guaranteed"]
+
+
+def test_stream_refuses_a_band_that_needs_the_sample_time(capsys, tmp_path, monkeypatch):
+    """A continuous-time model with an operating envelope gets the sampled-data band of the
+    data's own sample time; a stream cannot give it before its rows arrive, so the continuous
+    band (which false-alarms on this recording) is refused, not silently used."""
+    import io
+    monkeypatch.setattr(sys, "stdin", io.StringIO(MOTOR_DATA.read_text()))
+    rc, _, se = run(capsys, ["monitor", MOTOR, *MOTOR_BAND, "--data", "-", "--out",
+                             tmp_path / "m"])
+    assert rc == 2 and len(se.strip().splitlines()) == 1 and "--data FILE" in se, se
+    assert not (tmp_path / "m").exists()
+
+
+@pytest.mark.slow
+def test_exported_c_runs_the_sampled_band_of_its_step(capsys, tmp_path):
+    """codegen's band is the sampled one of the RK4 step the C runs (--dt, 0.01 s, the
+    recording's interval): the compiled example raises exactly the monitor's alarms (none)
+    on the true continuous plant's recording."""
+    rc, so, se = run(capsys, ["monitor", MOTOR, *MOTOR_BAND, "--data", MOTOR_DATA, "--out",
+                              tmp_path / "mon"])
+    assert rc == 0 and "sampled algorithm at h = 0.01" in so, so
+    rc, _, se = run(capsys, ["codegen", MOTOR, *MOTOR_BAND, "--out", tmp_path / "c"])
+    assert rc == 0, se
+    srcs = sorted(str(p) for p in (tmp_path / "c").glob("*.c"))
+    r = subprocess.run(["cc", "-std=c99", "-O1", *srcs, "-lm", "-o", str(tmp_path / "ex")],
+                       capture_output=True, text=True, timeout=300)
+    assert r.returncode == 0, r.stderr
+    out = subprocess.run([str(tmp_path / "ex"), str(MOTOR_DATA)], capture_output=True,
+                         text=True, timeout=300)
+    assert out.returncode == 0, out.stderr
+    c_rows = list(csv.DictReader(out.stdout.splitlines()))
+    py_rows = read(tmp_path / "mon" / "monitor.csv")
+    assert len(c_rows) == len(py_rows) == 501
+    assert [r["alarm"] for r in c_rows] == [r["alarm"] for r in py_rows] == ["0"] * 501
+    for name in ("r", "r_lower", "r_upper"):
+        assert np.allclose([float(r[name]) for r in c_rows], [float(r[name]) for r in py_rows],
+                           rtol=0, atol=1e-12), name

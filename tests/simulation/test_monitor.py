@@ -136,7 +136,23 @@ def test_sample_time_of_a_discrete_model(drive):
     data["t"] = data["t"] * 0.02 + 3.0
     out = Monitor(m, obs, rule=rule, sample_time=0.02).run(data)
     np.testing.assert_allclose(out["r"], res["r"], atol=1e-12)
-    assert TIME_RTOL < 0.01
+    jitter = dict(data, t=data["t"].copy())
+    jitter["t"][5] += 3 * TIME_RTOL * 0.02   # an interval beyond the stated tolerance
+    with pytest.raises(UsageError, match="not regular|regular"):
+        Monitor(m, obs, rule=rule, sample_time=0.02).run(jitter)
+
+
+def test_the_envelope_of_the_outputs_comes_from_the_state_bounds():
+    """dc_motor_sampled bounds its states and noise: each output's range is its interval
+    (y1 = x1 + w1 with x1 in [-4, 4], w1 in [-0.01, 0.01]), and a recorded output beyond it
+    is flagged."""
+    m = load_model(Path(__file__).resolve().parents[2] / "models" / "dc_motor_sampled.py")
+    env = declared_envelope(m)
+    assert {"y1", "y2", "y3", "u"} <= set(env)
+    y1 = m.outputs[0]
+    lo = sum(float(y1.coeff(s)) * float(m.bounds[s][0 if y1.coeff(s) > 0 else 1])
+             for s in y1.free_symbols)
+    assert env["y1"][0] == pytest.approx(lo)
 
 
 def test_data_out_of_the_declared_envelope_are_flagged(drive):

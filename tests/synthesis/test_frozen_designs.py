@@ -286,3 +286,16 @@ def test_more_forms_round_trip(tmp_path, file, options):
     _same_matrices(d, back)
     assert [c.name for c in back.conditions] == [c.name for c in d.conditions]
     assert back.assumptions == d.assumptions
+
+
+def test_a_bank_column_the_model_lacks_is_refused_naming_the_file(tmp_path):
+    from observer_cad.errors import ModelError
+    m = load_model(Path(__file__).resolve().parents[2] / "models" / "three_tank_isolation.py")
+    data = design_bank(m).to_json()
+    data["faults"][0] = "zz"
+    path = tmp_path / "bank.json"
+    path.write_text(json.dumps(data))
+    with pytest.raises(ModelError) as e:
+        load_design(path, m)
+    msg = str(e.value)
+    assert "\n" not in msg and str(path) in msg and "'zz'" in msg

@@ -191,11 +191,19 @@ def _zero_order_row(st: Structure, task: Task):
     Ly, Dy = sp.Matrix(st.output_columns(task.decoupled)), sp.Matrix(st.output_columns(task.targets))
     M = sp.Matrix.hstack(sp.Matrix(st.H), Ly)
     if M.free_symbols or Dy.free_symbols:
-        return None
+        raise InfeasibleDesignError(
+            f"{st.model.where}: a zero-order residual for {', '.join(task.targets)} is searched"
+            " with numeric H, Dy and Ly: give the parameters values (drop --symbolic)")
     basis = [v.T for v in M.T.nullspace()]
     if not basis:
         return None
-    candidates = basis + [sum(((i + 1) * b for i, b in enumerate(basis)), sp.zeros(1, st.l))]
+    # Σ_i c^i b_i over c = 1 … T (d − 1) + 1: for each target the entry R* Dy_t is a
+    # polynomial in c of degree < d that is not identically zero when some b_i sees the
+    # target, so it has at most d − 1 roots; T (d − 1) + 1 values of c leave one that
+    # misses every target's roots (the basis rows themselves are tried first)
+    T, dim = Dy.cols, len(basis)
+    candidates = basis + [sum((c ** i * b for i, b in enumerate(basis)), sp.zeros(1, st.l))
+                          for c in range(1, T * (dim - 1) + 2)]
     for row in candidates:
         if all(e != 0 for e in row * Dy):
             den = next(e for e in row if e != 0)
