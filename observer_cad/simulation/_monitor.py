@@ -226,6 +226,16 @@ class Monitor:
         h = self.h0 if self.h0 is not None else rec.h
         self._check_band_step(h)
         self._check_band_step(rec.h)
+        hb = getattr(getattr(self.observer, "threshold", None), "sample_time", None)
+        if hb is not None and self.model.time == "continuous" and rec.t.size > 1:
+            # the sampled band holds for steps of exactly hb, not within the 0.1 % the
+            # regularity check allows
+            dev = np.abs(np.diff(rec.t) - hb)
+            k = int(np.argmax(dev))
+            if dev[k] > 1e-9 * hb + 4 * np.finfo(float).eps * abs(float(rec.t[k + 1])):
+                raise UsageError(f"monitor: the guaranteed band holds for steps of exactly"
+                                 f" h = {hb:g}; the interval before t = {float(rec.t[k + 1]):g}"
+                                 f" (row {k + 2}) is {float(rec.t[k + 1] - rec.t[k]):.12g}")
         V = np.ascontiguousarray(np.column_stack([rec.columns[s] for s in self.signals])
                                  if self.signals else np.zeros((rec.t.size, 0)))
         with np.errstate(all="ignore"):

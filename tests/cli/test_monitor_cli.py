@@ -292,3 +292,18 @@ def test_exported_c_runs_the_sampled_band_of_its_step(capsys, tmp_path):
     for name in ("r", "r_lower", "r_upper"):
         assert np.allclose([float(r[name]) for r in c_rows], [float(r[name]) for r in py_rows],
                            rtol=0, atol=1e-12), name
+
+
+def test_a_sampled_band_needs_exactly_regular_samples(capsys, tmp_path):
+    """Jitter the regularity check tolerates (0.05 % of h) still voids a band computed for
+    steps of exactly h: refused in one line naming the row, nothing written."""
+    def jitter(lines):
+        cells = lines[100].split(",")
+        cells[0] = repr(float(cells[0]) + 5e-6)
+        return lines[:100] + [",".join(cells)] + lines[101:]
+    data = _rewrite(MOTOR_DATA, tmp_path / "jitter.csv", jitter)
+    rc, _, se = run(capsys, ["monitor", MOTOR, *MOTOR_BAND, "--data", data, "--out",
+                             tmp_path / "m"])
+    assert rc == 2 and len(se.strip().splitlines()) == 1 and "exactly" in se, se
+    assert "row 100" in se or "row 101" in se, se
+    assert not (tmp_path / "m").exists()
