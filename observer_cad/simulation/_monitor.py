@@ -369,8 +369,11 @@ class Monitor:
     def result(self) -> SimulationResult:
         """The table of the rows :meth:`step` has seen (as :meth:`run` returns it)."""
         r = self._rows
+        # the rows recorded whole: an interruption (Ctrl-C, SIGTERM) inside step() may leave
+        # a row's t appended without its values
+        n = min(len(r["t"]), len(r["V"]), len(r["O"]))
         names = [c for c in self.columns if c in self._extra]
-        V = np.array(r["V"], dtype=float).reshape(len(r["t"]), len(names))
+        V = np.array(r["V"][:n], dtype=float).reshape(n, len(names))
         sigs = {c: V[:, j] for j, c in enumerate(names)}
-        O = np.array(r["O"], dtype=float).reshape(len(r["t"]), len(self.outputs))
-        return self._table(np.array(r["t"], dtype=float), sigs, O)
+        O = np.array(r["O"][:n], dtype=float).reshape(n, len(self.outputs))
+        return self._table(np.array(r["t"][:n], dtype=float), sigs, O)
