@@ -114,6 +114,7 @@ def test_drem_cli_reports_insufficient_excitation(models_dir, tmp_path, capsys):
     assert (tmp_path / "o" / "signals.csv").exists()
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("model,args", [(c[0], c[1]) for c in CASES],
                          ids=[f"{c[0]}-{' '.join(c[1][1:4])}" for c in CASES])
 def test_design_json_reads_back_and_builds(models_dir, capsys, model, args):

@@ -153,6 +153,7 @@ def _numpy_observer_step(o, x, y, u, h):
     return x + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4), out
 
 
+@pytest.mark.slow
 @needs_cc
 @pytest.mark.parametrize("kind", list(CASES))
 def test_single_step_parity(kind, built):

@@ -180,6 +180,7 @@ def test_the_c_example_agrees_with_the_same_reference(drive, tmp_path):
                                                     " 'no fault'",)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("discretisation, version", [("rk4", "2.0"), ("zoh", "2.0"),
                                                      ("rk4", "3.0")])
 def test_continuous_bank_with_threshold_inputs(bank, discretisation, version, tmp_path):

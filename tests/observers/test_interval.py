@@ -224,6 +224,7 @@ def test_linear_tank_builders_agree(tank_lin, lin_design):
     assert [(n, sp.expand(e)) for n, e in a.outputs] == [(n, sp.expand(e)) for n, e in b.outputs]
 
 
+@pytest.mark.slow
 def test_linear_tank_inclusion(tank_lin, lin_design, models_dir):
     o = interval_observer_nonlinear(tank_lin, lin_design)
     res = simulate(tank_lin, o, scenario(models_dir, "three_tank_linear_interval"), runs=RUNS)
@@ -322,6 +323,7 @@ def test_lipschitz_margin_refused_when_not_lipschitz(tank):
         interval_observer_nonlinear(tank, d, margin="lipschitz")
 
 
+@pytest.mark.slow
 def test_lipschitz_margin_on_domain_away_from_zero(tank, models_dir):
     """On x1 − x2 ≥ 1/100 (where the plant stays) ∂f/∂ỹ1 = 1/(2√(x* − ỹ1)) ≤ 5 on the
     clipped extension: margin K w* = 5 · 0.01; the bounds contain x1 but are wider

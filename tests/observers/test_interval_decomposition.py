@@ -195,6 +195,7 @@ def test_chain_monte_carlo_inclusion_extreme_noise(chain, chain_observer):
         assert violations(simulate(chain, chain_observer, sc, runs=1)) == 0
 
 
+@pytest.mark.slow
 def test_chain_monte_carlo_inclusion_compiled(chain, chain_observer, chain_scenario, tmp_path,
                                               monkeypatch):
     pytest.importorskip("casadi")

@@ -456,6 +456,7 @@ def _triangle_g(triple, free=(1, 3, -2)):
     return sp.Poly(sp.expand(g.subs(sp.solve(eqs, cs, dict=True)[0])), LAM, XS)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("triple, time, found", [
     ((-1, -2, -3), "continuous", True), ((1, 2, 3), "continuous", False),
     ((sp.Rational(1, 2), sp.Rational(1, 4), -sp.Rational(1, 3)), "discrete", True),

@@ -23,6 +23,7 @@ def _pencil_inputs(n, l, p, seed, density=1.0):  # noqa: E741
     return F, H, L0
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("density", [1.0, 0.5])
 @pytest.mark.parametrize("n,l,p", SHAPES)
 @pytest.mark.parametrize("seed", [0, 1, 2])

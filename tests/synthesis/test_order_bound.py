@@ -190,6 +190,7 @@ def test_one_parameter_family_found_in_a_narrow_window():
     assert d.k == 2 and d.certificate.passed and _minimal(d).holds
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("seed,k,why", [(0, 4, "the line p0 + t p1"),
                                         (2, 5, "hyperplane")])
 def test_lower_orders_ruled_out_exactly(seed, k, why):

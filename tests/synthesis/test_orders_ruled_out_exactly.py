@@ -269,6 +269,7 @@ def _gamma_max_stable(F, H, L, M, time, rng, samples=2000):
     return best
 
 
+@pytest.mark.slow
 def test_one_row_short_impossible():
     """random_model(8, 2, 1, seed=0), discrete, z = (x1, x2), decoupled: each λ has one
     row; 5 = n − rank H − 1 rows are impossible (before: least order in [5, 6])."""

@@ -27,6 +27,7 @@ def _plane_plant():
     return random_model(8, 2, 0, seed=8, time="discrete"), sp.eye(8)[:2, :]
 
 
+@pytest.mark.slow
 def test_budget_stops_a_long_proof_and_reports_the_range():
     m, M = _plane_plant()
     full = design_jordan(m, observer="virtual-sensor", estimate=M, proof_seconds=None)

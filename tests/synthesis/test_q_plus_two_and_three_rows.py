@@ -192,6 +192,7 @@ def test_perm_sign_is_the_sign_of_sorting():
     assert perm_sign((2, 0, 1)) == 1 and perm_sign((5, 0, 1, 2, 3, 4)) == -1
 
 
+@pytest.mark.slow
 def test_other_decisions_with_six_dimensions_unchanged():
     """random_model(10, 2, 1): c = 6 but one row per λ — "one row short" is decided as
     before (the six-dimensional plane decisions are for planes only; a dispatch on c alone
