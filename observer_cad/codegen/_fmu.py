@@ -281,12 +281,8 @@ def _model_description(name: str, observer: Observer, variables, ts: float, guid
              f'  <DefaultExperiment startTime="0.0" stepSize="{_xml_number(ts)}"/>',
              '  <ModelVariables>']
     for v in variables:
-        attrs = (f'name={quoteattr(v.name)} valueReference="{v.value_reference}"'
-                 f' description={quoteattr(v.description)} causality="{v.causality}"'
-                 f' variability="{v.variability}"')
-        if v.causality == "parameter":
-            attrs += ' initial="exact"'
-        elif v.causality == "output":
+        attrs = _variable_attributes(v)
+        if v.causality == "output":
             attrs += ' initial="calculated"'
         start = "" if v.start is None else f' start="{_xml_number(v.start)}"'
         lines.append(f'    <ScalarVariable {attrs}><{v.type}{start}/></ScalarVariable>')
@@ -297,6 +293,15 @@ def _model_description(name: str, observer: Observer, variables, ts: float, guid
     lines += [f'      <Unknown index="{i}"/>' for i in outs]
     lines += ['    </InitialUnknowns>', '  </ModelStructure>', '</fmiModelDescription>', '']
     return "\n".join(lines)
+
+
+def _variable_attributes(v) -> str:
+    """The attributes FMI 2.0 and 3.0 share for a variable: name, value reference,
+    description, causality, variability (and initial="exact" for a parameter)."""
+    attrs = (f'name={quoteattr(v.name)} valueReference="{v.value_reference}"'
+             f' description={quoteattr(v.description)} causality="{v.causality}"'
+             f' variability="{v.variability}"')
+    return attrs + (' initial="exact"' if v.causality == "parameter" else "")
 
 
 def _model_description3(name: str, observer: Observer, variables, ts: float,
@@ -322,11 +327,7 @@ def _model_description3(name: str, observer: Observer, variables, ts: float,
              f'  <DefaultExperiment startTime="0.0" stepSize="{_xml_number(ts)}"/>',
              '  <ModelVariables>']
     for v in variables:
-        attrs = (f'name={quoteattr(v.name)} valueReference="{v.value_reference}"'
-                 f' description={quoteattr(v.description)} causality="{v.causality}"'
-                 f' variability="{v.variability}"')
-        if v.causality == "parameter":
-            attrs += ' initial="exact"'
+        attrs = _variable_attributes(v)
         start = "" if v.start is None else f' start="{_xml_number(v.start)}"'
         lines.append(f'    <{types[v.type]} {attrs}{start}/>')
     lines += ['  </ModelVariables>', '  <ModelStructure>']
