@@ -51,6 +51,10 @@ def test_monitor_writes_the_table_and_the_figure(capsys, tmp_path):
     first = [ln for ln in so.splitlines() if ln.startswith("first alarm at t = ")]
     assert first and 20 <= float(first[0].split()[5]) < 21
     assert "diagnosis at the end (t = 30 s): f2" in so
+    # no operating envelope: the band of continuous observation says what it leaves out
+    assert ("note: this band is that of continuous observation: the sampling at h = 0.05 s"
+            " (y and u held over each step) is not covered; declare bounds for every state and"
+            " input (the operating envelope; x1 has none)") in so
 
 
 def _rewrite(src: Path, dst: Path, edit) -> Path:
@@ -307,3 +311,17 @@ def test_a_sampled_band_needs_exactly_regular_samples(capsys, tmp_path):
     assert rc == 2 and len(se.strip().splitlines()) == 1 and "exactly" in se, se
     assert "row 100" in se or "row 101" in se, se
     assert not (tmp_path / "m").exists()
+
+
+def test_codegen_says_when_its_band_leaves_the_sampling_out(capsys, tmp_path):
+    """The exported C steps a continuous-time observer at --dt: without an operating
+    envelope its guaranteed band is that of continuous observation, and codegen says so;
+    with one (models/dc_motor_sampled.py) the band is the sampled-data one, no note."""
+    rc, so, se = run(capsys, ["codegen", TANKS, *BANK, "--out", tmp_path / "c1"])
+    assert rc == 0, se
+    assert "note: this band is that of continuous observation: the sampling at h = 0.01 s" in so
+    motor = ROOT / "models" / "dc_motor_sampled.py"
+    rc, so, se = run(capsys, ["codegen", motor, "--observer", "diagnostic", "--lambda=-4",
+                              "--threshold", "guaranteed", "--out", tmp_path / "c2"])
+    assert rc == 0, se
+    assert "note:" not in so and "wrote" in so
