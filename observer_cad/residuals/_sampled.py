@@ -43,6 +43,7 @@ from ..observers import Observer, output_symbols
 from ._l1 import transient_envelope, worst_case_sums
 from ._sampled_algebra import (DPS, Affine, affine_and_rest, box_of, exp_tail, hold_step, split_affine,
                                to_mp, to_np)
+from ._sampled_nonlinear import nonlinear_identities, nonlinear_inputs, nonlinear_plant
 from ._threshold import ErrorSystem, Threshold, residual_names
 
 __all__ = ["sampled_threshold", "sampled_band_refusal", "SAMPLED_DISCRETISATIONS", "ROUNDOFF_FACTOR"]
@@ -384,9 +385,12 @@ def _error_system(model: PlantModel, g: dict, hold: dict, sysm: dict, Bf, residu
         Bx = sp.zeros(g["Phi"].cols, 0)
     else:
         Bf, Df = Bf
-        Bx = Bf if hold["sampled"] else rat(to_np(hold["G0"] * to_mp(Bf)))
-    # a fault in the outputs enters the observer's step (−Q G D_f) and r (G_r D_f) directly
-    Be = g["Phi"] * Bx - rat(to_np(hold["Q"] * to_mp(g["G"]) * to_mp(Df))) if Df.cols else g["Phi"] * Bx
+        Bx = Bf if hold["sampled"] else (None if hold["G0"] is None else
+                                         rat(to_np(hold["G0"] * to_mp(Bf))))
+    # a fault in the outputs enters the observer's step (−Q G D_f) and r (G_r D_f) directly;
+    # a nonlinear plant's fault through the observer's side, Γ Φ D_f over a step
+    PhiBx = g["Phi"] * Bx if Bx is not None else rat(to_np(hold["Gamma"] * to_mp(g["Phi"] * Bf)))
+    Be = PhiBx - rat(to_np(hold["Q"] * to_mp(g["G"]) * to_mp(Df))) if Df.cols else PhiBx
     if sysm["joint"]:
         fin, C = Bx.col_join(Be), sp.zeros(len(residuals), sysm["n"]).row_join(g["Cr"])
     else:
@@ -399,16 +403,26 @@ def _error_system(model: PlantModel, g: dict, hold: dict, sysm: dict, Bf, residu
 
 
 def sampled_band_refusal(model: PlantModel, observer: Observer) -> str:
-    """Why :func:`sampled_threshold` cannot bound this plant and residual generator (its
-    plant or its residual generator is not linear with constant coefficients), "" when it
-    can (the envelope and the step are checked by :func:`sampled_threshold` itself)."""
+    """Why :func:`sampled_threshold` cannot bound this plant and residual generator (not
+    affine with constant coefficients where it must be, or, for a nonlinear plant, a term
+    without a finite bound over the operating envelope), "" when it can (the step is
+    checked by :func:`sampled_threshold` itself)."""
     where = model.where
     try:
-        _generator(model, observer, residual_names(observer), where)
+        g = _generator(model, observer, residual_names(observer), where)
         dynx, outx, box, _ = _nominal(model)
         unc = tuple(box) + tuple(model.disturbances) + tuple(model.noise)
-        split_affine(dynx, model.states, model.inputs, unc, "dynamics equation", where)
-        split_affine(outx, model.states, model.inputs, unc, "output", where)
+        nl = nonlinear_plant(model, g, dynx, outx, unc, where)
+        if nl is None:
+            split_affine(dynx, model.states, model.inputs, unc, "dynamics equation", where)
+            split_affine(outx, model.states, model.inputs, unc, "output", where)
+        else:  # the identities and every interval bound (at a step of 1/100: they do not
+            nonlinear_identities(g, nl, model.states, where)  # depend on it being finite)
+            h = sp.Rational(1, 100)
+            with mpmath.workdps(DPS):
+                F, Q = hold_step(g["A"], h, "rk4")
+            nonlinear_inputs(g, nl, model, dict(F=F, Q=Q, h=h), _envelope(model, box, where),
+                             where)
     except UsageError as exc:
         return str(exc)
     return ""
@@ -439,13 +453,23 @@ def sampled_threshold(model: PlantModel, observer: Observer, h=None, *,
     g = _generator(model, observer, residuals, where)
     dynx, outx, box, Bf = _nominal(model)
     unc = tuple(box) + tuple(model.disturbances) + tuple(model.noise)
-    dyn = split_affine(dynx, model.states, model.inputs, unc, "dynamics equation", where)
-    out = split_affine(outx, model.states, model.inputs, unc, "output", where)
-    conds = [_identities(g, dyn, out, where)]
+    nl = nonlinear_plant(model, g, dynx, outx, unc, where)
     full = _envelope(model, box, where)
-    full["__states"], full["__inputs"] = tuple(model.states), tuple(model.inputs)
-    hold = _hold_matrices(g, dyn, hr, how)
-    sysm = _inputs(g, dyn, out, hold, full, where)
+    if nl is None:
+        dyn = split_affine(dynx, model.states, model.inputs, unc, "dynamics equation", where)
+        out = split_affine(outx, model.states, model.inputs, unc, "output", where)
+        conds = [_identities(g, dyn, out, where)]
+        full["__states"], full["__inputs"] = tuple(model.states), tuple(model.inputs)
+        hold = _hold_matrices(g, dyn, hr, how)
+        sysm = _inputs(g, dyn, out, hold, full, where)
+    else:
+        out = nl.out
+        conds = [nonlinear_identities(g, nl, model.states, where)]
+        with mpmath.workdps(DPS):
+            F, Q = hold_step(g["A"], hr, "rk4" if how == "rk4" else "exact")
+        hold = dict(F=F, Q=Q, E0=None, G0=None, h=hr, sampled=False)
+        sysm = nonlinear_inputs(g, nl, model, hold, full, where)
+        hold["Gamma"] = sysm["Gamma"]
     F, N, labels = sysm["F"], sysm["N"], sysm["labels"]
     rho_F = float(max(np.abs(np.linalg.eigvals(F)))) if F.size else 0.0
     if not rho_F < 1:
@@ -454,6 +478,8 @@ def sampled_threshold(model: PlantModel, observer: Observer, h=None, *,
     wc = worst_case_sums(F, N, sysm["B"], sysm["Cd"], sysm["lo"], sysm["hi"])
     Fe, Ne = to_np(hold["F"]), -to_np(g["Cr"])
     res_mag, step_mag = _magnitudes(g, out, hold, full, model, where)
+    if nl is not None:  # the observer's nonlinear terms add up in its step too
+        step_mag = step_mag + np.abs(to_np(hold["Q"])) @ sysm["n_mag"]
     acc = worst_case_sums(Fe, Ne, np.diag(step_mag), np.zeros((Ne.shape[0], len(step_mag))),
                           -np.ones(len(step_mag)), np.ones(len(step_mag))).upper
     eps = float(np.finfo(float).eps)
