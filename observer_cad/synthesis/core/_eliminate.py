@@ -103,9 +103,7 @@ def eliminate_decoupled(work: PlantModel, st: Structure, task: Task,
     # M (y − Gy u) without its ρ₁ part: M H x + M Dy d + M Ly₂ ρ₂ + M W w
     no_inputs = {u: 0 for u in work.inputs}
     e = M * sp.Matrix([sp.expand(h.xreplace(no_inputs)) for h in work.outputs])
-    rest = (e - Y1 * rho1).applyfunc(sp.expand)
-    if rest.has(*rho1):  # ρ₁ enters an output other than linearly (not after extraction)
-        return None
+    rest = (e - Y1 * rho1).applyfunc(sp.expand)  # free of ρ₁: the outputs are linear
     solution = Y1inv * (sp.Matrix(ya) - rest)
     sub = {s: solution[i] for i, s in enumerate(rho1)}
     dynamics = tuple(sp.sympify(f).xreplace(sub) for f in work.dynamics)
