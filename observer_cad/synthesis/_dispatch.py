@@ -24,6 +24,7 @@ from ..model import ObserverKind, PlantModel, Task, resolve_task
 from .canonical import design_canonical
 from .core import PROOF_SECONDS, Design, DesignRequest, prepare
 from .core import feedthrough_view, has_output_feedthrough, lift_design, zero_order_design
+from .core import zero_order_first
 from .canonical import design_diagnostic_canonical
 from .jordan import design_jordan, design_jordan_unknown_input, proof_seconds_value
 from .core import default_eigenvalues
@@ -92,8 +93,8 @@ def design(model: PlantModel, *, observer: str, faults: Sequence[str] = (),
     if kind == ObserverKind.UNKNOWN_INPUT and not robust:  # continuous time: rank tests first
         continuous_estimation_check(model, task.targets[0], task.decoupled)
     try:
-        if view is not None and task.targets and not view.inner.targets:
-            # every fault to detect enters the outputs only: a zero-order residual
+        if view is not None and zero_order_first(view):
+            # the outputs alone give the residual (every fault to detect enters them)
             d = zero_order_design(view, Design, form=form)
         else:
             d = _exact(model if view is None else view.model,
