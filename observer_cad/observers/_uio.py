@@ -64,6 +64,7 @@ from ..errors import ModelError, UsageError
 from ..model import PlantModel, to_rational
 from ._observer import Observer, output_symbols
 from ._uio_continuous import continuous_unknown_input_observer
+from ._uio_feedthrough import known_input_view, reading_y_less_Gy_u
 from ._uio_derivation import (Derivation, ReducedModel, bound_symbols, bound_terms, derivation,
                               gain_symbols, is_negligible, lag_symbol, nonlinear_part,
                               reduced_model)
@@ -214,6 +215,10 @@ def unknown_input_observer(model: PlantModel, design: Design, *, g=None, bounds=
         kind ``"unknown-input"``; states ``xl1…xlk``, ``xu1…xuk`` (the two copies) and the
         memory states ``<signal>_lag<j>``; output ``<name>_hat`` with delay m.
     """
+    view, sub = known_input_view(model)
+    if sub:  # the known inputs in the outputs: built in y − Gy u (._uio_feedthrough)
+        return reading_y_less_Gy_u(unknown_input_observer(
+            view, design, g=g, bounds=bounds, alpha_eps=alpha_eps, tau=tau), sub)
     if model.time == "continuous":
         if g is not None:
             raise UsageError("the gains g (--gain) belong to the discrete-time estimator; the"

@@ -23,7 +23,8 @@ from ..errors import InfeasibleDesignError, UsageError
 from ..model import ObserverKind, PlantModel, Task, resolve_task
 from .canonical import design_canonical
 from .core import PROOF_SECONDS, Design, DesignRequest, prepare
-from .core import feedthrough_view, has_output_feedthrough, lift_design, zero_order_design
+from .core import feedthrough_view, has_output_feedthrough, lift_kind_design, zero_order_design
+from .core import check_kind_feedthrough
 from .canonical import design_diagnostic_canonical
 from .jordan import design_jordan, design_jordan_unknown_input, proof_seconds_value
 from .core import default_eigenvalues
@@ -85,6 +86,7 @@ def design(model: PlantModel, *, observer: str, faults: Sequence[str] = (),
         raise UsageError("name the fault to detect with --fault NAME")
     view = None
     if has_output_feedthrough(problem.work):  # y = H x + Gy u + Dy d + Ly ρ + W w
+        check_kind_feedthrough(problem.work, task)  # an estimated input in y: refused
         view = feedthrough_view(problem.work, task)
         if robust:
             raise UsageError(f"{model.where}: robust designs do not take output feedthrough"
@@ -101,7 +103,7 @@ def design(model: PlantModel, *, observer: str, faults: Sequence[str] = (),
                        form, lambdas, eigenvalues, variant, symbolic, method, rtol,
                        proof_seconds)
             if view is not None:
-                d = lift_design(d, view)
+                d = lift_kind_design(d, view)
     except InfeasibleDesignError as exc:
         if not robust:
             raise

@@ -22,7 +22,7 @@ Faults to detect that all enter the outputs only (sensor faults: no Φ D for the
 to search on) get a zero-order residual r = R* (y − Gy u) with R* H = 0, R* Ly = 0 and
 R* Dy ≠ 0 for each of them (:func:`zero_order_design`; no observer state), or a one-line
 refusal when the outputs alone cannot give one. Unknown-input, sliding-mode and interval
-observers and robust designs on plants with feedthrough are refused in one line.
+observers with feedthrough: :mod:`._feedthrough_kinds`.
 """
 from __future__ import annotations
 
@@ -41,7 +41,9 @@ __all__ = ["has_output_feedthrough", "FeedthroughView", "feedthrough_view", "lif
            "feedthrough_outputs_error", "zero_order_design"]
 
 #: the observer kinds designed with feedthrough (the others are refused)
-FEEDTHROUGH_KINDS = (ObserverKind.DIAGNOSTIC, ObserverKind.VIRTUAL_SENSOR)
+FEEDTHROUGH_KINDS = (ObserverKind.DIAGNOSTIC, ObserverKind.VIRTUAL_SENSOR,
+                     ObserverKind.INTERVAL, ObserverKind.UNKNOWN_INPUT,
+                     ObserverKind.SLIDING_MODE)
 
 
 def has_output_feedthrough(model: PlantModel) -> bool:

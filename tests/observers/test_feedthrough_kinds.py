@@ -1,0 +1,248 @@
+"""Interval, unknown-input and sliding-mode observers on plants whose outputs carry inputs,
+faults and disturbances (y = H x + Gy u + Dy d + Ly ρ + W w, METHOD §2 and §3 with output
+feedthrough): each design is certified and simulated, each refusal is one line."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+import sympy as sp
+
+from observer_cad import PlantModel, build_observer, design, simulate
+from observer_cad.errors import ModelError
+from observer_cad.simulation import scenario_from_dict
+
+R = sp.Rational
+ROOT = Path(__file__).resolve().parents[2]
+TOL = 1e-9
+x1, x2, x3, u, fa, fs, rho, w1, w2 = sp.symbols("x1 x2 x3 u fa fs rho w1 w2")
+BOUNDS = {fa: (-R(1, 20), R(1, 20)), fs: (-R(1, 10), R(1, 10)), rho: (-R(1, 5), R(1, 5)),
+          w1: (-R(1, 50), R(1, 50)), w2: (-R(1, 50), R(1, 50))}
+
+
+def _interval_plant(time: str, fs_bound=R(1, 10)) -> PlantModel:
+    """Three states, two sensors: y1 carries the input (u/4) and a sensor bias fs, y2 the
+    disturbance ρ/2; both measurement noise. z = x3 is not measured."""
+    dyn = ([x1 / 2 + x2 / 4 + u + fa, x2 / 3 + u / 2 + rho, x1 / 4 + x3 / 2]
+           if time == "discrete" else
+           [-x1 + x2 / 4 + u + fa, -x2 + u / 2 + rho, x1 / 4 - 2 * x3 + x2])
+    return PlantModel(name=f"interval_feedthrough_{time}", time=time, states=[x1, x2, x3],
+                      inputs=[u], faults=[fa, fs], disturbances=[rho], noise=[w1, w2],
+                      outputs=[x1 + u / 4 + fs + w1, x2 + rho / 2 + w2], dynamics=dyn,
+                      bounds={**BOUNDS, fs: (-fs_bound, fs_bound)})
+
+
+def _outside(res, name):
+    lo, hi = res[f"{name}_lower"], res[f"{name}_upper"]
+    for a in (res[name], lo, hi):
+        assert np.all(np.isfinite(a))
+    return int(np.sum((res[name] < lo - TOL) | (res[name] > hi + TOL)))
+
+
+# ---------------------------------------------------------------- interval observers
+
+@pytest.mark.parametrize("time", ["discrete", "continuous"])
+def test_interval_observer_reads_y_minus_Gy_u_and_bounds_the_outputs_inputs(time):
+    """The observer reads y − Gy u (u/4 of y1 removed exactly: the −u/16 of the discrete
+    row is (Φ G − J* Gy) u + J* Gy u … with J* = (1/4, 0)); the bias fs and, in continuous
+    time, ρ/2 of y2 widen the bounds like the noise."""
+    m = _interval_plant(time)
+    d = design(m, observer="interval", estimate="x3")
+    assert d.certificate.passed
+    names = [i.name for i in d.certificate.identities]
+    assert "Phi G - J* Gy - G*" in names and "Phi L - L*" in names
+    o = build_observer(m, d)
+    lo, hi = (str(e) for e in o.update)
+    if time == "discrete":  # x3(t+1) = x3/2 + x1/4, x1 = y1 − u/4 − fs − w1
+        assert (lo, hi) == ("-u/16 + xl1/2 + y1/4 - 3/100", "-u/16 + xu1/2 + y1/4 + 3/100")
+    else:  # x3' = −2 x3 + x1/4 + x2: (fs + w1)/4 + (ρ/2 + w2) = 3/20
+        assert (lo, hi) == ("-u/16 - 2*xl1 + y1/4 + y2 - 3/20",
+                            "-u/16 - 2*xu1 + y1/4 + y2 + 3/20")
+    cond = {c.name: c for c in o.conditions}["inputs of the outputs bounded"]
+    assert cond.holds and "fs" in cond.detail
+
+
+@pytest.mark.parametrize("time", ["discrete", "continuous"])
+def test_interval_inclusion_on_a_plant_with_feedthrough(time):
+    """lower ≤ x3 ≤ upper at every sample, with u, fa, fs, ρ and the noise all acting."""
+    m = _interval_plant(time)
+    o = build_observer(m, design(m, observer="interval", estimate="x3"))
+    grid = {"steps": 400} if time == "discrete" else {"t_end": 8, "dt": 0.001}
+    sig = {"u": "0.5*sin(t/7)", "fa": "declared", "fs": "declared", "rho": "declared",
+           "w1": "declared", "w2": "declared"}
+    if time == "continuous":
+        sig.update(u="0.5*sin(t)", fs="0.1*sin(3*t)", rho="0.2*cos(2*t)")
+    sc = scenario_from_dict({**grid, "seed": 5, "signals": sig,
+                             "initial": {"x1": 0.3, "x2": -0.2, "x3": 0.1}})
+    res = simulate(m, o, sc, runs=6 if time == "discrete" else 2)
+    assert np.ptp(res["fs"]) > 0.1 and np.ptp(res["u"]) > 0.5  # both acted
+    assert _outside(res, "x3") == 0
+
+
+def test_interval_observer_ignoring_the_sensor_bias_is_violated():
+    """Companion: the observer built for fs ∈ [0, 0] on the plant with fs at its bound
+    leaves the trajectory, so the inclusion above is not vacuous."""
+    plant = _interval_plant("discrete")
+    blind = _interval_plant("discrete", fs_bound=0)
+    o = build_observer(blind, design(blind, observer="interval", estimate="x3"))
+    sig = {"u": "0.5*sin(t/7)", "fa": "0", "fs": "0.1", "rho": "0", "w1": "0", "w2": "0"}
+    res = simulate(plant, o, scenario_from_dict({"steps": 200, "signals": sig,
+                                                 "initial": {"x1": 0, "x2": 0, "x3": 0}}))
+    assert _outside(res, "x3") > 0
+
+
+def test_interval_observer_needs_bounds_on_a_fault_in_a_read_output():
+    m = _interval_plant("discrete")
+    bounds = {s: b for s, b in m.bounds.items() if s != fs}
+    m2 = PlantModel(name=m.name, time=m.time, states=m.states, inputs=m.inputs,
+                    faults=m.faults, disturbances=m.disturbances, noise=m.noise,
+                    outputs=m.outputs, dynamics=m.dynamics, bounds=bounds)
+    with pytest.raises(ModelError, match="bounds on the fault or disturbance in the outputs"
+                       " 'fs'") as e:
+        build_observer(m2, design(m2, observer="interval", estimate="x3"))
+    assert "\n" not in str(e.value)
+
+
+# ---------------------------------------------------------------- unknown-input estimators
+
+def _drive_with_input_feedthrough():
+    """The electric drive of seed 000 §9 (models/electric_drive.py) with the voltage u in
+    both sensors: y1 = x1 + u/4 + w1, y2 = x3 + u/2 + w2."""
+    from observer_cad import load_model
+    drive = load_model(ROOT / "models" / "electric_drive.py")
+    (u_,) = drive.inputs
+    y1, y2 = drive.outputs
+    return PlantModel(name="drive_input_feedthrough", time=drive.time, states=drive.states,
+                      inputs=drive.inputs, faults=drive.faults,
+                      disturbances=drive.disturbances, noise=drive.noise,
+                      parameters=drive.parameters, outputs=[y1 + u_ / 4, y2 + u_ / 2],
+                      dynamics=drive.dynamics, bounds=drive.bounds)
+
+
+def _sliding_with_input_feedthrough(fault_in_y1=False):
+    """models/sliding_example.py with u1/2 in y1 and u2/4 in y2 (and, for the refusal, the
+    fault d in y1 too)."""
+    from observer_cad import load_model
+    sl = load_model(ROOT / "models" / "sliding_example.py")
+    u1, u2 = sl.inputs
+    (d_,) = sl.faults
+    _, s2, s3 = sl.states
+    w1_, w2_ = sl.noise
+    return PlantModel(name="sliding_input_feedthrough", time="continuous", states=sl.states,
+                      inputs=sl.inputs, faults=sl.faults, disturbances=sl.disturbances,
+                      noise=sl.noise, dynamics=sl.dynamics, bounds=sl.bounds,
+                      outputs=[s2 + u1 / 2 + w1_ + (d_ / 3 if fault_in_y1 else 0),
+                               s3 + u2 / 4 + w2_])
+
+
+SLIDING_SC = {"t_end": 5, "dt": 0.001, "initial": {"x1": 0.3, "x2": -0.2, "x3": 0.1},
+              "signals": {"u1": "sin(t)", "u2": "0.5 + 0.5*sin(2*t)", "rho": "0.3*cos(2*t)",
+                          "w1": "0", "w2": "0",
+                          "d": "sin(3*t) + Piecewise((0, t < 2), (0.5, True))"}}
+
+
+def test_discrete_unknown_input_estimate_is_exact_with_input_feedthrough():
+    """seed 000 on the drive with u in both sensors: certified (Φ G − J* Gy − G*), the
+    estimator reads y − Gy u (its copies and memory states), and d̂(t) = d(t) to rounding
+    after the transient while u, d and ρ act."""
+    m = _drive_with_input_feedthrough()
+    d = design(m, observer="unknown-input", faults=["d"])
+    assert d.certificate.passed
+    assert "Phi G - J* Gy - G*" in [i.name for i in d.certificate.identities]
+    o = build_observer(m, d)
+    assert "reads y − Gy u" in o.description
+    lag = dict(zip(o.states, o.update)).get(sp.Symbol("y1_lag1"))
+    assert sp.expand(lag - (sp.Symbol("y1") - sp.Symbol("u") / 4)) == 0  # y1_lag1 holds ŷ1
+    assert not o.failed_conditions
+    sc = scenario_from_dict({"steps": 200, "seed": 1, "initial": {"x1": 0.1, "x2": 0, "x3": 0},
+                             "signals": {"u": "0.3*sin(t/5)", "d": "0.2*sin(t/9)",
+                                         "rho": "declared", "w1": "0", "w2": "0"}})
+    res = simulate(m, o, sc)
+    assert np.ptp(res["u"]) > 0.5 and np.ptp(res["d"]) > 0.3
+    err = np.abs(res["d_hat"] - res["d"])[20:-1]  # (the last sample's d̂ needs y(t+m))
+    assert np.all(np.isfinite(err)) and np.max(err) < 1e-9
+    # the estimator of the drive without feedthrough reads y itself: wrong here
+    from observer_cad import load_model
+    plain = load_model(ROOT / "models" / "electric_drive.py")
+    blind = build_observer(plain, design(plain, observer="unknown-input", faults=["d"]))
+    off = np.abs(simulate(m, blind, sc)["d_hat"] - res["d"])[20:-1]
+    assert np.max(off) > 0.01
+
+def _filtered(t, d, tau):
+    """d through 1/(τ s + 1) from 0, exactly for a signal held over each step."""
+    a = np.exp(-(t[1] - t[0]) / tau)
+    out = np.zeros_like(d)
+    for k in range(len(d) - 1):
+        out[k + 1] = a * out[k] + (1 - a) * d[k]
+    return out
+
+
+def test_continuous_unknown_input_estimate_with_input_feedthrough():
+    """The derivative-free estimator on the sliding example with u in the outputs: its
+    computer-algebra condition holds and d̂ is d filtered by 1/(τ s + 1) to RK4 accuracy."""
+    m = _sliding_with_input_feedthrough()
+    d = design(m, observer="unknown-input", faults=["d"])
+    assert d.certificate.passed
+    o = build_observer(m, d)
+    assert not o.failed_conditions
+    cond = {c.name: c for c in o.conditions}["d̂ is d filtered by 1/(τ s + 1) (computer algebra)"]
+    assert cond.holds
+    r = simulate(m, o, scenario_from_dict(SLIDING_SC))
+    df = _filtered(r["t"], r["d"], 0.1)
+    assert np.max(np.abs(r["d_hat"] - df)) < 1e-8
+    assert np.max(np.abs(r["u1"])) > 0.9
+
+
+# ---------------------------------------------------------------- sliding-mode observers
+
+def test_sliding_mode_observer_with_input_feedthrough():
+    """seed 002 §5 with u in the outputs: certified, e = x̂* − R* (y − Gy u) → 0 (the
+    residual r = −e stays in the boundary layer) and d̂ → d."""
+    m = _sliding_with_input_feedthrough()
+    d = design(m, observer="sliding-mode", faults=["d"])
+    assert d.certificate.passed
+    r_expr = dict(d.outputs)["r"]
+    assert {sp.Symbol("u1"), sp.Symbol("u2")} <= r_expr.free_symbols
+    o = build_observer(m, d)
+    res = simulate(m, o, scenario_from_dict(SLIDING_SC))
+    late = res["t"] > 3
+    assert np.max(np.abs(res["r"][late])) < 0.01
+    assert np.max(np.abs(res["d_hat"][late] - res["d"][late])) < 0.02
+    assert np.max(np.abs(res["r"])) > 0.05 or np.max(np.abs(res["d_hat"])) > 0.5
+
+
+# ---------------------------------------------------------------- refusals (CLI: one line, exit 2)
+
+def _model_file(tmp_path, outputs: str) -> str:
+    """models/sliding_example.py with other outputs, as a model file."""
+    text = (ROOT / "models" / "sliding_example.py").read_text()
+    text = text.replace("outputs=[x2 + w1, x3 + w2],", f"outputs=[{outputs}],")
+    assert f"outputs=[{outputs}]" in text
+    path = tmp_path / "sliding_feedthrough.py"
+    path.write_text(text)
+    return str(path)
+
+
+@pytest.mark.parametrize("kind", ["unknown-input", "sliding-mode"])
+def test_an_estimated_input_in_the_outputs_is_refused_in_one_line(tmp_path, capsys, kind):
+    """d in y1 (a fault of the sensor as well as of the tank): the estimators take known
+    inputs in the outputs only; the refusal names the diagnostic and interval observers."""
+    from observer_cad.cli import main
+    path = _model_file(tmp_path, "x2 + d/3 + u1/2 + w1, x3 + w2")
+    rc = main(["design", path, "--observer", kind, "--fault", "d"])
+    err = capsys.readouterr().err
+    assert rc == 2
+    lines = err.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("observer-cad: error: ")
+    assert "d enters the outputs directly" in lines[0]
+    assert "--observer diagnostic --fault d" in lines[0] and "Traceback" not in err
+
+
+def test_the_cli_designs_an_estimator_with_input_feedthrough(tmp_path, capsys):
+    from observer_cad.cli import main
+    path = _model_file(tmp_path, "x2 + u1/2 + w1, x3 + u2/4 + w2")
+    for kind in ("unknown-input", "sliding-mode"):
+        assert main(["design", path, "--observer", kind, "--fault", "d"]) == 0, \
+            capsys.readouterr().err
+        capsys.readouterr()
