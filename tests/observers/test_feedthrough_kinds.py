@@ -10,7 +10,7 @@ import pytest
 import sympy as sp
 
 from observer_cad import PlantModel, build_observer, design, simulate
-from observer_cad.errors import ModelError
+from observer_cad.errors import InfeasibleDesignError, ModelError
 from observer_cad.simulation import scenario_from_dict
 
 R = sp.Rational
@@ -246,3 +246,86 @@ def test_the_cli_designs_an_estimator_with_input_feedthrough(tmp_path, capsys):
         assert main(["design", path, "--observer", kind, "--fault", "d"]) == 0, \
             capsys.readouterr().err
         capsys.readouterr()
+
+
+# ---------------------------------------------------------------- robust (approximate) designs
+
+def _nodec_discrete():
+    """Two disturbances that no exact design decouples from d (they enter x1, x2, both
+    measured; METHOD §2d), the input u in both sensors."""
+    s1, s2, s3, u_, d_, r1, r2 = sp.symbols("x1 x2 x3 u d r1 r2")
+    return PlantModel(
+        name="nodec_feedthrough", time="discrete", states=[s1, s2, s3], inputs=[u_],
+        faults=[d_], disturbances=[r1, r2],
+        outputs=[s1 + u_ / 2, s2 - u_ / 4],
+        dynamics=[(-s1 + s2) / 4 + u_ + r1, (s1 - 2 * s2 + s3) / 4 + r2, (s2 - 3 * s3) / 4 + d_],
+        bounds={d_: (-1, 1), r1: (-R(1, 10), R(1, 10)), r2: (-R(1, 10), R(1, 10))})
+
+
+def test_robust_unknown_input_design_with_input_feedthrough():
+    """No exact design: the approximate one (L* = Φ L its residual) is lifted for Gy u —
+    certified (Φ G − J* Gy − G*, Φ L − L*) — and with ρ at zero its estimator gives d
+    exactly (to rounding) while u acts through the outputs."""
+    m = _nodec_discrete()
+    with pytest.raises(InfeasibleDesignError):
+        design(m, observer="unknown-input", faults=["d"])
+    d = design(m, observer="unknown-input", faults=["d"], robust=True)
+    assert d.approximate and d.residual_norm > 0 and d.certificate.passed
+    names = [i.name for i in d.certificate.identities]
+    assert "Phi G - J* Gy - G*" in names and "Phi L - L*" in names
+    o = build_observer(m, d)
+    sc = scenario_from_dict({"steps": 200, "initial": {"x1": 0.1, "x2": 0, "x3": 0},
+                             "signals": {"u": "0.5*sin(t/5)", "d": "0.5*sin(t/9)",
+                                         "r1": "0", "r2": "0"}})
+    res = simulate(m, o, sc)
+    err = np.abs(res["d_hat"] - res["d"])[20:-3]
+    assert np.all(np.isfinite(err)) and np.max(err) < 1e-9
+
+
+def test_robust_design_with_a_decoupled_input_in_the_outputs_is_refused(tmp_path, capsys):
+    """r2 in y1 as well: the approximate designs take known inputs in the outputs only;
+    the CLI says so in one line (exit 2), naming the interval observer."""
+    from observer_cad.cli import main
+    path = tmp_path / "nodec_r2.py"
+    path.write_text(
+        "import sympy as sp\nfrom observer_cad import PlantModel\n"
+        "x1, x2, x3, u, d, r1, r2 = sp.symbols('x1 x2 x3 u d r1 r2')\n"
+        "model = PlantModel(name='nodec_r2', time='discrete', states=[x1, x2, x3],"
+        " inputs=[u], faults=[d], disturbances=[r1, r2],"
+        " outputs=[x1 + u/2 + r2/2, x2 - u/4],"
+        " dynamics=[(-x1 + x2)/4 + u + r1, (x1 - 2*x2 + x3)/4 + r2, (x2 - 3*x3)/4 + d],"
+        " bounds={d: (-1, 1), r1: (-0.1, 0.1), r2: (-0.1, 0.1)})\n")
+    rc = main(["design", str(path), "--observer", "unknown-input", "--fault", "d", "--robust"])
+    err = capsys.readouterr().err
+    assert rc == 2
+    lines = err.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("observer-cad: error: ")
+    assert "r2 enters the outputs directly" in lines[0] and "--observer interval" in lines[0]
+
+
+# ---------------------------------------------------------------- design files
+
+@pytest.mark.parametrize("case", ["interval", "unknown-input", "sliding-mode", "robust"])
+def test_design_json_with_feedthrough_reads_back_to_the_same_observer(case):
+    """A design's JSON is re-certified on reading (Φ G − J* Gy − G*, and the equations
+    against the matrices with y − Gy u): the observer built from it is the same."""
+    from observer_cad.synthesis import Design
+    m, kw = {"interval": (_interval_plant("continuous"),
+                          dict(observer="interval", estimate="x3")),
+             "unknown-input": (_drive_with_input_feedthrough(),
+                               dict(observer="unknown-input", faults=["d"])),
+             "sliding-mode": (_sliding_with_input_feedthrough(),
+                              dict(observer="sliding-mode", faults=["d"])),
+             "robust": (_nodec_discrete(),
+                        dict(observer="unknown-input", faults=["d"], robust=True))}[case]
+    d = design(m, **kw)
+    back = Design.from_json(d.to_json(), m)
+    assert back.certificate.passed
+    o1, o2 = build_observer(m, d), build_observer(m, back)
+    assert len(o1.update) == len(o2.update)
+    for a, b in zip(o1.update + tuple(e for _, e in o1.outputs),
+                    o2.update + tuple(e for _, e in o2.outputs)):
+        diff = sp.expand(a - b)  # float designs: the same to rounding, at seeded points
+        syms = sorted(diff.free_symbols, key=str)
+        for point in np.random.default_rng(3).uniform(-1, 1, (5, len(syms))):
+            assert abs(float(diff.xreplace(dict(zip(syms, point))))) < 1e-9

@@ -187,9 +187,11 @@ def test_a_fault_of_the_outputs_alone_is_refused_as_a_target(tanks):
         design(tanks, observer="diagnostic", faults=["fs1"])
 
 
-def test_robust_designs_refuse_feedthrough(tanks):
-    with pytest.raises(UsageError, match="robust designs"):
-        design(tanks, observer="virtual-sensor", estimate="x2", robust=True, form="canonical")
+def test_robust_designs_take_the_feedthrough(tanks):
+    """--robust with feedthrough: the exact design when there is one (the approximate
+    ones and their refusal: tests/observers/test_feedthrough_kinds.py)."""
+    d = design(tanks, observer="virtual-sensor", estimate="x2", robust=True, form="canonical")
+    assert d.certificate.passed and not d.approximate
 
 
 def _input_feedthrough_plant():

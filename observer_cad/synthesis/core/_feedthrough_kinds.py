@@ -14,6 +14,11 @@ lift itself is :mod:`._feedthrough`'s).
   The estimated input itself in the outputs is refused in one line
   (:func:`check_kind_feedthrough`) naming what takes it: a diagnostic observer detects
   it (sensor faults included), an interval observer bounds it.
+- **Robust (approximate) designs** (METHOD §2d) take the known inputs in the outputs: the
+  same lift as the interval observer's, on the measured part, with L* = Φ L certified as
+  the residual it is (Φ L − L*). An input they decouple or estimate that enters the
+  outputs is refused in one line (:func:`check_robust_feedthrough`) naming the exact
+  design, which decouples inputs of the outputs.
 """
 from __future__ import annotations
 
@@ -27,15 +32,16 @@ from ..certificates import MODEL_PREFIX, Certificate, certify_design
 from ._feedthrough import FeedthroughView, lift_design
 from ._reduced import output_symbols
 
-__all__ = ["lift_kind_design", "check_kind_feedthrough"]
+__all__ = ["lift_kind_design", "check_kind_feedthrough", "check_robust_feedthrough",
+           "lift_robust_design"]
 
 
-def _lift_interval(d, view: FeedthroughView):
-    """An interval design lifted (N = I: nothing decoupled): G* = Φ G − J* Gy (also of the
-    diagonal form), y − Gy u in its equations and outputs, certified with Φ L − L* for the
-    bounded disturbances (not decoupled; their output columns are bounded by the
-    observer like the noise)."""
-    st, task = view.structure, view.task
+def _lift_known_inputs(d, view: FeedthroughView, task: Task, L: sp.Matrix):
+    """``d`` (made on ``view.model``, N = I) lifted for the known inputs in the outputs:
+    G* = Φ G − J* Gy (also of the diagonal form), y − Gy u in its equations, outputs and
+    nonlinear substitutions, certified with Φ L − L* for the columns ``L`` (not
+    decoupled: bounded, or approximately decoupled)."""
+    st = view.structure
     m = d.matrices.as_dict()
     Gy = sp.Matrix(st.Gy)
     for g, j in (("G_star", "J_star"), ("G_diag", "J_diag")):
@@ -48,8 +54,8 @@ def _lift_interval(d, view: FeedthroughView):
 
     def tr(e):
         return sp.expand(sp.sympify(e).xreplace(sub))
-    plant = {"F": st.F, "G": st.G, "H": st.H, "C": st.C, "D": sp.zeros(st.n, 0),
-             "L": task.L(st), "Gy": st.Gy}
+    plant = {"F": st.F, "G": st.G, "H": st.H, "C": st.C, "D": task.D(st), "L": L,
+             "Gy": st.Gy, "Dy": sp.zeros(st.l, len(task.targets))}
     old = d.certificate
     cert = certify_design(plant, m, M=task.M, decoupled=False, exact=old.exact,
                           tolerance=old.tolerance if old.tolerance is not None else 1e-9)
@@ -66,11 +72,38 @@ def _lift_interval(d, view: FeedthroughView):
         outputs=tuple((name, tr(e)) for name, e in d.outputs))
 
 
+def check_robust_feedthrough(view: FeedthroughView, cause=None) -> None:
+    """A robust (approximate) design takes the known inputs in the outputs (Gy u) only:
+    one-line refusal, naming what is supported and what to use, when an input it would
+    decouple or estimate enters the outputs (``cause``: the exact design's failure)."""
+    st, task = view.structure, view.task
+    direct = [n for n in tuple(task.targets) + tuple(task.decoupled)
+              if not st.output_columns([n]).is_zero_matrix]
+    if direct:
+        name = direct[0]
+        raise UsageError(
+            f"{st.model.where}: no exact design, and {name} enters the outputs directly:"
+            " robust (approximate) designs take only known inputs in the outputs (y − Gy u);"
+            f" bound {name} with an interval observer (--observer interval) instead of"
+            " decoupling it") from cause
+
+
+def lift_robust_design(d, view: FeedthroughView):
+    """An approximate design (METHOD §2d) made on ``view.model`` lifted for the known
+    inputs in the outputs (:func:`check_robust_feedthrough` first): its L* = Φ L is its
+    residual, certified as Φ L − L*, not as a decoupling."""
+    st = view.structure
+    names = d.task.bounded if d.task.observer == ObserverKind.INTERVAL else d.task.decoupled
+    L = sp.Matrix(st.unknown_input_columns(names)) if names else sp.zeros(st.n, 0)
+    return _lift_known_inputs(d, view, d.task, L)
+
+
 def lift_kind_design(d, view: FeedthroughView):
     """The design ``d`` made on ``view.model`` as one for the plant with feedthrough,
     for every observer kind that takes it (see the module docstring)."""
     if view.task.observer == ObserverKind.INTERVAL:
-        return _lift_interval(d, view)
+        # nothing decoupled (N = I): the bounded disturbances' Φ L − L*, not Φ L − J* Ly
+        return _lift_known_inputs(d, view, view.task, view.task.L(view.structure))
     return lift_design(d, view)
 
 
