@@ -290,9 +290,14 @@ def test_a_designer_called_directly_cannot_ignore_the_inputs_feedthrough():
     assert design(m, observer="diagnostic", faults=["f1"]).certificate.passed
 
 
-def test_full_state_intervals_refuse_feedthrough(tanks):
+def test_full_state_intervals_need_bounds_on_the_sensor_faults(tanks):
+    """Full-state intervals read y − Gy u and bound the faults of the outputs like the
+    noise: the sensor biases of the three-tank have no declared bounds, said in one line
+    (tests/observers/test_feedthrough_kinds.py bounds a plant that declares them)."""
+    from observer_cad.errors import ModelError
     from observer_cad.observers import full_state_intervals
-    with pytest.raises(UsageError, match="output feedthrough") as e:
+    with pytest.raises(ModelError, match="bounds on the fault or disturbance in the outputs"
+                       " 'fs1'") as e:
         full_state_intervals(tanks)
     assert "\n" not in str(e.value)
 
