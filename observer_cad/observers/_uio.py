@@ -433,8 +433,10 @@ def vector_unknown_input_observer(model: PlantModel, names: Sequence[str] | None
     default 1/2); ``designs`` may supply them instead. ``g`` maps a component to its gains.
     Outputs ``<name>_hat`` for every component, each with its own delay.
     """
-    from ..synthesis import design_canonical, design_jordan_unknown_input
+    from ..synthesis import design, design_canonical, design_jordan_unknown_input
     names = list(names) if names else [f.name for f in model.faults]
+    known = set(model.inputs) | set(model.faults) | set(model.disturbances)
+    lifted = any(sp.sympify(h).free_symbols & known for h in model.outputs)
     if not names:
         raise ModelError(f"{model.where}: no unknown inputs to estimate")
     built = {}
@@ -442,6 +444,10 @@ def vector_unknown_input_observer(model: PlantModel, names: Sequence[str] | None
         others = [o for o in names if o != nm]
         if designs and nm in designs:
             des = designs[nm]
+        elif lifted and form in ("canonical", "jordan"):  # output feedthrough: lifted (y − Gy u)
+            lam = [(lambdas or {}).get(nm, sp.Rational(1, 2))] if form == "jordan" else None
+            des = design(model, observer="unknown-input", faults=[nm], disturbances=others,
+                         form=form, lambdas=lam, symbolic=symbolic)
         elif form == "canonical":
             des = design_canonical(model, unknown_input=nm, decouple=others, symbolic=symbolic)
         elif form == "jordan":
