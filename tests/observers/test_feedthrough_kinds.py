@@ -106,6 +106,29 @@ def test_interval_inclusion_with_the_input_in_a_sensor_both_forms(form):
     assert _outside(simulate(m, o, sc, runs=3), "x1") == 0
 
 
+def test_nonlinear_interval_observer_with_the_input_in_a_sensor():
+    """models/three_tank.py (√ outflows, seed 002 §4) with u1/4 in y1: the nonlinear term's
+    argument x1 − x2 reads ỹ1 = y1 − u1/4 (clipped at the noise box's end) and x1 stays
+    inside its bounds while u1 varies."""
+    from observer_cad import load_model
+    t = load_model(ROOT / "models" / "three_tank.py")
+    u1 = t.inputs[0]
+    m = PlantModel(name="three_tank_input_in_y1", time=t.time, states=t.states,
+                   inputs=t.inputs, disturbances=t.disturbances, noise=t.noise,
+                   linear_part=t.linear_part, domain=t.domain, dynamics=t.dynamics,
+                   bounds=t.bounds, outputs=[t.outputs[0] + u1 / 4, t.outputs[1]])
+    d = design(m, observer="interval", estimate="x1")
+    assert d.certificate.passed and d.nonlinear
+    o = build_observer(m, d)
+    assert "sqrt(Max(0, u1/4 + xl1 - y1 + 1/100))" in str(o.update[0])
+    sc = scenario_from_dict({"t_end": 10, "dt": 0.01, "seed": 4,
+                             "initial": {"x1": 2, "x2": 1.2, "x3": 0.6},
+                             "signals": {"u1": "0.5 + 0.3*sin(t)", "u2": "0.2",
+                                         "rho1": "declared", "rho2": "declared",
+                                         "w1": "declared", "w2": "declared"}})
+    assert _outside(simulate(m, o, sc, runs=2), "x1") == 0
+
+
 def test_interval_observer_ignoring_the_sensor_bias_is_violated():
     """Companion: the observer built for fs ∈ [0, 0] on the plant with fs at its bound
     leaves the trajectory, so the inclusion above is not vacuous."""
