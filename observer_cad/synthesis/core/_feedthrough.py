@@ -37,8 +37,8 @@ R* H = 0, R* Ly = 0 and R* Dy ≠ 0 for each of them (:func:`zero_order_design`;
 observer state), or a one-line refusal when the outputs alone cannot give one. A
 diagnostic design whose faults all enter the outputs gets that zero-order residual too
 whenever one exists (order 0, the least; :func:`zero_order_first`). Unknown-input,
-sliding-mode and interval observers and robust designs on plants with feedthrough are
-refused in one line.
+sliding-mode and interval observers and robust designs with feedthrough:
+:mod:`._feedthrough_kinds`.
 """
 from __future__ import annotations
 
@@ -58,7 +58,9 @@ __all__ = ["has_output_feedthrough", "FeedthroughView", "feedthrough_view", "lif
            "feedthrough_outputs_error", "zero_order_design", "zero_order_first"]
 
 #: the observer kinds designed with feedthrough (the others are refused)
-FEEDTHROUGH_KINDS = (ObserverKind.DIAGNOSTIC, ObserverKind.VIRTUAL_SENSOR)
+FEEDTHROUGH_KINDS = (ObserverKind.DIAGNOSTIC, ObserverKind.VIRTUAL_SENSOR,
+                     ObserverKind.INTERVAL, ObserverKind.UNKNOWN_INPUT,
+                     ObserverKind.SLIDING_MODE)
 #: the kinds whose designs see the decoupled inputs' measured part as a known input
 #: (the others are designed on ỹ = N (y − Gy u) alone)
 ELIMINATING_KINDS = (ObserverKind.DIAGNOSTIC, ObserverKind.VIRTUAL_SENSOR)
