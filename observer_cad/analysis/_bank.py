@@ -20,13 +20,15 @@ The bank takes the first of
 2. the *dedicated observer scheme* (DOS) with every row strongly realised: residual i
    sensitive to fault i only;
 3. the *best achievable* strongly realised rows: every nonzero row is tried (for more than
-   :data:`FULL_SEARCH_FAULTS` faults, only rows with one zero, rows with one one and the
-   all-ones row), and rows are added greedily, each time the one that tells apart the
+   :data:`FULL_SEARCH_FAULTS` faults, only rows with one zero, rows with one one, the
+   all-ones row and the rows of the strong structure matrix of :func:`analyze` at
+   ω = 0), and rows are added greedily, each time the one that tells apart the
    most further pairs of faults (then detects the most further faults; ties: fewer
    residual states), until no row improves the bank;
 4. only when no achievable row is strongly realised: the same three steps with rows seen
-   partly as transients (the choice says so), the best-achievable search scoring the
-   strongly isolated pairs first, then the pairs isolated at all.
+   partly as transients (the choice says so), the best-achievable search (without the
+   analysis's rows) scoring the strongly isolated pairs first, then the pairs isolated
+   at all.
 
 A pair of faults is *isolable* by the bank when both are detected (their columns are
 nonzero) and their columns differ (some residual responds to one and not the other); it
@@ -43,7 +45,7 @@ import dataclasses
 import itertools
 from typing import Sequence
 
-from ..errors import InfeasibleDesignError, ModelError, UsageError
+from ..errors import InfeasibleDesignError, ModelError, ObserverCadError, UsageError
 from ..model import PlantModel
 from ..synthesis import Design
 from ._diagnosability import analyze
@@ -446,6 +448,23 @@ def _candidates(attempt: _Rows) -> list:
     return ok
 
 
+def _analysis_rows(attempt: _Rows) -> list:
+    """For more than :data:`FULL_SEARCH_FAULTS` faults, the further rows the strong
+    structure matrix of the diagnosability analysis holds (at ω = 0: a nonzero
+    steady-state gain), achievable by the Jordan search, with their designs."""
+    names = attempt.names
+    if len(names) <= FULL_SEARCH_FAULTS:
+        return []
+    try:
+        a = analyze(attempt.model, faults=names, disturbances=list(attempt.extra),
+                    frequencies=[0], **attempt.options)
+    except ObserverCadError:
+        return []
+    rows = sorted({tuple(int(s.row(a.faults)[f]) for f in names) for s in a.strong_structure})
+    out = [(r, attempt(r)[0]) for r in rows if r not in attempt.attempts]
+    return [(r, d) for r, d in out if d is not None]
+
+
 def _greedy(ok: list, names, strong_first: bool = True) -> list:
     """Rows added greedily, each the one that isolates the most further pairs strongly
     (then detects the most further faults strongly, then isolates and detects the most
@@ -484,15 +503,19 @@ def _best_bank(attempt: _Rows, tried_txt: list, strong: bool = True):
     realised rows only (None when there is none)."""
     names = attempt.names
     ok = every = _candidates(attempt)
-    left = []
+    left, more = [], []
     if strong:
+        more = _analysis_rows(attempt)
+        ok = every + more
         left = [(r, d) for r, d in ok if not strongly_realised(d, names)]
         ok = [(r, d) for r, d in ok if strongly_realised(d, names)]
         if not ok:
             return None
     chosen = _greedy(ok, names)
     rows = [r for r, _ in chosen]
-    txt = ("; ".join(tried_txt) + f"; achievable rows: {', '.join(_row_text(r) for r, _ in ok)};"
+    txt = ("; ".join(tried_txt) + "; achievable rows"
+           + (" (with the strong rows of the diagnosability analysis)" if more else "")
+           + f": {', '.join(_row_text(r) for r, _ in ok)};"
            " added greedily, each the row that isolates the most further pairs"
            + (" (then detects the most further faults, then has the fewest states)" if strong
               else " strongly (then detects the most further faults strongly, then isolates"

@@ -40,6 +40,18 @@ def _text(row) -> str:
     return "".join(map(str, row))
 
 
+def _isolated_by(patterns, faults) -> set:
+    """The pairs some row among ``patterns`` tells apart (both seen by some row)."""
+    rows = [tuple(int(c) for c in p) for p in patterns]
+    cols = {f: tuple(r[j] for r in rows) for j, f in enumerate(faults)}
+    return {(a, b) for i, a in enumerate(faults) for b in faults[i + 1:]
+            if any(cols[a]) and any(cols[b]) and cols[a] != cols[b]}
+
+
+def _strongly_isolated(bank) -> set:
+    return {p for p, ok in bank.strongly_isolable if ok}
+
+
 def _boeing_model() -> PlantModel:
     """The Boeing 747 of varga_examples as a plant model (its fifth fault also in y2)."""
     st = boeing_747()
@@ -63,7 +75,8 @@ def test_yuan_bank_takes_strong_rows_only():
     """Yuan 1997: the generalised scheme's rows 11110111 (f5 decoupled) and 11111011
     (f6 decoupled) are achievable but see faults only as transients (published: weak,
     not strong rows); the bank leaves them out and says so, every row it keeps is a
-    published strong row and strongly realised."""
+    published strong row and strongly realised, and it isolates strongly every pair the
+    published strong rows can."""
     model = yuan_1997().model
     a = analyze(model, frequencies=[0])
     assert a.strong_structure, "the analysis finds strong rows: a strong bank exists"
@@ -77,6 +90,11 @@ def test_yuan_bank_takes_strong_rows_only():
     strong = {_text(tuple(s.row(a.faults)[f] for f in a.faults)) for s in a.strong_structure}
     assert rows <= strong
     assert all(bank.detectable.values())
+    # with the analysis's strong rows among the candidates the bank isolates strongly every
+    # pair the published strong rows isolate: all but f4/f8 and f5/f6 (no strong row
+    # tells them apart)
+    assert _strongly_isolated(bank) == _isolated_by(YUAN_STRONG, bank.faults)
+    assert {p for p, ok in bank.strongly_isolable if not ok} == {("f4", "f8"), ("f5", "f6")}
 
 
 @pytest.mark.slow  # with the Yuan bank, over the default run's budget
@@ -87,6 +105,9 @@ def test_boeing_bank_rows_are_strong():
     bank = design_bank(model)
     _assert_strong(bank, BOEING_STRONG)
     assert not {_text(r) for r in bank.structure_matrix} & BOEING_WEAK_ONLY
+    # f1/f2 and f3/f4 have equal columns in every published strong row; the rest isolated
+    assert _strongly_isolated(bank) == _isolated_by(BOEING_STRONG, bank.faults)
+    assert {p for p, ok in bank.strongly_isolable if not ok} == {("f1", "f2"), ("f3", "f4")}
 
 
 def test_triplex_sensor_generalised_scheme_of_order_zero():
