@@ -429,8 +429,9 @@ def _scheme_bank(attempt: _Rows, tried_txt: list, strong: bool = True):
     return None
 
 
-def _candidates(attempt: _Rows) -> list:
-    """The achievable rows the best-achievable search tries, with their designs."""
+def _candidates(attempt: _Rows, strong: bool) -> tuple:
+    """The achievable rows the best-achievable search tries, with their designs, and
+    (when ``strong``) the further rows of :func:`_analysis_rows`."""
     model, names = attempt.model, attempt.names
     m = len(names)
     if m <= FULL_SEARCH_FAULTS:
@@ -441,11 +442,12 @@ def _candidates(attempt: _Rows) -> list:
                        | {(1,) * m})
     ok = [(r, attempt(r)[0]) for r in cands]
     ok = [(r, d) for r, d in ok if d is not None]
-    if not ok:
+    more = _analysis_rows(attempt) if strong else []
+    if not ok and not more:
         reasons = "; ".join(f"{_row_text(r)}: {attempt.attempts[r][1]}" for r in cands[:6])
         raise InfeasibleDesignError(f"{model.where}: no residual detects any of"
                                     f" {', '.join(names)}: {reasons}")
-    return ok
+    return ok, more
 
 
 def _analysis_rows(attempt: _Rows) -> list:
@@ -502,11 +504,9 @@ def _best_bank(attempt: _Rows, tried_txt: list, strong: bool = True):
     """3. the best achievable rows (:func:`_greedy`); when ``strong``, among the strongly
     realised rows only (None when there is none)."""
     names = attempt.names
-    ok = every = _candidates(attempt)
-    left, more = [], []
+    every, more = _candidates(attempt, strong)
+    ok, left = every + more, []
     if strong:
-        more = _analysis_rows(attempt)
-        ok = every + more
         left = [(r, d) for r, d in ok if not strongly_realised(d, names)]
         ok = [(r, d) for r, d in ok if strongly_realised(d, names)]
         if not ok:
