@@ -22,7 +22,10 @@ Semantics, per run and sample k:
    no alarm → ``"no fault"``; else the faults whose column equals p exactly, in the
    rule's fault order, joined by ``" or "`` (``"f2"``, ``"f1 or f2"`` when columns are
    identical, i.e. the faults are not isolable); no column equals p →
-   ``"unknown pattern"``;
+   ``"unknown pattern"``. A residual that sees a fault only as a transient (zero
+   steady-state gain) returns into its band while the fault persists: the rule's
+   ``steady`` rows (the strong structure matrix, 0 there) give the pattern the fault
+   leaves afterwards, and a fault matches when either of its columns equals p;
 5. the diagnosis *code* is the pattern as bits, Σ_i alarm_i 2^(i−1) (residual 1 is bit
    0), an integer 0 … 2^m − 1; :meth:`DecisionRule.table` maps every code to its text
    (the C export carries the same table).
@@ -72,6 +75,27 @@ def _names(what: str, names) -> tuple:
     return out
 
 
+def _rows(what: str, table, res, faults) -> tuple:
+    """Validated 0/1 rows, one per residual, one entry per fault."""
+    if isinstance(table, str) or not isinstance(table, (tuple, list)):
+        raise UsageError(f"decision rule: {what} must be rows of 0/1, one per residual")
+    if len(table) != len(res):
+        raise UsageError(f"decision rule: {what} has {len(table)} rows but there"
+                         f" are {len(res)} residuals ({', '.join(res)})")
+    rows = []
+    for name, row in zip(res, table):
+        if isinstance(row, str) or not isinstance(row, (tuple, list)) or len(row) != len(faults):
+            raise UsageError(f"decision rule: the row of {name} must have {len(faults)} entries"
+                             f" 0/1 (one per fault: {', '.join(faults)}), got {row!r}")
+        cells = []
+        for c in row:
+            if isinstance(c, (bool, np.bool_)) or c not in (0, 1):
+                raise UsageError(f"decision rule: the row of {name} has {c!r}; entries are 0 or 1")
+            cells.append(int(c))
+        rows.append(tuple(cells))
+    return tuple(rows)
+
+
 @dataclasses.dataclass(frozen=True)
 class DecisionRule:
     """Residual names, fault names, structure matrix (rows = residuals, columns = faults,
@@ -82,6 +106,9 @@ class DecisionRule:
     faults: tuple
     structure: tuple
     persistence: int = 1
+    #: the columns a constant fault leaves once its transient has passed (0 where the
+    #: residual sees the fault only as a transient: zero steady-state gain); () = structure
+    steady: tuple = ()
 
     def __post_init__(self):
         res = _names("residuals", self.residuals)
@@ -89,28 +116,15 @@ class DecisionRule:
         if len(res) > MAX_RESIDUALS:
             raise UsageError(f"decision rule: {len(res)} residuals; at most {MAX_RESIDUALS}"
                              " (the diagnosis code is an int of one bit per residual)")
-        if isinstance(self.structure, str) or not isinstance(self.structure, (tuple, list)):
-            raise UsageError("decision rule: structure must be rows of 0/1, one per residual")
-        if len(self.structure) != len(res):
-            raise UsageError(f"decision rule: structure has {len(self.structure)} rows but there"
-                             f" are {len(res)} residuals ({', '.join(res)})")
-        rows = []
-        for name, row in zip(res, self.structure):
-            if isinstance(row, str) or not isinstance(row, (tuple, list)) or len(row) != len(faults):
-                raise UsageError(f"decision rule: the row of {name} must have {len(faults)} entries"
-                                 f" 0/1 (one per fault: {', '.join(faults)}), got {row!r}")
-            cells = []
-            for c in row:
-                if isinstance(c, (bool, np.bool_)) or c not in (0, 1):
-                    raise UsageError(f"decision rule: the row of {name} has {c!r}; entries are 0 or 1")
-                cells.append(int(c))
-            rows.append(tuple(cells))
+        rows = _rows("structure", self.structure, res, faults)
+        steady = _rows("steady", self.steady, res, faults) if len(self.steady) else ()
         p = self.persistence
         if isinstance(p, (bool, np.bool_)) or not isinstance(p, numbers.Integral) or p < 1:
             raise UsageError(f"decision rule: persistence must be a whole number ≥ 1, got {p!r}")
         object.__setattr__(self, "residuals", res)
         object.__setattr__(self, "faults", faults)
-        object.__setattr__(self, "structure", tuple(rows))
+        object.__setattr__(self, "structure", rows)
+        object.__setattr__(self, "steady", () if steady == rows else steady)
         object.__setattr__(self, "persistence", int(p))
 
     @property
@@ -136,6 +150,14 @@ class DecisionRule:
         j = self.faults.index(fault)
         return tuple(row[j] for row in self.structure)
 
+    def steady_column(self, fault: str) -> tuple:
+        """The alarm pattern fault ``fault`` leaves after its transient (its column of
+        ``steady``; its structure column when the rule has no steady rows)."""
+        if not self.steady:
+            return self.column(fault)
+        j = self.faults.index(fault)
+        return tuple(row[j] for row in self.steady)
+
     def diagnosis(self, code: int) -> str:
         """The text of a diagnosis code (see the module docstring, step 4)."""
         code = int(code)
@@ -144,7 +166,8 @@ class DecisionRule:
         if code == 0:
             return NO_FAULT
         pattern = tuple((code >> i) & 1 for i in range(len(self.residuals)))
-        match = [f for f in self.faults if self.column(f) == pattern]
+        match = [f for f in self.faults
+                 if self.column(f) == pattern or self.steady_column(f) == pattern]
         return " or ".join(match) if match else UNKNOWN_PATTERN
 
     def table(self) -> tuple:
@@ -158,22 +181,25 @@ class DecisionRule:
         out = [NO_FAULT]
         patterns = set()
         for f in self.faults:
-            col = self.column(f)
-            if any(col):
-                code = sum(b << i for i, b in enumerate(col))
-                patterns.add(code)
-                text = self.diagnosis(code)
-                if text not in out:
-                    out.append(text)
+            for col in dict.fromkeys((self.column(f), self.steady_column(f))):
+                if any(col):
+                    code = sum(b << i for i, b in enumerate(col))
+                    patterns.add(code)
+                    text = self.diagnosis(code)
+                    if text not in out:
+                        out.append(text)
         if len(patterns) < self.codes - 1:   # some nonzero pattern is no fault's column
             out.append(UNKNOWN_PATTERN)
         return tuple(out)
 
     def describe(self) -> str:
         rows = ", ".join("".join(map(str, r)) for r in self.structure)
+        steady = (" (after a fault's transient: " + ", ".join("".join(map(str, r))
+                                                            for r in self.steady) + ")"
+                  if self.steady else "")
         return (f"alarm when a residual of ({', '.join(self.residuals)}) leaves its threshold"
                 f" for {self.persistence} consecutive sample(s); isolation by the columns of"
-                f" {rows} over ({', '.join(self.faults)})")
+                f" {rows}{steady} over ({', '.join(self.faults)})")
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
@@ -280,7 +306,7 @@ def decision_rule(model, design_or_bank, *, persistence: int = 1) -> DecisionRul
         b = design_or_bank
         return DecisionRule(residuals=tuple(f"r{i}" for i in range(1, len(b.structure_matrix) + 1)),
                             faults=tuple(b.faults), structure=tuple(b.structure_matrix),
-                            persistence=persistence)
+                            persistence=persistence, steady=tuple(b.strong_structure))
     if isinstance(design_or_bank, Design):
         d = design_or_bank
         if "r" not in dict(d.outputs or ()):
@@ -294,8 +320,12 @@ def decision_rule(model, design_or_bank, *, persistence: int = 1) -> DecisionRul
         missing = [f for f in faults if f not in sig]
         if missing:
             raise UsageError(f"decision_rule: the design's fault signature lacks {missing[0]}")
+        full = d.signature or d.with_signature().signature
+        transient = {s.name for s in (full or ()) if getattr(s, "transient_only", False)}
         return DecisionRule(residuals=("r",), faults=faults,
                             structure=(tuple(int(bool(sig[f])) for f in faults),),
-                            persistence=persistence)
+                            persistence=persistence,
+                            steady=(tuple(int(bool(sig[f]) and f not in transient)
+                                          for f in faults),))
     raise UsageError(f"decision_rule takes a Design with a residual or a ResidualBank, not a"
                      f" {type(design_or_bank).__name__}")

@@ -202,3 +202,26 @@ def test_thirty_residuals_fill_the_code_bits():
     assert d.diagnosis[2] == "f" and d.diagnosis[3] == UNKNOWN_PATTERN
     with pytest.raises(UsageError, match="at most 30"):
         DecisionRule(names + ("r31",), ("f",), tuple((1,) for _ in range(31)))
+
+
+def test_a_fault_seen_only_as_a_transient_is_still_named_after_its_transient():
+    """r1 sees f2 only as a transient (zero steady-state gain): while f2 persists the pattern
+    is first (1, 1), f2's column, then (0, 1) once r1 is back in its band — its column of the
+    steady rows (the strong structure matrix). Both name f2; without the steady rows the
+    second was "unknown pattern"."""
+    from observer_cad.residuals import DecisionRule
+    weak = DecisionRule(residuals=("r1", "r2"), faults=("f1", "f2"), structure=((1, 1), (0, 1)))
+    rule = DecisionRule(residuals=("r1", "r2"), faults=("f1", "f2"), structure=((1, 1), (0, 1)),
+                        steady=((1, 0), (0, 1)))
+    assert weak.diagnosis(0b10) == "unknown pattern"
+    assert rule.diagnosis(0b11) == "f2" and rule.diagnosis(0b10) == "f2"
+    assert rule.diagnosis(0b01) == "f1"
+    assert rule.steady_column("f2") == (0, 1) and rule.column("f2") == (1, 1)
+    assert "after a fault's transient: 10, 01" in rule.describe()
+    assert rule.table() == ("no fault", "f1", "f2", "f2")
+    # steady rows equal to the structure are the same rule
+    same = DecisionRule(residuals=("r1",), faults=("f1",), structure=((1,),), steady=((1,),))
+    assert same.steady == () and same == DecisionRule(residuals=("r1",), faults=("f1",),
+                                                      structure=((1,),))
+    with pytest.raises(UsageError, match="steady has 1 rows but there are 2 residuals"):
+        DecisionRule(residuals=("r1", "r2"), faults=("f1",), structure=((1,), (0,)), steady=((1,),))
