@@ -23,6 +23,8 @@ from __future__ import annotations
 
 import argparse
 import datetime
+import shutil
+import subprocess
 import sys
 import tempfile
 import time
@@ -77,6 +79,27 @@ def _write_csv(cols: dict, path: Path) -> None:
     np.savetxt(path, a, delimiter=",", header=",".join(names), comments="", fmt="%.17g")
 
 
+def _c_example(m, obs, rule, h, d: Path):
+    """The exported C example (``export_observer``: NAME.c and NAME_example.c), compiled
+    with ``cc -O2``: its path, or None without a C compiler."""
+    from observer_cad.codegen import export_observer
+    from observer_cad.simulation import declared_envelope
+    cc = shutil.which("cc") or shutil.which("gcc")
+    if cc is None:
+        return None
+    paths = export_observer(obs, d, dt=h if m.time == "continuous" else None, rule=rule,
+                            envelope=declared_envelope(m))
+    exe = d / "example"
+    subprocess.run([cc, "-O2", "-std=c99", *map(str, paths[::2]), "-lm", "-o", str(exe)],
+                   check=True, capture_output=True, cwd=d)
+    return exe
+
+
+def _run_c(exe: Path, csv: Path) -> None:
+    """The C example over ``csv``, its table (written to stdout) discarded."""
+    subprocess.run([str(exe), str(csv)], check=True, stdout=subprocess.DEVNULL)
+
+
 def measure(n: int, repeats: int) -> list:
     from observer_cad import Monitor
     from observer_cad.codegen import CompiledMonitorEngine, CompiledSimulator
@@ -101,7 +124,9 @@ def measure(n: int, repeats: int) -> list:
             path = Path(d) / "rec.csv"
             _write_csv(cols, path)
             t_csv = _best(lambda: mon.run(read_table(path)), repeats)
-        rows.append((name, n, t_sim, t_arr, t_csv))
+            exe = _c_example(m, obs, rule, float(cols["t"][1] - cols["t"][0]), Path(d))
+            t_c = _best(lambda: _run_c(exe, path), repeats) if exe else float("nan")
+        rows.append((name, n, t_sim, t_arr, t_csv, t_c))
     return rows
 
 
@@ -112,11 +137,13 @@ def table(rows, repeats: int) -> str:
             f" {mach['nproc']} CPUs ({mach['cpu']}), Python {mach['python']}, numpy"
             f" {mach['numpy']}. Load average {_load()}. Best of {repeats} runs, wall clock;"
             f" rows per second; ratio = compiled loop / monitor (goal ≤ {GOAL:g}).\n\n")
-    out = ["| case | rows | compiled loop | monitor, arrays | ratio | monitor, CSV | ratio |",
-           "|---|---|---|---|---|---|---|"]
-    for name, n, ts, ta, tc in rows:
+    out = ["| case | rows | compiled loop | monitor, arrays | ratio | monitor, CSV | ratio"
+           " | C example, CSV | monitor CSV / C example |",
+           "|---|---|---|---|---|---|---|---|---|"]
+    for name, n, ts, ta, tc, te in rows:
+        c = (f"{n / te:,.0f}/s | {tc / te:.2f}" if np.isfinite(te) else "(no C compiler) | –")
         out.append(f"| {name} | {n:,} | {n / ts:,.0f}/s | {n / ta:,.0f}/s | {ta / ts:.2f}"
-                   f" | {n / tc:,.0f}/s | {tc / ts:.2f} |")
+                   f" | {n / tc:,.0f}/s | {tc / ts:.2f} | {c} |")
     return head + "\n".join(out)
 
 
