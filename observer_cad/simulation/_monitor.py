@@ -248,6 +248,11 @@ class Monitor:
         self.envelope = declared_envelope(model)
         self._units = {}        # column names -> their units (column_units), per table shape
         self._texts = None      # the diagnosis of every code, when a table of them is small
+        sig = list(monitor_signal_columns(observer))
+        dec = list(MONITOR_COLUMNS[:2]) if rule is not None else []
+        self._columns = tuple(["t"] + sig + list(self.outputs) + dec + ["in_bounds"])
+        self._names = {"u": [str(s) for s in model.inputs],
+                       "y": [f"y{i}" for i in range(1, len(model.outputs) + 1)]}
         self.record = record
         #: the name the row checks of :meth:`step` give (e.g. ``<stdin>``)
         self.source = "monitor.step"
@@ -268,9 +273,7 @@ class Monitor:
     @property
     def columns(self) -> tuple:
         """The columns of :meth:`run`'s table (and monitor.csv), in order."""
-        sig = list(monitor_signal_columns(self.observer))
-        dec = list(MONITOR_COLUMNS[:2]) if self.rule is not None else []
-        return tuple(["t"] + sig + list(self.outputs) + dec + ["in_bounds"])
+        return self._columns
 
     # ------------------------------------------------------------------ a table
     def run(self, data, *, rename: Mapping | None = None, source: str | None = None):
@@ -388,8 +391,7 @@ class Monitor:
     # ------------------------------------------------------------------ a row
     def _row(self, u, y) -> np.ndarray:
         vals = {}
-        for what, v, names in (("u", u, [str(s) for s in self.model.inputs]),
-                               ("y", y, [f"y{i}" for i in range(1, len(self.model.outputs) + 1)])):
+        for what, v, names in (("u", u, self._names["u"]), ("y", y, self._names["y"])):
             if isinstance(v, Mapping):
                 vals.update({str(k): float(x) for k, x in v.items()})
             else:
