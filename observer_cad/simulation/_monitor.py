@@ -15,7 +15,10 @@ Python floats, a loop over rows), or the compiled C of
 ``observer-cad monitor``), both with ``run(x0, V, h) -> (O, x)``: ``V`` (N, ny + nu)
 rows of the observer's signals (measurements y1… first, then its known inputs, the
 order of :attr:`Monitor.signals`), ``O`` (N, no) the outputs per row, ``x`` the state
-after the last row.
+after the last row. An engine that also has ``run_columns(x0, columns, h, decide)`` (the
+compiled one) is given :meth:`Monitor.run`'s columns as they are (no copy into rows) and
+the rule's output indices and persistence, and returns the decisions with the outputs:
+``(O, x, code, alarm)`` (``code``, ``alarm`` None when ``decide`` is None).
 
 Decisions follow :func:`~observer_cad.residuals.decide` (persistence counters carried
 from row to row, so :meth:`Monitor.step` and :meth:`Monitor.run` agree).
