@@ -192,3 +192,20 @@ def test_a_large_csv_reads_as_a_small_one(tmp_path, monkeypatch):
         p.write_text("\n".join(bad) + "\n")
         with pytest.raises(UsageError, match=rf"row 40 \(line 41\), column 'u': {words}"):
             mon.run(read_table(p), source=str(p))
+
+
+@needs_cc
+def test_a_delayed_residual_is_decided_after_its_shift(drive):
+    """A residual produced late is shifted after the loop: the decisions are then made on
+    the shifted columns (decide), as the reference engine's."""
+    import dataclasses
+    from observer_cad.codegen import CompiledMonitorEngine
+    m, obs, rule = drive
+    late = dataclasses.replace(obs, delays={"r": 2, "r_lower": 2, "r_upper": 2})
+    data = _rows(11, 200)
+    fast = Monitor(m, late, rule=rule, engine=CompiledMonitorEngine(late)).run(data)
+    ref = Monitor(m, late, rule=rule, engine=ReferenceMonitorEngine(late)).run(data)
+    assert np.isnan(fast["r"][-2:]).all() and 0 < fast["alarm"].sum() < 198
+    assert np.array_equal(fast["alarm"], ref["alarm"])
+    assert list(fast["diagnosis"]) == list(ref["diagnosis"])
+    assert np.array_equal(fast["alarm"], decide(rule, fast.columns).alarm.astype(np.int64))
