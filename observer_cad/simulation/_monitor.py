@@ -347,8 +347,6 @@ class Monitor:
                              " threshold at the data's sample time)")
 
     def _in_bounds(self, cols: Mapping, n: int) -> np.ndarray:
-        if not any(name in cols for name in self.envelope):
-            return np.ones(n, dtype=bool)
         ok = np.ones(n, dtype=bool)
         for name, (lo, hi) in self.envelope.items():
             if name in cols:
