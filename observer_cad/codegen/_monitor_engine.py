@@ -7,8 +7,19 @@ through ctypes (the GIL released while it runs).
                                      x = the next state (x updated in place)
 
 ``V`` (N, ny + nu) row-major and ``O`` (no, N) — one contiguous column per output —
-doubles; returns 0, or 1 + k when the step function failed at row k. Compiled with the
-trajectory loops' flags (``-fno-semantic-interposition``: the step is inlined).
+doubles; returns 0, or 1 + k when the step function failed at row k.
+
+    NAME_monitor_cols(N, x, cols, p, h, O, m, idx, P, cnt, code, alarm): the same loop
+        reading row k from ``cols`` (ny + nu pointers, one column each: no copy of the
+        recording into rows) and, with a decision rule of m residuals (m > 0), deciding
+        in the loop: residual i is out when O[idx[3i]] < O[idx[3i+1]] or
+        O[idx[3i]] > O[idx[3i+2]] (its value, lower and upper band; NaN is not out), its
+        counter ``cnt[i]`` counts the consecutive rows out (saturating at P), it alarms
+        while the counter is ≥ P; ``code[k]`` = Σ alarm_i 2^i and ``alarm[k]`` = code ≠ 0
+        (int64) — the semantics of :func:`~observer_cad.residuals.decide`.
+
+Compiled with the trajectory loops' flags (``-fno-semantic-interposition``: the step is
+inlined).
 """
 from __future__ import annotations
 
@@ -27,10 +38,13 @@ __all__ = ["CompiledMonitorEngine", "monitor_loop_source"]
 
 _P = ctypes.c_void_p
 
+#: the most residuals the C loop decides (the code is an int64 bit set)
+MAX_RESIDUALS_IN_LOOP = 62
+
 
 def monitor_loop_source(f, *, h_arg: bool) -> str:
-    """The C of ``NAME_monitor`` around the casadi step ``f`` = (x, y, u, p[, h]) →
-    (x_next, out)."""
+    """The C of ``NAME_monitor`` and ``NAME_monitor_cols`` around the casadi step ``f`` =
+    (x, y, u, p[, h]) → (x_next, out)."""
     name = f.name()
     nx, ny, nu = (f.size1_in(i) for i in range(3))
     no = f.size1_out(1)
@@ -63,6 +77,52 @@ CASADI_SYMBOL_EXPORT int {name}_monitor(long long N, casadi_real* x, const casad
   }}
   return 0;
 }}
+
+CASADI_SYMBOL_EXPORT int {name}_monitor_cols(long long N, casadi_real* x,
+                                             const casadi_real* const* cols,
+                                             const casadi_real* p, casadi_real h, casadi_real* O,
+                                             int m, const int* idx, long long P, long long* cnt,
+                                             long long* code, long long* alarm) {{
+  const casadi_real* arg[{sz[0]}];
+  casadi_real* res[{sz[1]}];
+  casadi_int iw[{sz[2]}];
+  casadi_real w[{sz[3]}];
+  casadi_real xn[{max(nx, 1)}];
+  casadi_real ob[{max(no, 1)}];
+  casadi_real v[{max(ny + nu, 1)}];
+  long long k, c;
+  int i;
+  for (i = 0; i < {sz[0]}; ++i) arg[i] = 0;
+  for (i = 0; i < {sz[1]}; ++i) res[i] = 0;
+  arg[0] = x;
+  arg[1] = v;
+  arg[2] = v + {ny};
+  arg[3] = p;
+  {"arg[4] = &h;" if h_arg else "(void)h;"}
+  res[0] = xn;
+  res[1] = ob;
+  for (k = 0; k < N; ++k) {{
+    for (i = 0; i < {ny + nu}; ++i) v[i] = cols[i][k];
+    if ({name}(arg, res, iw, w, 0)) return (int)(1 + k);
+    for (i = 0; i < {nx}; ++i) x[i] = xn[i];
+    for (i = 0; i < {no}; ++i) O[i * N + k] = ob[i];
+    if (m > 0) {{
+      c = 0;
+      for (i = 0; i < m; ++i) {{
+        casadi_real r = ob[idx[3 * i]];
+        if (r < ob[idx[3 * i + 1]] || r > ob[idx[3 * i + 2]]) {{
+          if (cnt[i] < P) ++cnt[i];
+        }} else {{
+          cnt[i] = 0;
+        }}
+        if (cnt[i] >= P) c |= 1LL << i;
+      }}
+      code[k] = c;
+      alarm[k] = c != 0;
+    }}
+  }}
+  return 0;
+}}
 """
 
 
@@ -91,11 +151,14 @@ class CompiledMonitorEngine:
         try:
             lib = ctypes.CDLL(str(res.path))
             fn = getattr(lib, f"{f.name()}_monitor")
+            fc = getattr(lib, f"{f.name()}_monitor_cols")
         except (OSError, AttributeError) as exc:
             raise CodegenError(f"cannot load {res.path}: {exc}") from None
-        fn.restype = ctypes.c_int
+        fn.restype = fc.restype = ctypes.c_int
         fn.argtypes = [ctypes.c_longlong, _P, _P, _P, ctypes.c_double, _P]
-        self._lib, self._fn, self._name = lib, fn, f.name()
+        fc.argtypes = [ctypes.c_longlong, _P, _P, _P, ctypes.c_double, _P, ctypes.c_int, _P,
+                       ctypes.c_longlong, _P, _P, _P]
+        self._lib, self._fn, self._fc, self._name = lib, fn, fc, f.name()
 
     def run(self, x0, V, h: float):
         """(O (N, no), the state after the last row) from the state ``x0`` over the rows
@@ -113,3 +176,42 @@ class CompiledMonitorEngine:
         if rc:
             raise CodegenError(f"{self._name} failed at row {rc - 1}")
         return O.T, x
+
+    def run_columns(self, x0, columns, h: float, decide=None):
+        """:meth:`run` over the signals given as columns (a sequence of ny + nu float
+        arrays of length N, in the order of ``Monitor.signals``; read in place, not
+        copied into rows), and with ``decide`` = (idx, persistence) — ``idx`` the output
+        indices (residual, lower, upper) of each of the rule's m ≤ 62 residuals — the
+        decisions in the loop (module docstring). Returns (O (N, no), the state after the
+        last row, code (N,) int64 or None, alarm (N,) int64 or None)."""
+        cols = [np.ascontiguousarray(c, dtype=np.float64) for c in columns]
+        if len(cols) != self.nv or any(c.ndim != 1 for c in cols):
+            raise CodegenError(f"{self._name}: run_columns needs {self.nv} one-dimensional"
+                               " columns")
+        N = cols[0].size if cols else 0
+        if any(c.size != N for c in cols):
+            raise CodegenError(f"{self._name}: the columns differ in length")
+        x = np.array(x0, dtype=np.float64).reshape(self.nx).copy()
+        O = np.empty((self.no, N))
+        m, code, alarm = 0, None, None
+        if decide is not None:
+            idx = np.ascontiguousarray(decide[0], dtype=np.intc).reshape(-1)
+            m = idx.size // 3
+            if m > MAX_RESIDUALS_IN_LOOP or idx.size != 3 * m \
+                    or (m and not 0 <= idx.min() <= idx.max() < self.no):
+                raise CodegenError(f"{self._name}: the decisions need 3 output indices per"
+                                   f" residual, at most {MAX_RESIDUALS_IN_LOOP} residuals")
+            cnt = np.zeros(max(m, 1), dtype=np.int64)
+            make = np.empty if m else np.zeros
+            code, alarm = make(N, dtype=np.int64), make(N, dtype=np.int64)
+        if N == 0:
+            return O.T, x, code, alarm
+        dummy = np.zeros(1)
+        ptr = (lambda a: a.ctypes.data if a is not None and a.size else dummy.ctypes.data)
+        colp = (ctypes.c_void_p * max(len(cols), 1))(*[c.ctypes.data for c in cols])
+        rc = self._fc(N, ptr(x), ctypes.addressof(colp), ptr(self.p), float(h), ptr(O), m,
+                      ptr(idx) if m else None, int(decide[1]) if m else 1,
+                      ptr(cnt) if m else None, ptr(code), ptr(alarm))
+        if rc:
+            raise CodegenError(f"{self._name} failed at row {rc - 1}")
+        return O.T, x, code, alarm

@@ -84,6 +84,30 @@ def _any_cell(v: np.ndarray, i: int) -> str:
     return csv_cell(v[i])
 
 
+def _csv_field(text: str) -> str:
+    """``text`` as the csv module writes it as one field of a row of several."""
+    buf = io.StringIO()
+    csv.writer(buf, lineterminator="\n").writerow([text, ""])
+    return buf.getvalue()[:-2]
+
+
+def _cells(v: np.ndarray, avail: int) -> list:
+    """The cells of a one-dimensional column, as :func:`_any_cell` writes them one by one
+    (``repr`` of a Python float is :func:`csv_cell`'s text, ``nan`` and ``±inf``
+    included), with an empty cell from row ``avail`` on — a column at a time."""
+    a = max(min(avail, v.shape[0]), 0)
+    if v.dtype.kind == "O":   # text, quoted as the csv module quotes it (once per text)
+        cells = [str(x) for x in v[:a].tolist()]
+        quoted = {x: _csv_field(x) for x in set(cells)}
+        cells = [quoted[x] for x in cells]
+    elif v.dtype.kind in "bi":
+        cells = list(map(str, v[:a].astype(np.int64).tolist()))
+    else:
+        cells = list(map(repr, v[:a].astype(float).tolist()))
+    cells.extend([""] * (v.shape[0] - a))
+    return cells
+
+
 def write_signals_csv(result, out_dir, *, name: str = "signals.csv") -> Path:
     """``DIR/signals.csv``: a header row, then one row per time step; and
     ``DIR/signals.units.json`` (:data:`UNITS_FILE`), the units of the columns that have one
@@ -112,8 +136,14 @@ def write_signals_csv(result, out_dir, *, name: str = "signals.csv") -> Path:
     buf = io.StringIO()
     w = csv.writer(buf, lineterminator="\n")
     w.writerow(cols)
-    for i in range(n):
-        w.writerow(["" if i >= a else _any_cell(v, i) for v, a in zip(data, avail)])
+    if len(data) > 1 and all(v.ndim == 1 and v.shape[0] == n for v in data):
+        # a column at a time; the rows joined as csv.writer joins them (only text needs
+        # quoting, done once per distinct text)
+        buf.write("".join(map("{}\n".format, map(",".join, zip(
+            *[_cells(v, a) for v, a in zip(data, avail)])))))
+    else:
+        for i in range(n):
+            w.writerow(["" if i >= a else _any_cell(v, i) for v, a in zip(data, avail)])
     path = out / name
     units = getattr(result, "units", None) or {}
     units_file = UNITS_FILE if name == "signals.csv" else f"{Path(name).stem}.units.json"

@@ -8,7 +8,8 @@ from ._sampling import (Distribution, SignalProgram, signal_program, RunDraws, d
 from ._quantile import (quantile_threshold, fault_free, apply_threshold)
 from ._summaries import (SummaryField, Monitors, monitors, RunSummaries, summarise)
 from ._recording import (TIME_RTOL, declared_envelope, declared_signal_bounds, bounds_check, read_table, parse_row)
-from ._monitor import (Monitor, MonitorStep, ReferenceMonitorEngine, monitor_signals, monitor_signal_columns)
+from ._monitor import (Monitor, MonitorStep, ReferenceMonitorEngine, monitor_signals, monitor_signal_columns,
+                       CategoricalColumn)
 
 __all__ = [
     "evaluate_ensemble", "align_delay", "Scenario", "load_scenario", "scenario_from_dict",
@@ -19,5 +20,6 @@ __all__ = [
     "parameter_layout", "SummaryField", "Monitors", "monitors", "RunSummaries", "summarise",
     "TIME_RTOL", "declared_envelope", "declared_signal_bounds", "bounds_check", "read_table",
     "parse_row", "Monitor", "MonitorStep", "ReferenceMonitorEngine", "monitor_signals",
+    "CategoricalColumn",
     "monitor_signal_columns"
 ]

@@ -15,7 +15,10 @@ Python floats, a loop over rows), or the compiled C of
 ``observer-cad monitor``), both with ``run(x0, V, h) -> (O, x)``: ``V`` (N, ny + nu)
 rows of the observer's signals (measurements y1… first, then its known inputs, the
 order of :attr:`Monitor.signals`), ``O`` (N, no) the outputs per row, ``x`` the state
-after the last row.
+after the last row. An engine that also has ``run_columns(x0, columns, h, decide)`` (the
+compiled one) is given :meth:`Monitor.run`'s columns as they are (no copy into rows) and
+the rule's output indices and persistence, and returns the decisions with the outputs:
+``(O, x, code, alarm)`` (``code``, ``alarm`` None when ``decide`` is None).
 
 Decisions follow :func:`~observer_cad.residuals.decide` (persistence counters carried
 from row to row, so :meth:`Monitor.step` and :meth:`Monitor.run` agree).
@@ -38,7 +41,7 @@ from ._recording import TIME_RTOL, check_times, declared_envelope, recording_fro
 from ._simulate import SimulationResult, align_delay, column_units
 
 __all__ = ["Monitor", "MonitorStep", "ReferenceMonitorEngine", "monitor_signals",
-           "monitor_signal_columns",
+           "monitor_signal_columns", "CategoricalColumn",
            "monitor_initial_state", "MONITOR_COLUMNS"]
 
 #: the columns a monitor adds after the observer's outputs: with a decision rule
@@ -86,6 +89,67 @@ def monitor_initial_state(observer: Observer, initial: Mapping | None = None, *,
     if zeroed is not None:
         zeroed.extend(sorted(taken))
     return np.array(x0, dtype=float)
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class CategoricalColumn:
+    """A text column stored as codes into a small table of texts (a categorical):
+    ``codes`` (N,) integers, ``texts`` the table; row k's text is ``texts[codes[k]]``.
+
+    It reads as the object array of its texts, which it builds only when asked:
+    ``np.asarray(col)``, ``len(col)``, iteration, ``col[k]`` (a text), ``col[a:b]`` or
+    ``col[mask]`` (object arrays), ``col.tolist()`` and ``col == text`` (element-wise).
+    The ``diagnosis`` column of :meth:`Monitor.run` is one (no string object per row)."""
+
+    codes: np.ndarray
+    texts: tuple
+
+    def __array__(self, dtype=None, copy=None):
+        a = np.array(self.texts, dtype=object)[self.codes]
+        return a if dtype is None else a.astype(dtype)
+
+    @property
+    def shape(self) -> tuple:
+        return self.codes.shape
+
+    @property
+    def ndim(self) -> int:
+        return self.codes.ndim
+
+    @property
+    def size(self) -> int:
+        return self.codes.size
+
+    @property
+    def dtype(self):
+        return np.dtype(object)
+
+    def __len__(self) -> int:
+        return len(self.codes)
+
+    def __iter__(self):
+        t = self.texts
+        return (t[c] for c in self.codes.tolist())
+
+    def __getitem__(self, key):
+        c = self.codes[key]
+        if np.ndim(c) == 0:
+            return self.texts[int(c)]
+        return np.array(self.texts, dtype=object)[c]
+
+    def tolist(self) -> list:
+        return list(self)
+
+    def __eq__(self, other):
+        return np.asarray(self) == other
+
+    def __ne__(self, other):
+        return np.asarray(self) != other
+
+    __hash__ = None
+
+    def __repr__(self) -> str:
+        return f"CategoricalColumn({self.size} rows, texts {self.texts!r})"
 
 
 class ReferenceMonitorEngine:
@@ -185,6 +249,13 @@ class Monitor:
         self.x0 = monitor_initial_state(observer, initial, zeroed=self.assumed_zero)
         self.engine = engine if engine is not None else ReferenceMonitorEngine(observer)
         self.envelope = declared_envelope(model)
+        self._units = {}        # column names -> their units (column_units), per table shape
+        self._texts = None      # the diagnosis of every code, when a table of them is small
+        sig = list(monitor_signal_columns(observer))
+        dec = list(MONITOR_COLUMNS[:2]) if rule is not None else []
+        self._columns = tuple(["t"] + sig + list(self.outputs) + dec + ["in_bounds"])
+        self._names = {"u": [str(s) for s in model.inputs],
+                       "y": [f"y{i}" for i in range(1, len(model.outputs) + 1)]}
         self.record = record
         #: the name the row checks of :meth:`step` give (e.g. ``<stdin>``)
         self.source = "monitor.step"
@@ -205,9 +276,7 @@ class Monitor:
     @property
     def columns(self) -> tuple:
         """The columns of :meth:`run`'s table (and monitor.csv), in order."""
-        sig = list(monitor_signal_columns(self.observer))
-        dec = list(MONITOR_COLUMNS[:2]) if self.rule is not None else []
-        return tuple(["t"] + sig + list(self.outputs) + dec + ["in_bounds"])
+        return self._columns
 
     # ------------------------------------------------------------------ a table
     def run(self, data, *, rename: Mapping | None = None, source: str | None = None):
@@ -236,12 +305,31 @@ class Monitor:
                 raise UsageError(f"monitor: the guaranteed band holds for steps of exactly"
                                  f" h = {hb:g}; the interval before t = {float(rec.t[k + 1]):g}"
                                  f" (row {k + 2}) is {float(rec.t[k + 1] - rec.t[k]):.12g}")
-        V = np.ascontiguousarray(np.column_stack([rec.columns[s] for s in self.signals])
-                                 if self.signals else np.zeros((rec.t.size, 0)))
+        sig = [rec.columns[s] for s in self.signals]
+        code = alarm = None
         with np.errstate(all="ignore"):
-            O, x = self.engine.run(self.x0, V, h)
+            if hasattr(self.engine, "run_columns"):   # the columns read in place
+                O, x, code, alarm = self.engine.run_columns(self.x0, sig, h,
+                                                            self._loop_decisions())
+            else:
+                V = np.column_stack(sig) if sig else np.zeros((rec.t.size, 0))
+                O, x = self.engine.run(self.x0, np.ascontiguousarray(V), h)
         self.x, self.h = x, h
-        return self._table(rec.t, rec.columns, O)
+        return self._table(rec.t, rec.columns, O, code=code, alarm=alarm)
+
+    def _loop_decisions(self):
+        """(output indices (residual, lower, upper) per residual, persistence) for an
+        engine that decides in its loop, or None (no rule; a delayed output, whose
+        column is shifted after the loop; more residuals than an int64 code holds)."""
+        r = self.rule
+        if r is None or len(r.residuals) > 62:
+            return None
+        names = r.residuals + r.lower_names + r.upper_names
+        if any(int(self.observer.delays.get(n, 0)) for n in names):
+            return None
+        idx = [self.outputs.index(n) for trio in zip(r.residuals, r.lower_names, r.upper_names)
+               for n in trio]
+        return idx, r.persistence
 
     def _check_band_step(self, h) -> None:
         """A sampled-data band (threshold.sample_time) holds only at its own step."""
@@ -266,7 +354,17 @@ class Monitor:
                 ok &= (v >= lo) & (v <= hi)
         return ok
 
-    def _table(self, t, sigs: Mapping, O) -> SimulationResult:
+    def _diagnosis(self, code: np.ndarray) -> CategoricalColumn:
+        """The diagnosis texts of the codes, as a categorical column."""
+        if len(self.rule.residuals) <= 12:   # a table of every code: no sort
+            if self._texts is None:
+                self._texts = tuple(self.rule.diagnosis(c) for c in range(self.rule.codes))
+            return CategoricalColumn(code, self._texts)
+        seen, inv = np.unique(code, return_inverse=True)
+        return CategoricalColumn(inv.reshape(code.shape),
+                                 tuple(self.rule.diagnosis(int(c)) for c in seen))
+
+    def _table(self, t, sigs: Mapping, O, *, code=None, alarm=None) -> SimulationResult:
         cols = {"t": np.asarray(t, dtype=float)}
         n = cols["t"].size
         for s in self.columns:
@@ -278,25 +376,23 @@ class Monitor:
             v = np.ascontiguousarray(O[:, j], dtype=float)
             cols[name] = align_delay(v[None, :], delays[name])[0] if delays[name] else v
         if self.rule is not None:
-            dec = decide(self.rule, cols)
-            cols["alarm"] = dec.alarm.astype(np.int64)
-            if len(self.rule.residuals) <= 12:   # a table of every code: no sort
-                texts = np.array([self.rule.diagnosis(c) for c in range(self.rule.codes)],
-                                 dtype=object)
-                cols["diagnosis"] = texts[dec.code]
-            else:
-                cols["diagnosis"] = dec.diagnosis
+            if code is None:
+                dec = decide(self.rule, cols)
+                code, alarm = dec.code, dec.alarm.astype(np.int64)
+            cols["alarm"] = alarm
+            cols["diagnosis"] = self._diagnosis(code)
         cols["in_bounds"] = self._in_bounds(sigs, n).astype(np.int64)
         order = self.columns
-        return SimulationResult(cols, order, delays, None,
-                                units=column_units(self.model, self.observer, cols),
+        key = tuple(cols)
+        if key not in self._units:
+            self._units[key] = column_units(self.model, self.observer, cols)
+        return SimulationResult(cols, order, delays, None, units=dict(self._units[key]),
                                 model=self.model.name, time=self.model.time)
 
     # ------------------------------------------------------------------ a row
     def _row(self, u, y) -> np.ndarray:
         vals = {}
-        for what, v, names in (("u", u, [str(s) for s in self.model.inputs]),
-                               ("y", y, [f"y{i}" for i in range(1, len(self.model.outputs) + 1)])):
+        for what, v, names in (("u", u, self._names["u"]), ("y", y, self._names["y"])):
             if isinstance(v, Mapping):
                 vals.update({str(k): float(x) for k, x in v.items()})
             else:
