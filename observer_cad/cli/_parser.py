@@ -102,6 +102,14 @@ def _add_simulate(sub) -> None:
                           " written literally; an empty cell always means 'not available') and"
                           " exit with status 4 after a one-line warning")
     _add_run_options(sim)
+    sim.add_argument("--sample-time", metavar="H", type=_positive_float("--sample-time"),
+                     default=None,
+                     help="continuous time: the observer as deployed, stepped every H by the"
+                          " monitor's step (RK4, y and u held) on the plant's outputs sampled"
+                          " at t = 0, H, 2H, ..., its inputs held over each H; the CSV's rows are"
+                          " the samples; H a whole multiple of the scenario's dt (with"
+                          " --threshold guaranteed and a declared envelope, the band of the"
+                          " sampled algorithm at H)")
     _add_threshold_options(sim, quantile=True)
 
 

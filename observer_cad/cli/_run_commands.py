@@ -8,6 +8,7 @@ from pathlib import Path
 
 from ..errors import UsageError
 from ..progress import report
+from ..residuals import ThresholdSpec
 from ._from_args import design_or_load, observer_options, refuse_failed, threshold_from_args
 from ._parser import PROG
 
@@ -25,7 +26,12 @@ def cmd_simulate(args) -> int:
     report("building the observer", stage=True)
     observer = build_observer(model, result, **observer_options(args, result))
     refuse_failed(observer)
-    observer = threshold_from_args(args, model, observer, scenario)
+    h = getattr(args, "sample_time", None)
+    if h is not None and args.threshold is not None \
+            and ThresholdSpec.parse(args.threshold).kind == "quantile":
+        raise UsageError("--sample-time with --threshold quantile: the quantile is estimated"
+                         " on the joint simulation, not the sampled one (not supported yet)")
+    observer = threshold_from_args(args, model, observer, scenario, sample_time=h)
     refuse_failed(observer)
     report("simulating", stage=True)
     res, engine = _simulate_with_engine(args, model, observer, scenario)
@@ -96,6 +102,8 @@ def _simulate_with_engine(args, model, observer, scenario):
         signal_program(model, scenario, np.zeros(1), case=c)  # (t = 0 only: no grid built)
     kw = dict(keep_nonfinite=args.keep_nonfinite, first_run=args.run or 0, case=case,
               samples=args.samples)
+    if getattr(args, "sample_time", None) is not None:
+        return _simulate_sampled(args, model, observer, scenario, kw)
     if args.engine == "compiled":
         from ..codegen import CodegenError, CompiledSimulator
         try:
@@ -106,6 +114,30 @@ def _simulate_with_engine(args, model, observer, scenario):
         else:
             return sim.simulate(scenario, **kw), "compiled C" + (" (cache hit)" if sim.cached else "")
     return simulate(model, observer, scenario, **kw), "reference simulator (numpy)"
+
+
+def _simulate_sampled(args, model, observer, scenario, kw):
+    """--sample-time H: the plant (numpy, on the scenario's grid, inputs held) sampled
+    every H and the observer stepped by the monitor's engine (compiled C by default, as
+    ``monitor``): (result, the engines' description)."""
+    from ..simulation import ReferenceMonitorEngine, sample_steps, simulate
+    h = float(args.sample_time)
+    sample_steps(model, observer, scenario, h)  # its one-line errors before compiling
+    engine, how = None, "reference engine (Python)"
+    if args.engine == "compiled" and observer is not None:
+        from ..codegen import CodegenError, CompiledMonitorEngine
+        try:
+            engine = CompiledMonitorEngine(observer)
+        except CodegenError as exc:
+            print(f"{PROG}: warning: not compiled ({str(exc).splitlines()[0]}); using the"
+                  " monitor's reference engine", file=sys.stderr)
+        else:
+            how = "compiled C" + (" (cache hit)" if engine.cached else "")
+    if engine is None and observer is not None:
+        engine = ReferenceMonitorEngine(observer)
+    res = simulate(model, observer, scenario, sample_time=h, engine=engine, **kw)
+    return res, (f"sampled at h = {h:g}: the plant by the reference simulator (numpy, inputs"
+                 f" held), the observer by the monitor's step ({how})")
 
 
 def _with_bounds(model, res):

@@ -9,7 +9,7 @@ with the row's inputs and outputs held over the interval (zero-order hold); for 
 discrete-time one a row is a step. The rows' checks are those of
 :mod:`observer_cad.simulation` ``_recording``.
 
-The numbers come from an *engine*: :class:`ReferenceMonitorEngine` here (sympy →
+The numbers come from an *engine*: :class:`ReferenceMonitorEngine` (``_engine``: sympy →
 Python floats, a loop over rows), or the compiled C of
 :func:`observer_cad.codegen.compiled_monitor_engine` (the default of
 ``observer-cad monitor``), both with ``run(x0, V, h) -> (O, x)``: ``V`` (N, ny + nu)
@@ -23,7 +23,6 @@ from row to row, so :meth:`Monitor.step` and :meth:`Monitor.run` agree).
 from __future__ import annotations
 
 import dataclasses
-import re
 from typing import Mapping
 
 import numpy as np
@@ -34,6 +33,7 @@ from ..model import PlantModel
 from ..numerics import algebraic_to_float
 from ..observers import Observer
 from ..residuals import DecisionRule, decide
+from ._engine import ReferenceMonitorEngine, check_band_step, monitor_signals
 from ._recording import TIME_RTOL, check_times, declared_envelope, recording_from_columns
 from ._simulate import SimulationResult, align_delay, column_units
 
@@ -45,14 +45,6 @@ __all__ = ["Monitor", "MonitorStep", "ReferenceMonitorEngine", "monitor_signals"
 #: ``alarm`` (0/1) and ``diagnosis`` (text), then always ``in_bounds`` (1 while every
 #: recorded signal with a declared range lies in it, else 0)
 MONITOR_COLUMNS = ("alarm", "diagnosis", "in_bounds")
-
-
-def monitor_signals(observer: Observer) -> tuple:
-    """(measurements y1…, known inputs) the observer reads, as names in its order (the
-    order of the exported C's ``y`` and ``u`` arguments)."""
-    names = [str(s) for s in observer.signals]
-    ys = [s for s in names if re.fullmatch(r"y\d+", s)]
-    return tuple(ys), tuple(s for s in names if s not in ys)
 
 
 def monitor_signal_columns(observer: Observer) -> tuple:
@@ -86,47 +78,6 @@ def monitor_initial_state(observer: Observer, initial: Mapping | None = None, *,
     if zeroed is not None:
         zeroed.extend(sorted(taken))
     return np.array(x0, dtype=float)
-
-
-class ReferenceMonitorEngine:
-    """The observer's step in Python floats (sympy lambdify; a loop over rows): the
-    reference the compiled engine is tested against."""
-
-    kind = "reference (Python)"
-
-    def __init__(self, observer: Observer):
-        ys, us = monitor_signals(observer)
-        par = dict(observer.parameters)
-        xs = list(observer.states)
-        sig = [sp.Symbol(n) for n in ys + us]
-        sym = {str(s): s for s in observer.signals}
-        args = xs + [sym[n] for n in ys + us]
-        fix = [algebraic_to_float(sp.sympify(e)).xreplace(par) for e in observer.update]
-        out = [algebraic_to_float(sp.sympify(e)).xreplace(par) for _, e in observer.outputs]
-        self._upd = sp.lambdify(args, fix or [0], modules="math")
-        self._out = sp.lambdify(args, out or [0], modules="math")
-        self.nx, self.no, self.nv = len(xs), len(out), len(sig)
-        self.continuous = observer.time == "continuous"
-
-    def run(self, x0, V, h: float):
-        x = [float(v) for v in x0]
-        V = np.asarray(V, dtype=float).reshape(-1, self.nv)
-        O = np.empty((V.shape[0], self.no))
-        upd, fo, n = self._upd, self._out, self.nx
-        for k, row in enumerate(V.tolist()):
-            O[k] = fo(*x, *row)[:self.no] if self.no else ()
-            if not n:
-                continue
-            if not self.continuous:
-                x = list(upd(*x, *row))
-                continue
-            k1 = upd(*x, *row)   # RK4 in the operation order of codegen.rk4
-            k2 = upd(*[h / 2 * a + b for a, b in zip(k1, x)], *row)
-            k3 = upd(*[h / 2 * a + b for a, b in zip(k2, x)], *row)
-            k4 = upd(*[h * a + b for a, b in zip(k3, x)], *row)
-            x = [h / 6 * (a + 2 * b + 2 * c + d) + xv
-                 for a, b, c, d, xv in zip(k1, k2, k3, k4, x)]
-        return O, np.array(x, dtype=float)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -245,18 +196,7 @@ class Monitor:
 
     def _check_band_step(self, h) -> None:
         """A sampled-data band (threshold.sample_time) holds only at its own step."""
-        th = getattr(self.observer, "threshold", None)
-        how = getattr(th, "discretisation", "") or ""
-        if how not in ("", "rk4", "discrete"):
-            raise UsageError(f"monitor: the guaranteed band holds for the {how} discretisation;"
-                             " the monitor steps RK4 (build the threshold with"
-                             " discretisation='rk4')")
-        hb = getattr(th, "sample_time", None)
-        if hb is not None and h is not None and self.model.time == "continuous" \
-                and abs(float(h) - hb) > 1e-9 * hb:
-            raise UsageError(f"monitor: the guaranteed band holds for the algorithm stepped at"
-                             f" h = {hb:g}; the data's sample time is {float(h):g} (build the"
-                             " threshold at the data's sample time)")
+        check_band_step(self.model, self.observer, h)
 
     def _in_bounds(self, cols: Mapping, n: int) -> np.ndarray:
         ok = np.ones(n, dtype=bool)

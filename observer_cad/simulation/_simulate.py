@@ -44,6 +44,7 @@ from ..files import read_json_file
 from ..model import PlantModel, parse_expression
 from ..numerics import algebraic_to_float
 from ..observers import Observer, output_symbols
+from ._engine import ReferenceMonitorEngine, sample_steps, step_runs
 from ._sampling import (DECLARED, NOMINAL_CASE, SAMPLING_METHODS, check_distribution, draw_runs,
                         parameter_layout, signal_program)
 
@@ -551,7 +552,8 @@ def _integrate(f, X, U, pvals, t, *, discrete: bool) -> None:
 
 def simulate(model: PlantModel, observer: Observer | None, scenario: Scenario, *,
              runs: int | None = None, keep_nonfinite: bool = False, first_run: int = 0,
-             case: str | None = None, samples: int | None = None) -> SimulationResult:
+             case: str | None = None, samples: int | None = None,
+             sample_time: float | None = None, engine=None) -> SimulationResult:
     """Simulate the plant with the observer attached.
 
     The plant's parameters are the scenario's ``"parameters"`` (sampled per run) or the
@@ -568,8 +570,19 @@ def simulate(model: PlantModel, observer: Observer | None, scenario: Scenario, *
     state, an output or an observer output raises :class:`NonFiniteError` naming the
     first one (time, column, likely cause) — or, with ``keep_nonfinite=True``, is kept
     and described in ``result.nonfinite``.
+
+    ``sample_time=h`` (continuous time; a whole multiple of the scenario's ``dt``): the
+    observer as deployed. The plant is integrated on the scenario's grid with its inputs
+    held (ZOH) over each h, its outputs are sampled at t = 0, h, 2h, … and the observer is
+    stepped once per sample by the monitor's step (``engine``: an object with
+    ``run(x0, V, h)``, default :class:`ReferenceMonitorEngine`; the compiled
+    ``observer_cad.codegen.CompiledMonitorEngine`` gives the same numbers): the result's
+    rows are the samples, and its observer columns are what
+    :class:`~observer_cad.simulation.Monitor` (and the exported C) computes on its t, u
+    and y columns.
     """
     m = model
+    steps = sample_steps(m, observer, scenario, sample_time, engine)
     if observer is not None and observer.time != m.time:
         raise UsageError(f"observer is {observer.time}-time but the model is {m.time}-time")
     R = 1 if runs is None else int(runs)
@@ -592,6 +605,12 @@ def simulate(model: PlantModel, observer: Observer | None, scenario: Scenario, *
     prog = signal_program(m, scenario, t, case=case)
     Vall = prog.values(scenario.seed, ks)
     fns = _numeric_functions(m, observer, layout)
+    if steps:
+        U = np.ascontiguousarray(np.moveaxis(Vall, 2, 0)) if fns.ins else np.zeros((0, R, t.size))
+        cols, order, delays, t = _sampled_columns(m, observer, fns, layout, draws, U, t, steps,
+                                                  engine, float(sample_time))
+        return _finished(cols, order, delays, t, m, observer, runs, keep_nonfinite, scenario,
+                         draws)
     X = np.zeros((len(fns.xs) + len(fns.obs_states), R, t.size))
     X[:len(fns.xs), :, 0] = draws.x0.T
     X[len(fns.xs):, :, 0] = draws.xi0.T
@@ -603,12 +622,61 @@ def simulate(model: PlantModel, observer: Observer | None, scenario: Scenario, *
         else:
             _integrate(fns.f_joint, X, U, pvals, t, discrete=m.time == "discrete")
     cols, order, delays = _result_columns(m, observer, fns, X, U, pvals, t)
+    return _finished(cols, order, delays, t, m, observer, runs, keep_nonfinite, scenario, draws)
+
+
+def _finished(cols, order, delays, t, m, observer, runs, keep_nonfinite, scenario, draws):
+    """:func:`finish_result`, with the plant parameters the scenario drew."""
     res = finish_result(cols, order, delays, t, m, observer, runs, keep_nonfinite,
                         where=scenario.source)
     if draws.plant:
         par_cols = {name: (v if runs is not None else v[0]) for name, v in draws.plant.items()}
         res = dataclasses.replace(res, parameters=par_cols)
     return res
+
+
+def _sampled_columns(m: PlantModel, observer, fns: _Functions, layout, draws, U, t, steps: int,
+                     engine, h: float) -> tuple:
+    """(columns (R, n), CSV order, delays, sample times) of the sampled-data runs
+    (:func:`simulate` with ``sample_time``): the plant on the grid ``t`` with its inputs
+    held over each sample, its outputs sampled, the observer stepped by ``engine``."""
+    pars = list(layout.plant) + list(layout.observer)
+    pvals = [draws.P[:, j] for j in range(len(pars))]
+    R, N = U.shape[1], t.size
+    ni = len(m.inputs)
+    if ni:  # ZOH: the input of sample k over [k h, (k + 1) h)
+        U[:ni] = U[:ni][:, :, (np.arange(N) // steps) * steps]
+    X = np.zeros((len(fns.xs), R, N))
+    X[:, :, 0] = draws.x0.T
+    f_plant = _vector_fn(fns.xs + fns.ins + pars, list(m.dynamics))
+    with np.errstate(all="ignore"):
+        if R == 1:
+            _integrate(f_plant.raw, X[:, 0, :], U[:, 0, :], [v[0] for v in pvals], t,
+                       discrete=False)
+        else:
+            _integrate(f_plant, X, U, pvals, t, discrete=False)
+    idx = np.arange(0, N, steps)
+    ts, Xs, Us = t[idx], X[:, :, idx], np.ascontiguousarray(U[:, :, idx])
+    n = ts.size
+    cols = {"t": np.broadcast_to(ts, (R, n)).copy()}
+    cols.update({s.name: Xs[j] for j, s in enumerate(fns.xs)})
+    with np.errstate(all="ignore"):
+        yv = fns.f_y(*Xs, *Us, *[v[:, None] for v in pvals])
+    cols.update({str(y): np.asarray(v, dtype=float) for y, v in zip(fns.ys, yv)})
+    cols.update({s.name: Us[j] for j, s in enumerate(fns.ins)})
+    order = ["t"] + [s.name for s in fns.xs] + [str(y) for y in fns.ys] + \
+        [s.name for s in fns.ins if s not in m.noise]
+    delays = {}
+    if observer is not None and observer.outputs:
+        if engine is None:
+            engine = ReferenceMonitorEngine(observer)
+        with np.errstate(all="ignore"):
+            O = step_runs(engine, observer, cols, draws.xi0, h, n)
+        for j, (name, _) in enumerate(observer.outputs):
+            delays[name] = int(observer.delays.get(name, 0))
+            cols[name] = align_delay(np.ascontiguousarray(O[:, :, j]), delays[name])
+            order.append(name)
+    return cols, order, delays, ts
 
 
 class _Functions(NamedTuple):
