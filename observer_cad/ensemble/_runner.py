@@ -296,6 +296,13 @@ def _check_summary_memory(total: int, fields: int, scenario) -> None:
                          f" {limit / 2**30:,.1f} GiB; use fewer runs, or raise the limit with"
                          f" {MEMORY_LIMIT_ENV}")
 
+def _refuse_sampled(scenario: Scenario) -> None:
+    """Ensembles run the joint simulation: a sampled scenario is refused in one line."""
+    if scenario.sample_time is not None:
+        raise UsageError(f"{scenario.source or 'scenario'}: \"sample_time\" (the observer"
+                         " as deployed) is not supported by ensembles yet: simulate runs it")
+
+
 def run_ensemble(model: PlantModel, observer: Observer, scenario: Scenario, *, runs: int,
                  engine: str = "compiled", backend: Backend | None = None,
                  chunk: int | None = None, settle: float = 0.0,
@@ -321,6 +328,7 @@ def run_ensemble(model: PlantModel, observer: Observer, scenario: Scenario, *, r
     """
     runs = _whole("runs", runs, 1)
     keep = _whole("keep", keep, 0)
+    _refuse_sampled(scenario)
     if engine not in ENGINES:
         raise UsageError(f"ensemble: engine must be one of {', '.join(ENGINES)}, got {engine!r}")
     backend = backend or Backend("threads")
@@ -420,6 +428,7 @@ def replay(model: PlantModel, observer: Observer, scenario: Scenario, run: int, 
     (a :class:`~observer_cad.simulation.SimulationResult` of one run: (N,) columns). With ``expect``
     (the ensemble's accumulator), the replayed run's summary must equal the recorded one
     bit for bit — :class:`ReplayError` otherwise."""
+    _refuse_sampled(scenario)
     cases = scenario.case_names
     c, k = divmod(_whole("run", run, 0), runs)
     if c >= len(cases):

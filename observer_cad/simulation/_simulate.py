@@ -20,7 +20,9 @@ allocated); :func:`check_memory` refuses arrays above ``$OBSERVER_CAD_MEMORY_LIM
 Every input, fault, disturbance and noise not given is zero. Signals are held constant
 over a step. Continuous time: plant and observer are integrated as one system by
 fixed-step RK4 (the outputs y = h(x, u, d, ρ, w) are evaluated inside the stages, so the
-observer sees the plant exactly as the equations say). Discrete time: both step at once.
+observer sees the plant exactly as the equations say); with ``"sample_time": h`` the observer
+runs as deployed instead: stepped every h by the monitor's step on the plant's sampled
+outputs, the inputs held over h (:func:`simulate`). Discrete time: both step at once.
 
 :func:`simulate` runs one scenario; with ``runs=R`` it runs R seeded realisations of
 the random signals at once (vectorised over runs) for Monte-Carlo checks.
@@ -60,7 +62,8 @@ MEMORY_LIMIT_ENV = "OBSERVER_CAD_MEMORY_LIMIT"
 #: default limit of :func:`check_memory`: 2 GiB
 DEFAULT_MEMORY_LIMIT = 2 * 1024 ** 3
 _KNOWN_KEYS = ("steps", "t_end", "dt", "seed", "initial", "observer_initial", "signals",
-               "description", "parameters", "observer_parameters", "sampling", "cases")
+               "description", "parameters", "observer_parameters", "sampling", "cases",
+               "sample_time")
 
 
 def _is_number(v) -> bool:
@@ -156,6 +159,7 @@ class Scenario:
     observer_parameters: Mapping | None = None
     sampling: str = "random"
     cases: Mapping | None = None
+    sample_time: float | None = None
 
     def __post_init__(self):
         where = self.source or "scenario"
@@ -200,7 +204,7 @@ class Scenario:
             if st < 1:
                 raise UsageError(f"{where}: 'steps' must be at least 1, got {st}")
             object.__setattr__(self, "steps", st)
-        for key in ("t_end", "dt"):
+        for key in ("t_end", "dt", "sample_time"):
             v = getattr(self, key)
             if v is not None:
                 _finite(where, f"'{key}'", v)
@@ -270,7 +274,8 @@ def scenario_from_dict(data: dict, source: str | None = None) -> Scenario:
                     t_end=data.get("t_end"), dt=data.get("dt"), seed=data.get("seed", 0),
                     source=source, parameters=data.get("parameters"),
                     observer_parameters=data.get("observer_parameters"),
-                    sampling=data.get("sampling", "random"), cases=data.get("cases"))
+                    sampling=data.get("sampling", "random"), cases=data.get("cases"),
+                    sample_time=data.get("sample_time"))
 
 
 def memory_limit() -> int:
@@ -571,7 +576,8 @@ def simulate(model: PlantModel, observer: Observer | None, scenario: Scenario, *
     first one (time, column, likely cause) — or, with ``keep_nonfinite=True``, is kept
     and described in ``result.nonfinite``.
 
-    ``sample_time=h`` (continuous time; a whole multiple of the scenario's ``dt``): the
+    ``sample_time=h`` (default the scenario's ``"sample_time"``; continuous time, a whole
+    multiple of the scenario's ``dt``): the
     observer as deployed. The plant is integrated on the scenario's grid with its inputs
     held (ZOH) over each h, its outputs are sampled at t = 0, h, 2h, … and the observer is
     stepped once per sample by the monitor's step (``engine``: an object with
@@ -582,6 +588,8 @@ def simulate(model: PlantModel, observer: Observer | None, scenario: Scenario, *
     and y columns.
     """
     m = model
+    if sample_time is None:
+        sample_time = scenario.sample_time
     steps = sample_steps(m, observer, scenario, sample_time, engine)
     if observer is not None and observer.time != m.time:
         raise UsageError(f"observer is {observer.time}-time but the model is {m.time}-time")
