@@ -198,6 +198,15 @@ class Monitor:
         """A sampled-data band (threshold.sample_time) holds only at its own step."""
         check_band_step(self.model, self.observer, h)
 
+    def _check_exact_step(self, t0: float, t1: float, row: int) -> None:
+        """A sampled-data band holds for steps of exactly its h (as :meth:`run` checks)."""
+        hb = getattr(getattr(self.observer, "threshold", None), "sample_time", None)
+        if hb is not None and self.model.time == "continuous" and \
+                abs((t1 - t0) - hb) > 1e-9 * hb + 4 * np.finfo(float).eps * abs(t1):
+            raise UsageError(f"{self.source}: the guaranteed band holds for steps of exactly"
+                             f" h = {hb:g}; the interval before t = {t1:g} (row {row + 1}) is"
+                             f" {t1 - t0:.12g}")
+
     def _in_bounds(self, cols: Mapping, n: int) -> np.ndarray:
         ok = np.ones(n, dtype=bool)
         for name, (lo, hi) in self.envelope.items():
@@ -267,6 +276,7 @@ class Monitor:
                             sample_time=self.sample_time, source=self.source, first_row=n,
                             h=self.h)
             self._check_band_step(h)
+            self._check_exact_step(self._t[-1], t, n)
             if self._pending is not None:  # the first interval gives h: the first step now
                 with np.errstate(all="ignore"):
                     _, self.x = self.engine.run(self.x, self._pending, h)
