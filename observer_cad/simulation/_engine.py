@@ -23,7 +23,7 @@ from ..model import PlantModel
 from ..numerics import algebraic_to_float
 from ..observers import Observer
 
-__all__ = ["monitor_signals", "ReferenceMonitorEngine", "check_band_step", "step_runs",
+__all__ = ["monitor_signals", "monitor_initial_state", "ReferenceMonitorEngine", "check_band_step", "step_runs",
            "sample_steps"]
 
 
@@ -33,6 +33,32 @@ def monitor_signals(observer: Observer) -> tuple:
     names = [str(s) for s in observer.signals]
     ys = [s for s in names if re.fullmatch(r"y\d+", s)]
     return tuple(ys), tuple(s for s in names if s not in ys)
+
+
+def monitor_initial_state(observer: Observer, initial: Mapping | None = None, *,
+                          zeroed: list | None = None) -> np.ndarray:
+    """The observer's initial state: ``observer.initial`` with the plant symbols it
+    mentions set from ``initial`` (name → value; an observer state's name sets that
+    state) and the rest 0 — the default of the exported C. ``zeroed``: a list that
+    receives the names taken as 0."""
+    given = {str(k): float(v) for k, v in (initial or {}).items()}
+    par = dict(observer.parameters)
+    x0 = []
+    taken = set()
+    for s in observer.states:
+        if str(s) in given:
+            x0.append(given[str(s)])
+            continue
+        e = algebraic_to_float(sp.sympify(observer.initial.get(s, 0))).xreplace(par)
+        sub = {v: given.get(str(v), 0.0) for v in e.free_symbols}
+        taken.update(str(v) for v in e.free_symbols if str(v) not in given)
+        try:
+            x0.append(float(e.xreplace(sub)))
+        except TypeError:
+            raise UsageError(f"monitor: the initial value of {s} ({e}) is not a number") from None
+    if zeroed is not None:
+        zeroed.extend(sorted(taken))
+    return np.array(x0, dtype=float)
 
 
 class ReferenceMonitorEngine:

@@ -26,14 +26,13 @@ import dataclasses
 from typing import Mapping
 
 import numpy as np
-import sympy as sp
 
 from ..errors import UsageError
 from ..model import PlantModel
-from ..numerics import algebraic_to_float
 from ..observers import Observer
 from ..residuals import DecisionRule, decide
-from ._engine import ReferenceMonitorEngine, check_band_step, monitor_signals
+from ._engine import (ReferenceMonitorEngine, check_band_step, monitor_initial_state,
+                      monitor_signals)
 from ._recording import TIME_RTOL, check_times, declared_envelope, recording_from_columns
 from ._simulate import SimulationResult, align_delay, column_units
 
@@ -52,32 +51,6 @@ def monitor_signal_columns(observer: Observer) -> tuple:
     the measurements by number (y1, y2, …), then the known inputs in the observer's order."""
     ys, us = monitor_signals(observer)
     return tuple(sorted(ys, key=lambda s: int(s[1:]))) + us
-
-
-def monitor_initial_state(observer: Observer, initial: Mapping | None = None, *,
-                          zeroed: list | None = None) -> np.ndarray:
-    """The observer's initial state: ``observer.initial`` with the plant symbols it
-    mentions set from ``initial`` (name → value; an observer state's name sets that
-    state) and the rest 0 — the default of the exported C. ``zeroed``: a list that
-    receives the names taken as 0."""
-    given = {str(k): float(v) for k, v in (initial or {}).items()}
-    par = dict(observer.parameters)
-    x0 = []
-    taken = set()
-    for s in observer.states:
-        if str(s) in given:
-            x0.append(given[str(s)])
-            continue
-        e = algebraic_to_float(sp.sympify(observer.initial.get(s, 0))).xreplace(par)
-        sub = {v: given.get(str(v), 0.0) for v in e.free_symbols}
-        taken.update(str(v) for v in e.free_symbols if str(v) not in given)
-        try:
-            x0.append(float(e.xreplace(sub)))
-        except TypeError:
-            raise UsageError(f"monitor: the initial value of {s} ({e}) is not a number") from None
-    if zeroed is not None:
-        zeroed.extend(sorted(taken))
-    return np.array(x0, dtype=float)
 
 
 @dataclasses.dataclass(frozen=True)

@@ -46,7 +46,7 @@ from ..files import read_json_file
 from ..model import PlantModel, parse_expression
 from ..numerics import algebraic_to_float
 from ..observers import Observer, output_symbols
-from ._engine import ReferenceMonitorEngine, sample_steps, step_runs
+from ._engine import ReferenceMonitorEngine, monitor_initial_state, sample_steps, step_runs
 from ._sampling import (DECLARED, NOMINAL_CASE, SAMPLING_METHODS, check_distribution, draw_runs,
                         parameter_layout, signal_program)
 
@@ -613,16 +613,16 @@ def simulate(model: PlantModel, observer: Observer | None, scenario: Scenario, *
     prog = signal_program(m, scenario, t, case=case)
     Vall = prog.values(scenario.seed, ks)
     fns = _numeric_functions(m, observer, layout)
+    U = np.ascontiguousarray(np.moveaxis(Vall, 2, 0)) if fns.ins else np.zeros((0, R, t.size))
     if steps:
-        U = np.ascontiguousarray(np.moveaxis(Vall, 2, 0)) if fns.ins else np.zeros((0, R, t.size))
         cols, order, delays, t = _sampled_columns(m, observer, fns, layout, draws, U, t, steps,
-                                                  engine, float(sample_time))
+                                                  engine, float(sample_time),
+                                                  set(scenario.observer_initial or {}))
         return _finished(cols, order, delays, t, m, observer, runs, keep_nonfinite, scenario,
                          draws)
     X = np.zeros((len(fns.xs) + len(fns.obs_states), R, t.size))
     X[:len(fns.xs), :, 0] = draws.x0.T
     X[len(fns.xs):, :, 0] = draws.xi0.T
-    U = np.ascontiguousarray(np.moveaxis(Vall, 2, 0)) if fns.ins else np.zeros((0, R, t.size))
     with np.errstate(all="ignore"):  # non-finite values are reported below, not warned
         if R == 1:
             _integrate(fns.f_joint.raw, X[:, 0, :], U[:, 0, :], [v[0] for v in pvals], t,
@@ -644,10 +644,11 @@ def _finished(cols, order, delays, t, m, observer, runs, keep_nonfinite, scenari
 
 
 def _sampled_columns(m: PlantModel, observer, fns: _Functions, layout, draws, U, t, steps: int,
-                     engine, h: float) -> tuple:
+                     engine, h: float, given=()) -> tuple:
     """(columns (R, n), CSV order, delays, sample times) of the sampled-data runs
     (:func:`simulate` with ``sample_time``): the plant on the grid ``t`` with its inputs
-    held over each sample, its outputs sampled, the observer stepped by ``engine``."""
+    held over each sample, its outputs sampled, the observer stepped by ``engine`` (the
+    states named in ``given`` start as the scenario says, the others as the monitor's)."""
     pars = list(layout.plant) + list(layout.observer)
     pvals = [draws.P[:, j] for j in range(len(pars))]
     R, N = U.shape[1], t.size
@@ -678,8 +679,10 @@ def _sampled_columns(m: PlantModel, observer, fns: _Functions, layout, draws, U,
     if observer is not None and observer.outputs:
         if engine is None:
             engine = ReferenceMonitorEngine(observer)
+        mine = [str(s) in given for s in observer.states]  # else the monitor's start
+        xi0 = np.where(mine, draws.xi0, monitor_initial_state(observer)).reshape(draws.xi0.shape)
         with np.errstate(all="ignore"):
-            O = step_runs(engine, observer, cols, draws.xi0, h, n)
+            O = step_runs(engine, observer, cols, xi0, h, n)
         for j, (name, _) in enumerate(observer.outputs):
             delays[name] = int(observer.delays.get(name, 0))
             cols[name] = align_delay(np.ascontiguousarray(O[:, :, j]), delays[name])

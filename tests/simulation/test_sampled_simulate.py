@@ -139,3 +139,20 @@ def test_without_an_observer_the_plant_alone_is_sampled(motor):
     res = simulate(m, None, _scenario(2), sample_time=0.01)
     assert res.order == ("t", "i", "w", "wl", "y1", "y2", "y3", "u", "d", "rho")
     assert np.asarray(res["t"]).size == 201
+
+
+def test_the_observer_starts_where_the_monitor_starts(motor):
+    """The plain observer starts at Φ x(0) = i(0) in the joint simulation; deployed, x(0) is
+    not known and it starts as the monitor and the exported C do (plant states at 0), unless
+    the scenario's observer_initial says otherwise."""
+    m, o, _ = motor
+    assert str(dict(o.initial)[o.states[0]]) == "i"
+    sc = scenario_from_dict({"t_end": 1, "dt": 0.002, "initial": {"i": 0.3, "w": -0.5},
+                             "signals": {"u": "sin(t)"}})
+    assert simulate(m, o, sc)["r"][0] == 0
+    res = simulate(m, o, sc, sample_time=0.01)
+    table = Monitor(m, o).run({c: res[c] for c in ("t", "u", "y1", "y2", "y3")})
+    np.testing.assert_array_equal(table["r"], res["r"])
+    assert res["r"][0] == pytest.approx(0.3)
+    given = dataclasses.replace(sc, observer_initial={str(o.states[0]): 0.7})
+    assert simulate(m, o, given, sample_time=0.01)["r"][0] == pytest.approx(0.3 - 0.7)
