@@ -132,6 +132,11 @@ def _add_ensemble(sub) -> None:
     en.add_argument("--runs", metavar="N", type=_positive_int("--runs"), required=True,
                     help="samples per fault case (run i is sample i mod N of case i div N)")
     en.add_argument("--out", metavar="DIR", type=_out_dir, required=True, help="output directory")
+    en.add_argument("--sample-time", metavar="H", type=_positive_float("--sample-time"),
+                    default=None,
+                    help="continuous time: every run with the observer as deployed (as simulate"
+                         " --sample-time H: stepped every H by the monitor's step on sampled"
+                         " outputs, inputs held); the plant runs in numpy, on threads")
     en.add_argument("--workers", metavar="W", type=_positive_int("--workers"), default=None,
                     help="threads or processes (default: every core)")
     en.add_argument("--backend", choices=["threads", "processes", "dask", "serial"], default=None,

@@ -25,10 +25,7 @@ def cmd_simulate(args) -> int:
     report("building the observer", stage=True)
     observer = build_observer(model, result, **observer_options(args, result))
     refuse_failed(observer)
-    h = getattr(args, "sample_time", None)
-    if h is not None:  # the option sets the scenario's (a quantile is estimated on it too)
-        import dataclasses
-        scenario = dataclasses.replace(scenario, sample_time=float(h))
+    scenario = _sampled_scenario(args, scenario)
     h = scenario.sample_time
     if h is not None:
         from ..simulation import sample_steps
@@ -80,6 +77,15 @@ def cmd_simulate(args) -> int:
             return 3
         print(rep.message)
     return 0
+
+
+def _sampled_scenario(args, scenario):
+    """The scenario with --sample-time as its "sample_time" (a quantile threshold is then
+    estimated on the sampled runs too)."""
+    if getattr(args, "sample_time", None) is None:
+        return scenario
+    import dataclasses
+    return dataclasses.replace(scenario, sample_time=float(args.sample_time))
 
 
 def _simulate_with_engine(args, model, observer, scenario):
@@ -220,10 +226,7 @@ def cmd_ensemble(args) -> int:
     from ..simulation import load_scenario
     if args.symbolic:
         raise UsageError("ensemble needs numeric parameters: drop --symbolic")
-    scenario = load_scenario(args.scenario)
-    if scenario.sample_time is not None:  # before the design's work
-        raise UsageError(f"{scenario.source}: \"sample_time\" (the observer as deployed) is not"
-                         " supported by ensembles yet: simulate runs it")
+    scenario = _sampled_scenario(args, load_scenario(args.scenario))
     backend = _backend(args)
     model, observer, rule = _ensemble_observer(args, scenario)
     out = Path(args.out)
@@ -236,7 +239,7 @@ def cmd_ensemble(args) -> int:
                              folders=["figures", "worst"])
     title = f"{model.name}, {observer.kind}"
     sim = None
-    if args.engine == "compiled":
+    if args.engine == "compiled" and scenario.sample_time is None:
         from ..codegen import CodegenError, CompiledSimulator
         report("compiling", stage=True)
         try:
@@ -273,8 +276,12 @@ def _ensemble_observer(args, scenario) -> tuple:
     observer = build_observer(model, result, **observer_options(args, result))
     refuse_failed(observer)
     # a quantile threshold is estimated on other samples than the ones it is validated on
+    if scenario.sample_time is not None:
+        from ..simulation import sample_steps
+        sample_steps(model, observer, scenario, scenario.sample_time)
     observer = threshold_from_args(args, model, observer, scenario,
-                                   seed=(scenario.seed + CALIBRATION_OFFSET) % 2 ** 64)
+                                   seed=(scenario.seed + CALIBRATION_OFFSET) % 2 ** 64,
+                                   sample_time=scenario.sample_time)
     refuse_failed(observer)
     rule = None
     if observer.threshold is not None:

@@ -99,7 +99,7 @@ def test_bad_sample_times_are_refused_in_one_line(capsys, tmp_path, scenario, ar
     assert not (tmp_path / "o").exists()
 
 
-def test_discrete_models_and_ensembles_refuse_it(capsys, tmp_path, scenario):
+def test_discrete_models_and_process_ensembles_refuse_it(capsys, tmp_path, scenario):
     sc = tmp_path / "drive.json"
     sc.write_text(json.dumps({"steps": 20}))
     rc, _, err = run(capsys, ["simulate", ROOT / "models" / "electric_drive_uncertain.py",
@@ -107,6 +107,6 @@ def test_discrete_models_and_ensembles_refuse_it(capsys, tmp_path, scenario):
                               "--out", tmp_path / "o"])
     assert rc == 2 and "a sample time applies to a continuous-time model" in err
     rc, _, err = run(capsys, ["ensemble", MOTOR, *DESIGN, "--scenario", scenario(sample_time=0.01),
-                              "--runs", "2", "--out", tmp_path / "e"])
-    assert rc == 2 and "not supported by ensembles yet" in err
+                              "--runs", "2", "--backend", "processes", "--out", tmp_path / "e"])
+    assert rc == 2 and "a sampled scenario (\"sample_time\") runs in this process only" in err
     assert len(err.strip().splitlines()) == 1
