@@ -185,8 +185,9 @@ def _warn_envelope(mon, res) -> None:
 def _stream(args, mon, rename: dict, how: str, *, later=None) -> int:
     """--data -: rows from stdin as they arrive, each change of alarm or diagnosis printed
     (flushed) at once; at the end of the input the files as for a file. ``later``:
-    (``monitor_at(h)``, the observer, the model) when the band is the sampled one of the data's sample
-    time: the monitor is made once the first two rows give h, then steps them."""
+    (``monitor_at(h)``, the observer, the model) when the band is the sampled one of the
+    data's sample time: the monitor is made once the first two rows give h, then steps
+    them."""
     import csv
     from ..simulation import declared_envelope, monitor_signals, parse_row
     src = "<stdin>"

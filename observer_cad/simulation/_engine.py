@@ -23,8 +23,8 @@ from ..model import PlantModel
 from ..numerics import algebraic_to_float
 from ..observers import Observer
 
-__all__ = ["monitor_signals", "monitor_initial_state", "ReferenceMonitorEngine", "check_band_step", "step_runs",
-           "sample_steps"]
+__all__ = ["monitor_signals", "monitor_initial_state", "ReferenceMonitorEngine", "check_band_step",
+           "step_runs", "sample_steps"]
 
 
 def monitor_signals(observer: Observer) -> tuple:
@@ -155,7 +155,8 @@ def sample_steps(m: PlantModel, observer, scenario, h, engine=None) -> int:
     if m.time != "continuous":
         raise UsageError(f"{where}: a sample time applies to a continuous-time model (a"
                          " discrete-time model's step is its sample)")
-    if isinstance(h, bool) or not isinstance(h, numbers.Real) or not (math.isfinite(float(h)) and float(h) > 0):
+    if isinstance(h, bool) or not isinstance(h, numbers.Real) \
+            or not (math.isfinite(float(h)) and float(h) > 0):
         raise UsageError(f"{where}: the sample time must be a positive finite number, got {h!r}")
     scenario.size(m.time)  # t_end and dt given, consistent
     h, dt = float(h), float(scenario.dt)

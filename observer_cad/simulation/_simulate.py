@@ -577,15 +577,14 @@ def simulate(model: PlantModel, observer: Observer | None, scenario: Scenario, *
     and described in ``result.nonfinite``.
 
     ``sample_time=h`` (default the scenario's ``"sample_time"``; continuous time, a whole
-    multiple of the scenario's ``dt``): the
-    observer as deployed. The plant is integrated on the scenario's grid with its inputs
-    held (ZOH) over each h, its outputs are sampled at t = 0, h, 2h, … and the observer is
-    stepped once per sample by the monitor's step (``engine``: an object with
-    ``run(x0, V, h)``, default :class:`ReferenceMonitorEngine`; the compiled
-    ``observer_cad.codegen.CompiledMonitorEngine`` gives the same numbers): the result's
-    rows are the samples, and its observer columns are what
-    :class:`~observer_cad.simulation.Monitor` (and the exported C) computes on its t, u
-    and y columns.
+    multiple of the scenario's ``dt``): the observer as deployed. The plant is integrated
+    on the scenario's grid with its inputs held (ZOH) over each h, its outputs are sampled
+    at t = 0, h, 2h, … and the observer is stepped once per sample by the monitor's step
+    (``engine``: an object with ``run(x0, V, h)``, default :class:`ReferenceMonitorEngine`;
+    ``observer_cad.codegen.CompiledMonitorEngine`` gives the same numbers to ~1e-15),
+    from where the monitor starts. The rows are the samples; the observer columns are
+    what :class:`~observer_cad.simulation.Monitor` (and the exported C) computes on the
+    t, u and y columns.
     """
     m = model
     if sample_time is None:
