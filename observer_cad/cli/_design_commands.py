@@ -8,7 +8,8 @@ from pathlib import Path
 
 from ..errors import FailedConditionError, UsageError
 from ..progress import report
-from ._from_args import design_or_load, observer_options, refuse_failed, threshold_from_args
+from ._from_args import (design_or_load, observer_options, refuse_failed, threshold_from_args,
+                         unsampled_band_note)
 
 __all__ = ["cmd_design", "cmd_codegen"]
 
@@ -152,6 +153,9 @@ def cmd_codegen(args) -> int:
             paths.append(fmu.path)
     for p in paths:
         print(f"wrote {out / Path(p).relative_to(stage)}")
+    note = unsampled_band_note(model, observer, band_step) if band_step is not None else ""
+    if note:
+        print(note)
     if fmu is not None:
         for src, fmi in fmu.renamed:
             print(f"fmu: '{src}' is named {fmi} (FMI names are identifiers; listed in"

@@ -9,7 +9,8 @@ from ..errors import UsageError
 from ..progress import report
 from ._parser import PROG
 
-__all__ = ["design_or_load", "design_from_args", "observer_options", "threshold_from_args", "refuse_failed"]
+__all__ = ["design_or_load", "design_from_args", "observer_options", "threshold_from_args", "refuse_failed",
+           "unsampled_band_note"]
 
 
 def design_from_args(args):
@@ -284,10 +285,29 @@ def threshold_from_args(args, model, observer, scenario=None, *, seed=None, samp
     if spec.kind == "guaranteed" and sample_time is not None and model.time == "continuous" \
             and e0 == 0 and all(s in model.bounds for s in model.states + model.inputs):
         import sympy as sp
-        from ..residuals import sampled_threshold
-        return sampled_threshold(model, observer, sp.Rational(repr(float(sample_time))))
+        from ..residuals import sampled_band_refusal, sampled_threshold
+        if not sampled_band_refusal(model, observer):  # else the band of continuous
+            return sampled_threshold(  # observation, with a note (unsampled_band_note)
+                model, observer, sp.Rational(repr(float(sample_time))))
     return apply_threshold(model, observer, spec, scenario=scenario, initial_error=e0,
                            runs=getattr(args, "quantile_runs", 200), seed=seed)
+
+
+def unsampled_band_note(model, observer, h) -> str:
+    """For a guaranteed band of continuous observation on a continuous-time observer that
+    runs sampled at ``h``: one line saying that the hold over each step is not covered and
+    what gives the band that covers it (the sampled-data one); "" otherwise."""
+    th = observer.threshold
+    if model.time != "continuous" or th is None or th.kind != "guaranteed" \
+            or th.sample_time is not None:
+        return ""
+    missing = [str(s) for s in model.states + model.inputs if s not in model.bounds]
+    why = (f"declare bounds for every state and input (the operating envelope; {missing[0]}"
+           " has none) for the sampled-data band" if missing else
+           "the sampled-data band needs a plant and residual generator linear in their"
+           " states and inputs")
+    return (f"note: this band is that of continuous observation: the sampling at h = {h:.10g} s"
+            f" (y and u held over each step) is not covered; {why}")
 
 
 def refuse_failed(observer) -> None:

@@ -8,7 +8,8 @@ from pathlib import Path
 from ..errors import UsageError
 from ..residuals import ThresholdSpec
 from ..progress import report
-from ._from_args import design_or_load, observer_options, refuse_failed, threshold_from_args
+from ._from_args import (design_or_load, observer_options, refuse_failed, threshold_from_args,
+                         unsampled_band_note)
 from ._parser import PROG
 
 __all__ = ["cmd_monitor"]
@@ -154,6 +155,9 @@ def _print_findings(mon, res) -> None:
     if mon.rule is None:
         return
     print(f"threshold: {mon.observer.threshold.text()}")
+    note = unsampled_band_note(mon.model, mon.observer, mon.h)
+    if note:
+        print(note)
     alarm = np.asarray(res["alarm"]) != 0
     diag = np.asarray(res["diagnosis"])
     if alarm.any():

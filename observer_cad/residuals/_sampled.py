@@ -43,7 +43,7 @@ from ..observers import Observer, output_symbols
 from ._l1 import transient_envelope, worst_case_sums
 from ._threshold import ErrorSystem, Threshold, residual_names
 
-__all__ = ["sampled_threshold", "SAMPLED_DISCRETISATIONS", "ROUNDOFF_FACTOR"]
+__all__ = ["sampled_threshold", "sampled_band_refusal", "SAMPLED_DISCRETISATIONS", "ROUNDOFF_FACTOR"]
 
 SAMPLED_DISCRETISATIONS = ("rk4", "zoh")
 
@@ -501,6 +501,22 @@ def _error_system(model: PlantModel, g: dict, hold: dict, sysm: dict, Bf, residu
                        sp.ImmutableMatrix(g["Gr"] * Df if Df.cols else
                                           sp.zeros(len(residuals), len(model.faults))),
                        tuple(str(d) for d in model.faults), residuals) if k >= 0 else None
+
+
+def sampled_band_refusal(model: PlantModel, observer: Observer) -> str:
+    """Why :func:`sampled_threshold` cannot bound this plant and residual generator (its
+    plant or its residual generator is not linear with constant coefficients), "" when it
+    can (the envelope and the step are checked by :func:`sampled_threshold` itself)."""
+    where = model.where
+    try:
+        _generator(model, observer, residual_names(observer), where)
+        dynx, outx, box, _ = _nominal(model)
+        unc = tuple(box) + tuple(model.disturbances) + tuple(model.noise)
+        _split(dynx, model.states, model.inputs, unc, "dynamics equation", where)
+        _split(outx, model.states, model.inputs, unc, "output", where)
+    except UsageError as exc:
+        return str(exc)
+    return ""
 
 
 def sampled_threshold(model: PlantModel, observer: Observer, h=None, *,

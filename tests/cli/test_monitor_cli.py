@@ -51,6 +51,10 @@ def test_monitor_writes_the_table_and_the_figure(capsys, tmp_path):
     first = [ln for ln in so.splitlines() if ln.startswith("first alarm at t = ")]
     assert first and 20 <= float(first[0].split()[5]) < 21
     assert "diagnosis at the end (t = 30 s): f2" in so
+    # no operating envelope: the band of continuous observation says what it leaves out
+    assert ("note: this band is that of continuous observation: the sampling at h = 0.05 s"
+            " (y and u held over each step) is not covered; declare bounds for every state and"
+            " input (the operating envelope; x1 has none)") in so
 
 
 def _rewrite(src: Path, dst: Path, edit) -> Path:
@@ -330,3 +334,58 @@ def test_a_sampled_band_needs_exactly_regular_samples(capsys, tmp_path):
     assert rc == 2 and len(se.strip().splitlines()) == 1 and "exactly" in se, se
     assert "row 100" in se or "row 101" in se, se
     assert not (tmp_path / "m").exists()
+
+
+def test_codegen_says_when_its_band_leaves_the_sampling_out(capsys, tmp_path):
+    """The exported C steps a continuous-time observer at --dt: without an operating
+    envelope its guaranteed band is that of continuous observation, and codegen says so;
+    with one (models/dc_motor_sampled.py) the band is the sampled-data one, no note."""
+    rc, so, se = run(capsys, ["codegen", TANKS, *BANK, "--out", tmp_path / "c1"])
+    assert rc == 0, se
+    assert "note: this band is that of continuous observation: the sampling at h = 0.01 s" in so
+    motor = ROOT / "models" / "dc_motor_sampled.py"
+    rc, so, se = run(capsys, ["codegen", motor, "--observer", "diagnostic", "--lambda=-4",
+                              "--threshold", "guaranteed", "--out", tmp_path / "c2"])
+    assert rc == 0, se
+    assert "note:" not in so and "wrote" in so
+
+
+NONLINEAR = '''
+import sympy as sp
+from observer_cad import PlantModel
+x1, x2, u, f, w1, w2 = sp.symbols("x1 x2 u f w1 w2")
+model = PlantModel(
+    name="pendulum_like", time="continuous", states=[x1, x2], inputs=[u], faults=[f],
+    noise=[w1, w2], outputs=[x1 + w1, x2 + w2],
+    dynamics=[x2, -x1 + x1**3 / 6 - x2 + u + f],
+    bounds={x1: (-1, 1), x2: (-2, 2), u: (-1, 1), f: (-1, 1), w1: (-0.01, 0.01),
+            w2: (-0.01, 0.01)})
+'''
+
+
+def test_a_nonlinear_plant_with_an_envelope_gets_the_continuous_band_and_a_note(
+        capsys, tmp_path):
+    """The sampled-data band bounds linear plants only: for a nonlinear one that declares
+    its envelope the monitor keeps the band of continuous observation and says what it
+    leaves out, instead of refusing the run."""
+    import numpy as np
+    from observer_cad import build_observer, design, load_model
+    from observer_cad.residuals import sampled_band_refusal
+    path = tmp_path / "pendulum_like.py"
+    path.write_text(NONLINEAR)
+    m = load_model(path)
+    o = build_observer(m, design(m, observer="diagnostic"))
+    assert "need a linear residual generator" in sampled_band_refusal(m, o)
+    motor = load_model(ROOT / "models" / "dc_motor_sampled.py")
+    assert sampled_band_refusal(motor, build_observer(
+        motor, design(motor, observer="diagnostic", lambdas=[-4]))) == ""
+    t = np.arange(0, 2.001, 0.01)
+    data = tmp_path / "data.csv"
+    np.savetxt(data, np.column_stack([t, 0.1 * np.sin(t), 0 * t, 0 * t]), delimiter=",",
+               header="t,u,y1,y2", comments="")
+    rc, so, se = run(capsys, ["monitor", path, "--observer", "diagnostic", "--threshold",
+                              "guaranteed", "--data", data, "--out", tmp_path / "mon"])
+    assert rc == 0, se
+    assert "threshold: guaranteed adaptive threshold" in so
+    assert ("the sampling at h = 0.01 s (y and u held over each step) is not covered; the"
+            " sampled-data band needs a plant and residual generator linear") in so
