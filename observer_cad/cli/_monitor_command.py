@@ -64,7 +64,7 @@ def cmd_monitor(args) -> int:
         return Monitor(model, obs, rule=rule, sample_time=args.sample_time, initial=initial,
                        engine=engine), how
     if data is None:
-        if _band_needs_h(args, model):  # the sampled band, once two rows give h
+        if _band_needs_h(args, model, observer):  # the sampled band, once two rows give h
             return _stream(args, None, rename, "", later=(monitor_at, observer, model))
         mon, how = monitor_at(None)
         return _stream(args, mon, rename, how)
@@ -74,13 +74,16 @@ def cmd_monitor(args) -> int:
     return _finish(args, mon, res, how)
 
 
-def _band_needs_h(args, model) -> bool:
+def _band_needs_h(args, model, observer) -> bool:
     """Whether --threshold asks for the sampled-data band of the data's own sample time
-    (guaranteed, a continuous-time model declaring its operating envelope)."""
+    (guaranteed, a continuous-time model declaring its operating envelope, a plant and
+    residual generator it can bound)."""
+    from ..residuals import sampled_band_refusal
     return model.time == "continuous" and args.threshold is not None \
         and ThresholdSpec.parse(args.threshold).kind == "guaranteed" \
         and getattr(args, "initial_error", "0") == "0" \
-        and all(s in model.bounds for s in model.states + model.inputs)
+        and all(s in model.bounds for s in model.states + model.inputs) \
+        and not sampled_band_refusal(model, observer)
 
 
 def _data_step(data, rename):

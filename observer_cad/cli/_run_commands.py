@@ -8,7 +8,8 @@ from pathlib import Path
 
 from ..errors import UsageError
 from ..progress import report
-from ._from_args import design_or_load, observer_options, refuse_failed, threshold_from_args
+from ._from_args import (design_or_load, observer_options, refuse_failed, threshold_from_args,
+                         unsampled_band_note)
 from ._parser import PROG
 
 __all__ = ["cmd_simulate", "cmd_ensemble", "CALIBRATION_OFFSET"]
@@ -65,6 +66,10 @@ def cmd_simulate(args) -> int:
     print("\n".join(lines))
     if decisions is not None:
         _print_evaluation(model, observer, res, decisions)
+        note = unsampled_band_note(model, observer, scenario.sample_time) \
+            if scenario.sample_time is not None else ""
+        if note:
+            print(note)
         _warn_bounds(written, out_of_bounds)
     if res.nonfinite is not None:
         print(f"{PROG}: warning: {res.nonfinite} (kept in the CSV as nan/inf)", file=sys.stderr)
