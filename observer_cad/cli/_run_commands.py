@@ -155,13 +155,22 @@ def _simulate_sampled(args, model, observer, scenario, kw):
 
 def _with_bounds(model, res):
     """(the result with ``in_bounds`` appended — 1 while every disturbance, noise and
-    bounded input the scenario drew lies in its declared range —, the first violation
-    ``(index, name, value, low, high)`` or None)."""
+    bounded input the scenario drew lies in its declared range, in a sampled run over each
+    sample's hold —, the first violation ``(index, name, value, low, high)`` or None)."""
     import dataclasses
     import numpy as np
     from ..simulation import bounds_check, declared_signal_bounds
     n = int(np.asarray(res["t"]).size)
-    ok, first = bounds_check(declared_signal_bounds(model), res.columns, n)
+    ranges = declared_signal_bounds(model)
+    ok, first = bounds_check(ranges, res.columns, n)
+    for name, (lo_k, hi_k) in res.holds.items():  # sampled: between the samples too
+        if name in ranges:
+            k_ok, k_first = bounds_check({name: ranges[name]}, {name: lo_k}, n)
+            h_ok, h_first = bounds_check({name: ranges[name]}, {name: hi_k}, n)
+            ok &= k_ok & h_ok
+            for f in (k_first, h_first):
+                if f is not None and (first is None or f[0] < first[0]):
+                    first = f
     cols = dict(res.columns)
     cols["in_bounds"] = ok.astype(np.int64)
     return dataclasses.replace(res, columns=cols, order=tuple(res.order) + ("in_bounds",)), first

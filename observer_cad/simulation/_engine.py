@@ -24,7 +24,7 @@ from ..numerics import algebraic_to_float
 from ..observers import Observer
 
 __all__ = ["monitor_signals", "monitor_initial_state", "ReferenceMonitorEngine", "check_band_step",
-           "step_runs", "sample_steps"]
+           "step_runs", "sample_steps", "hold_ranges"]
 
 
 def monitor_signals(observer: Observer) -> tuple:
@@ -174,3 +174,19 @@ def sample_steps(m: PlantModel, observer, scenario, h, engine=None) -> int:
                              " (the deployed observer runs with its own parameters)")
         check_band_step(m, observer, h, where=where)
     return steps
+
+
+def hold_ranges(model: PlantModel, names, U: np.ndarray, steps: int, single: bool) -> dict:
+    """What a sampled run's disturbances and noise did between the samples: name → (min,
+    max) over each sample's hold (grid points k·steps … (k + 1)·steps − 1 of ``U``,
+    signals × runs × grid points, in the order of ``names``), each (R, n), or (n,) when
+    ``single``."""
+    which = set(model.disturbances) | set(model.noise)
+    idx = np.arange(0, U.shape[-1], steps)
+    out = {}
+    for j, s in enumerate(names):
+        if s in which:
+            lo, hi = (np.minimum.reduceat(U[j], idx, axis=-1),
+                      np.maximum.reduceat(U[j], idx, axis=-1))
+            out[str(s)] = (lo[0], hi[0]) if single else (lo, hi)
+    return out

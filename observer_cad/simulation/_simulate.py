@@ -46,7 +46,8 @@ from ..files import read_json_file
 from ..model import PlantModel, parse_expression
 from ..numerics import algebraic_to_float
 from ..observers import Observer, output_symbols
-from ._engine import ReferenceMonitorEngine, monitor_initial_state, sample_steps, step_runs
+from ._engine import (ReferenceMonitorEngine, hold_ranges, monitor_initial_state, sample_steps,
+                      step_runs)
 from ._sampling import (DECLARED, NOMINAL_CASE, SAMPLING_METHODS, check_distribution, draw_runs,
                         parameter_layout, signal_program)
 
@@ -332,7 +333,8 @@ class SimulationResult:
     available (NaN); ``nonfinite``: when non-finite values were kept
     (``keep_nonfinite=True``), the one-line description of the first; ``units`` maps a
     column to its unit (columns without one are absent, see :func:`column_units`);
-    ``model`` and ``time`` name the simulated plant and its time domain.
+    ``model`` and ``time`` name the simulated plant and its time domain; ``holds``: a
+    sampled run's (min, max) per sample of each disturbance and noise over its hold.
     """
 
     columns: dict
@@ -343,6 +345,7 @@ class SimulationResult:
     model: str | None = None
     time: str | None = None
     parameters: Mapping = dataclasses.field(default_factory=dict)  # the true plant's, per run
+    holds: Mapping = dataclasses.field(default_factory=dict)
 
     def __getitem__(self, name):
         return self.columns[name]
@@ -614,11 +617,11 @@ def simulate(model: PlantModel, observer: Observer | None, scenario: Scenario, *
     fns = _numeric_functions(m, observer, layout)
     U = np.ascontiguousarray(np.moveaxis(Vall, 2, 0)) if fns.ins else np.zeros((0, R, t.size))
     if steps:
-        cols, order, delays, t = _sampled_columns(m, observer, fns, layout, draws, U, t, steps,
-                                                  engine, float(sample_time),
-                                                  set(scenario.observer_initial or {}))
-        return _finished(cols, order, delays, t, m, observer, runs, keep_nonfinite, scenario,
-                         draws)
+        cols, order, delays, ts = _sampled_columns(m, observer, fns, layout, draws, U, t, steps,
+                                                   engine, float(sample_time),
+                                                   set(scenario.observer_initial or {}))
+        res = _finished(cols, order, delays, ts, m, observer, runs, keep_nonfinite, scenario, draws)
+        return dataclasses.replace(res, holds=hold_ranges(m, fns.ins, U, steps, runs is None))
     X = np.zeros((len(fns.xs) + len(fns.obs_states), R, t.size))
     X[:len(fns.xs), :, 0] = draws.x0.T
     X[len(fns.xs):, :, 0] = draws.xi0.T
@@ -651,9 +654,8 @@ def _sampled_columns(m: PlantModel, observer, fns: _Functions, layout, draws, U,
     pars = list(layout.plant) + list(layout.observer)
     pvals = [draws.P[:, j] for j in range(len(pars))]
     R, N = U.shape[1], t.size
-    ni = len(m.inputs)
-    if ni:  # ZOH: the input of sample k over [k h, (k + 1) h)
-        U[:ni] = U[:ni][:, :, (np.arange(N) // steps) * steps]
+    ni = len(m.inputs)  # ZOH: the input of sample k over [k h, (k + 1) h)
+    U[:ni] = U[:ni][:, :, (np.arange(N) // steps) * steps]
     X = np.zeros((len(fns.xs), R, N))
     X[:, :, 0] = draws.x0.T
     f_plant = _vector_fn(fns.xs + fns.ins + pars, list(m.dynamics))

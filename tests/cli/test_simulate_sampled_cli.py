@@ -112,3 +112,17 @@ def test_discrete_models_and_process_ensembles_refuse_it(capsys, tmp_path, scena
                               "--runs", "2", "--backend", "processes", "--out", tmp_path / "e"])
     assert rc == 2 and "a sampled scenario (\"sample_time\") runs in this process only" in err
     assert len(err.strip().splitlines()) == 1
+
+
+def test_a_disturbance_out_of_bounds_between_samples_is_flagged(capsys, tmp_path, scenario):
+    """in_bounds looks at each sample's hold, not only at the sample: a load torque of 0.8
+    (bound 0.5) for 4 ms between two samples makes that sample out, with the warning."""
+    pulse = {"piecewise": [[0, "t < 1.003"], [0.8, "t < 1.007"], [0, True]]}
+    sc = scenario(sample_time=0.01, signals={"u": "sin(t)", "rho": pulse})
+    rc, _, err = run(capsys, ["simulate", MOTOR, *DESIGN, "--scenario", sc, "--threshold",
+                              "guaranteed", "--engine", "reference", "--out", tmp_path / "o"])
+    assert rc == 0, err
+    sim = read(tmp_path / "o" / "signals.csv")
+    out = sim["t"][sim["in_bounds"] == "0"]
+    assert out.tolist() == ["1.0"] and not np.any(sim["rho"].astype(float))
+    assert "leaves the declared bounds at t = 1 (rho = 0.8 outside [-0.5, 0.5])" in err
