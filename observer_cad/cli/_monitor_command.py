@@ -240,7 +240,9 @@ def _stream(args, mon, rename: dict, how: str, *, later=None) -> int:
                 continue
             warned = _stream_step(mon, t, v, row, warned)
     except (KeyboardInterrupt, SystemExit) as exc:  # Ctrl-C, or SIGTERM (SystemExit 143)
-        print(f"{PROG}: interrupted after {row} rows; writing them", file=sys.stderr)
+        print(f"{PROG}: interrupted after {row} rows; " + (
+            "writing them" if mon is not None else "nothing written (the band waited for a"
+            " second row)"), file=sys.stderr)
         if row and mon is not None:
             _finish(args, mon, mon.result(), how)
         return exc.code if isinstance(exc, SystemExit) and isinstance(exc.code, int) else 130
