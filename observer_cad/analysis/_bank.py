@@ -8,20 +8,33 @@ the faults marked 0 are decoupled exactly (Φ D_j = 0, as the model's disturbanc
 After synthesis every residual's realised row is recomputed from the structure,
 O Φ D_j for every column (:func:`fault_sensitivity`), and must equal the requested row.
 
-Without a requested structure the bank takes the first scheme that is achievable:
+Without a requested structure the bank prefers rows that isolate *strongly*: a row is
+*strongly realised* when its residual sees every fault it responds to with a nonzero
+steady-state gain (:func:`~observer_cad.synthesis.certificates.steady_state_gain`, at
+s = 0 or z = 1; a fault with a zero gain is seen only as a transient, Varga 2017, Ch. 3).
+The bank takes the first of
 
-1. the *generalised observer scheme* (GOS): residual i decoupled from fault i only and
-   sensitive to all the others — every pair of faults strongly isolable (for each pair a
-   residual sees one and not the other), single faults isolated;
-2. the *dedicated observer scheme* (DOS): residual i sensitive to fault i only;
-3. otherwise the *best achievable* rows: every nonzero row is tried (for more than
-   :data:`FULL_SEARCH_FAULTS` faults, only rows with one zero, rows with one one and the
-   all-ones row), and rows are added greedily, each time the one that tells apart the
+1. the *generalised observer scheme* (GOS) with every row strongly realised: residual i
+   decoupled from fault i only and sensitive to all the others — every pair of faults
+   isolable (for each pair a residual sees one and not the other), single faults isolated;
+2. the *dedicated observer scheme* (DOS) with every row strongly realised: residual i
+   sensitive to fault i only;
+3. the *best achievable* strongly realised rows: every nonzero row is tried (for more than
+   :data:`FULL_SEARCH_FAULTS` faults, only rows with one zero, rows with one one, the
+   all-ones row and the rows of the strong structure matrix of :func:`analyze` at
+   ω = 0), and rows are added greedily, each time the one that tells apart the
    most further pairs of faults (then detects the most further faults; ties: fewer
-   residual states), until no row improves the bank.
+   residual states), until no row improves the bank;
+4. only when no achievable row is strongly realised: the same three steps with rows seen
+   partly as transients (the choice says so), the best-achievable search (without the
+   analysis's rows) scoring the strongly isolated pairs first, then the pairs isolated
+   at all.
 
 A pair of faults is *isolable* by the bank when both are detected (their columns are
-nonzero) and their columns differ (some residual responds to one and not the other).
+nonzero) and their columns differ (some residual responds to one and not the other); it
+is *strongly isolable* when the same holds for the columns of the *strong structure
+matrix* (:attr:`ResidualBank.strong_structure`: 1 only where the residual responds with
+a nonzero steady-state gain).
 
 References: the structure matrices of Gertler's residual structuring and of Varga's
 FaultDetectionTools.jl (``efdisyn``); seed 002 Remark 1 (one residual per fault set).
@@ -32,14 +45,15 @@ import dataclasses
 import itertools
 from typing import Sequence
 
-from ..errors import InfeasibleDesignError, ModelError, UsageError
+from ..errors import InfeasibleDesignError, ModelError, ObserverCadError, UsageError
 from ..model import PlantModel
 from ..synthesis import Design
 from ._diagnosability import analyze
 from ..synthesis import design
 from ..synthesis import fault_sensitivity
 
-__all__ = ["ResidualBank", "design_bank", "parse_structure", "realised_row", "FULL_SEARCH_FAULTS"]
+__all__ = ["ResidualBank", "design_bank", "parse_structure", "realised_row", "strong_row",
+           "strongly_realised", "FULL_SEARCH_FAULTS"]
 
 #: Up to this many faults the best-achievable search tries every nonzero row (2^m − 1).
 FULL_SEARCH_FAULTS = 4
@@ -112,6 +126,41 @@ def strongly_realised(d: Design, faults: Sequence[str]) -> bool:
     return not any(s.transient_only for s in sig if s.name in faults)
 
 
+def strong_row(d: Design, faults: Sequence[str]) -> tuple:
+    """The residual's row of the strong structure matrix: its realised row
+    (:func:`realised_row`) with a 0 where it responds to the fault with a zero
+    steady-state gain (seen only as a transient)."""
+    sig = d.signature or d.with_signature().signature
+    transient = {s.name for s in sig if s.transient_only}
+    return tuple(0 if f in transient else c for f, c in zip(faults, realised_row(d, faults)))
+
+
+def transient_faults(rows, strong_rows, faults) -> tuple:
+    """(faults, pairs): the faults detected or isolated by ``rows`` but not by
+    ``strong_rows`` — seen only as a transient — and the pairs isolated only so."""
+    weak_det = [any(r[j] for r in rows) for j in range(len(faults))]
+    strong_det = [any(r[j] for r in strong_rows) for j in range(len(faults))]
+    pairs = tuple(p for (p, w), (_, s) in zip(_pairs(rows, faults), _pairs(strong_rows, faults))
+                  if w and not s)
+    seen = {f for f, w, s in zip(faults, weak_det, strong_det) if w and not s}
+    seen |= {f for p in pairs for f in p}
+    return tuple(f for f in faults if f in seen), pairs
+
+
+def transient_sentence(rows, strong_rows, faults) -> str:
+    """One sentence naming the faults detected or isolated only transiently ("" if none)."""
+    only, pairs = transient_faults(rows, strong_rows, faults)
+    if not only:
+        return ""
+    lost = [f for j, f in enumerate(faults) if any(r[j] for r in rows)
+            and not any(r[j] for r in strong_rows)]
+    shown = ", ".join(f"{a}/{b}" for a, b in pairs[:6]) + (", …" if len(pairs) > 6 else "")
+    return (f"Isolated only transiently (a residual that responds has a zero steady-state"
+            f" gain, so a constant fault's pattern fades): {', '.join(only)}"
+            + (f" (pairs {shown})" if pairs else "")
+            + (f"; {', '.join(lost)} detected only transiently" if lost else "") + ".")
+
+
 def _pairs(rows, faults):
     """((a, b), isolable) for every pair: both detected, columns different."""
     out = []
@@ -153,6 +202,28 @@ class ResidualBank:
         return {f: any(r[j] for r in self.structure_matrix) for j, f in enumerate(self.faults)}
 
     @property
+    def strong_structure(self) -> tuple:
+        """The strong structure matrix: the rows with a 0 where the residual responds to
+        the fault with a zero steady-state gain (s = 0, or z = 1 in discrete time)."""
+        return tuple(strong_row(d, self.faults) for d in self.designs)
+
+    @property
+    def strongly_isolable(self) -> tuple:
+        """((fault a, fault b), bool): isolable by the columns of the strong structure
+        matrix (both strongly detected, columns different)."""
+        return _pairs(self.strong_structure, self.faults)
+
+    @property
+    def transient_only(self) -> tuple:
+        """The faults the bank detects or isolates only transiently (in order)."""
+        return transient_faults(self.structure_matrix, self.strong_structure, self.faults)[0]
+
+    @property
+    def transient_note(self) -> str:
+        """One sentence naming the faults isolated only transiently ("" when none is)."""
+        return transient_sentence(self.structure_matrix, self.strong_structure, self.faults)
+
+    @property
     def assumptions(self) -> tuple:
         out = []
         for d in self.designs:
@@ -178,6 +249,8 @@ class ResidualBank:
         if len(self.faults) > 1:
             lines += ["", "Isolable: " + ", ".join(f"{a}/{b} {'yes' if ok else 'no'}"
                                                   for (a, b), ok in self.isolable)]
+        if self.transient_note:
+            lines += ["", self.transient_note]
         return "\n".join(lines)
 
     def to_json(self) -> dict:
@@ -185,6 +258,8 @@ class ResidualBank:
             "model": self.model_name, "kind": "residual-bank", "time": self.time,
             "faults": list(self.faults),
             "structure_matrix": [[int(c) for c in r] for r in self.structure_matrix],
+            "strong_structure": [[int(c) for c in r] for r in self.strong_structure],
+            "transient_only": list(self.transient_only),
             "scheme": self.scheme, "choice": self.choice,
             "detectable": self.detectable,
             "isolable": [{"faults": list(p), "isolable": bool(ok)} for p, ok in self.isolable],
@@ -226,6 +301,11 @@ class ResidualBank:
                                  f" recorded row {_row_text(row)}")
         refused = tuple((str(r.get("row", "")), str(r.get("reason", "")))
                         for r in data.get("refused", []) if isinstance(r, dict))
+        strong = tuple(strong_row(d, faults) for d in designs)
+        if "strong_structure" in data and data["strong_structure"] != [list(r) for r in strong]:
+            raise UsageError("the bank's recorded strong_structure differs from the one"
+                             " recomputed from its residuals' steady-state gains "
+                             + ",".join(map(_row_text, strong)))
         return cls(model_name=designs[0].model_name if designs else model.name,
                    faults=tuple(faults), structure_matrix=rows, designs=designs,
                    scheme=str(data.get("scheme", REQUESTED)), choice=str(data.get("choice", "")),
@@ -310,11 +390,19 @@ def _requested_bank(attempt: _Rows, structure) -> ResidualBank:
                         f"the requested rows {','.join(map(_row_text, rows))}")
 
 
-def _scheme_bank(attempt: _Rows, tried_txt: list):
+def _transient_text(row, d: Design, faults) -> str:
+    """``11110111 (f6 transient only)``: a row whose residual sees faults as transients."""
+    sig = d.signature or d.with_signature().signature
+    seen = [s.name for s in sig if s.transient_only and s.name in faults]
+    return f"{_row_text(row)} ({', '.join(seen)} transient only)"
+
+
+def _scheme_bank(attempt: _Rows, tried_txt: list, strong: bool = True):
     """1. the generalised observer scheme, 2. the dedicated scheme (the same for m ≤ 2):
-    the bank of the first whose every row is achievable, else None (what failed is
-    appended to ``tried_txt``)."""
-    m = len(attempt.names)
+    the bank of the first whose every row is achievable and, when ``strong``, strongly
+    realised, else None (what failed is appended to ``tried_txt`` on the strong pass)."""
+    names = attempt.names
+    m = len(names)
     if m == 1:
         schemes = [("detection", [(1,)])]
     else:
@@ -324,18 +412,26 @@ def _scheme_bank(attempt: _Rows, tried_txt: list):
     for scheme, rows in schemes:
         results = [attempt(r) for r in rows]
         if all(d is not None for d, _ in results):
-            return attempt.bank(rows, [d for d, _ in results], scheme,
+            designs = [d for d, _ in results]
+            weak = [(r, d) for r, d in zip(rows, designs) if not strongly_realised(d, names)]
+            if strong and weak:
+                tried_txt.append(f"{scheme} achievable only with faults seen as transients:"
+                                 " row(s) " + ", ".join(_transient_text(r, d, names)
+                                                        for r, d in weak))
+                continue
+            return attempt.bank(rows, designs, scheme,
                                 f"{scheme}: every row achievable"
+                                + (", some seeing faults only as transients" if weak else "")
                                 + (f" ({'; '.join(tried_txt)})" if tried_txt else ""))
-        bad = [f"{_row_text(r)}" for r, (d, _) in zip(rows, results) if d is None]
-        tried_txt.append(f"{scheme} not achievable: row(s) {', '.join(bad)} fail")
+        if strong:
+            bad = [f"{_row_text(r)}" for r, (d, _) in zip(rows, results) if d is None]
+            tried_txt.append(f"{scheme} not achievable: row(s) {', '.join(bad)} fail")
     return None
 
 
-def _best_bank(attempt: _Rows, tried_txt: list) -> ResidualBank:
-    """3. the best achievable rows, added greedily: each the row that isolates the most
-    further pairs (then detects the most further faults, then sees every fault it is
-    sensitive to with a nonzero steady-state gain, then has the fewest states)."""
+def _candidates(attempt: _Rows, strong: bool) -> tuple:
+    """The achievable rows the best-achievable search tries, with their designs, and
+    (when ``strong``) the further rows of :func:`_analysis_rows`."""
     model, names = attempt.model, attempt.names
     m = len(names)
     if m <= FULL_SEARCH_FAULTS:
@@ -346,15 +442,45 @@ def _best_bank(attempt: _Rows, tried_txt: list) -> ResidualBank:
                        | {(1,) * m})
     ok = [(r, attempt(r)[0]) for r in cands]
     ok = [(r, d) for r, d in ok if d is not None]
-    if not ok:
+    more = _analysis_rows(attempt) if strong else []
+    if not ok and not more:
         reasons = "; ".join(f"{_row_text(r)}: {attempt.attempts[r][1]}" for r in cands[:6])
         raise InfeasibleDesignError(f"{model.where}: no residual detects any of"
                                     f" {', '.join(names)}: {reasons}")
+    return ok, more
+
+
+def _analysis_rows(attempt: _Rows) -> list:
+    """For more than :data:`FULL_SEARCH_FAULTS` faults, the further rows the strong
+    structure matrix of the diagnosability analysis holds (at ω = 0: a nonzero
+    steady-state gain), achievable by the Jordan search, with their designs."""
+    names = attempt.names
+    if len(names) <= FULL_SEARCH_FAULTS:
+        return []
+    try:
+        a = analyze(attempt.model, faults=names, disturbances=list(attempt.extra),
+                    frequencies=[0], **attempt.options)
+    except ObserverCadError:
+        return []
+    rows = sorted({tuple(int(s.row(a.faults)[f]) for f in names) for s in a.strong_structure})
+    out = [(r, attempt(r)[0]) for r in rows if r not in attempt.attempts]
+    return [(r, d) for r, d in out if d is not None]
+
+
+def _greedy(ok: list, names, strong_first: bool = True) -> list:
+    """Rows added greedily, each the one that isolates the most further pairs strongly
+    (then detects the most further faults strongly, then isolates and detects the most
+    at all; ties: strongly realised, fewer states), until no row improves the bank.
+    ``strong_first`` False: isolating and detecting at all only (the weak choice)."""
+    strong = {r: strong_row(d, names) for r, d in ok}
+    m = len(names)
+
+    def count(rows):
+        pairs = sum(1 for _, good in _pairs(rows, names) if good) if rows else 0
+        return pairs, sum(1 for j in range(m) if any(r[j] for r in rows))
 
     def score(rows):
-        pairs = sum(1 for _, good in _pairs(rows, names) if good) if rows else 0
-        det = sum(1 for j in range(m) if any(r[j] for r in rows))
-        return (pairs, det)
+        return (count([strong[r] for r in rows]) if strong_first else ()) + count(rows)
 
     chosen: list = []
     while True:
@@ -370,13 +496,38 @@ def _best_bank(attempt: _Rows, tried_txt: list) -> ResidualBank:
             if best is None or key > best[0]:
                 best = (key, r, d)
         if best is None:
-            break
+            return chosen
         chosen.append((best[1], best[2]))
+
+
+def _best_bank(attempt: _Rows, tried_txt: list, strong: bool = True):
+    """3. the best achievable rows (:func:`_greedy`); when ``strong``, among the strongly
+    realised rows only (None when there is none)."""
+    names = attempt.names
+    every, more = _candidates(attempt, strong)
+    ok, left = every + more, []
+    if strong:
+        left = [(r, d) for r, d in ok if not strongly_realised(d, names)]
+        ok = [(r, d) for r, d in ok if strongly_realised(d, names)]
+        if not ok:
+            return None
+    chosen = _greedy(ok, names)
     rows = [r for r, _ in chosen]
-    return attempt.bank(rows, [d for _, d in chosen], BEST,
-                        "; ".join(tried_txt) + f"; achievable rows: {', '.join(_row_text(r) for r, _ in ok)};"
-                        " added greedily, each the row that isolates the most further pairs"
-                        " (then detects the most further faults, then has the fewest states)")
+    txt = ("; ".join(tried_txt) + "; achievable rows"
+           + (" (with the strong rows of the diagnosability analysis)" if more else "")
+           + f": {', '.join(_row_text(r) for r, _ in ok)};"
+           " added greedily, each the row that isolates the most further pairs"
+           + (" (then detects the most further faults, then has the fewest states)" if strong
+              else " strongly (then detects the most further faults strongly, then isolates"
+              " and detects the most at all, then has the fewest states)"))
+    if left and [r for r, _ in _greedy(every, names, strong_first=False)] != rows:
+        lost = [f for j, f in enumerate(names) if not any(r[j] for r in rows)
+                and any(r[j] for r, _ in left)]
+        txt += ("; left out, seeing faults only as transients: "
+                + ", ".join(_transient_text(r, d, names) for r, d in left)
+                + (f" ({', '.join(lost)} then not detected: request such a row with"
+                   " --structure)" if lost else ""))
+    return attempt.bank(rows, [d for _, d in chosen], BEST, txt)
 
 
 def design_bank(model: PlantModel, *, structure=None, faults: Sequence[str] | None = None,
@@ -390,7 +541,9 @@ def design_bank(model: PlantModel, *, structure=None, faults: Sequence[str] | No
     structure : str or sequence of rows, optional
         The structure matrix to realise, e.g. ``"110,101,011"`` (one row per residual, one
         digit per fault of ``faults``; 1 = sensitive). Default: the first achievable of the
-        generalised observer scheme, the dedicated scheme, the best achievable rows.
+        generalised observer scheme, the dedicated scheme, the best achievable rows, each
+        with every row strongly realised; only when no row is, the same with rows that
+        see some faults only as transients.
     faults : names, optional
         The columns (default: every declared fault). Faults not named are assumed zero.
     disturbances : names, optional
@@ -407,7 +560,14 @@ def design_bank(model: PlantModel, *, structure=None, faults: Sequence[str] | No
     if structure is not None:
         return _requested_bank(attempt, structure)
     tried_txt: list = []
-    return _scheme_bank(attempt, tried_txt) or _best_bank(attempt, tried_txt)
+    bank = _scheme_bank(attempt, tried_txt) or _best_bank(attempt, tried_txt)
+    if bank is not None:
+        return bank
+    tried_txt.append("no achievable row sees every fault it responds to with a nonzero"
+                     " steady-state gain, so no bank isolates strongly: rows that see some"
+                     " faults only as transients")
+    return _scheme_bank(attempt, tried_txt, strong=False) or _best_bank(attempt, tried_txt,
+                                                                         strong=False)
 
 
 def _impossible_row(model, row, names, extra, symbolic, method, rtol) -> str:

@@ -74,8 +74,9 @@ def _bank_from_data(data: dict, model: PlantModel) -> ResidualBank:
         raise UsageError(f"designing the bank again fails ({first}): the file does not"
                          " describe a bank of this model") from None
     want = fresh.to_json()
-    for key in ("faults", "structure_matrix", "scheme", "choice", "detectable", "isolable",
-                "refused", "disturbances", "assumptions", "time"):
+    for key in ("faults", "structure_matrix", "strong_structure", "transient_only", "scheme",
+                "choice", "detectable", "isolable", "refused", "disturbances", "assumptions",
+                "time"):
         if key in data and data[key] != want[key]:
             raise UsageError(f"the bank's recorded {key} differs from the recomputed one:"
                              " the file is not what designing again gives (refused, never"

@@ -153,7 +153,7 @@ def cmd_codegen(args) -> int:
             paths.append(fmu.path)
     for p in paths:
         print(f"wrote {out / Path(p).relative_to(stage)}")
-    note = unsampled_band_note(model, observer, band_step) if band_step is not None else ""
+    note = unsampled_band_note(observer)
     if note:
         print(note)
     if fmu is not None:

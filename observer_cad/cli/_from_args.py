@@ -3,6 +3,8 @@
 """
 from __future__ import annotations
 
+import dataclasses
+
 import sys
 
 from ..errors import UsageError
@@ -282,32 +284,50 @@ def threshold_from_args(args, model, observer, scenario=None, *, seed=None, samp
     if spec.kind == "quantile" and scenario is None:
         raise UsageError("--threshold quantile:RATE is estimated on a scenario: give --scenario FILE")
     report(f"computing the {spec.kind} threshold", stage=True)
-    if spec.kind == "guaranteed" and sample_time is not None and model.time == "continuous" \
-            and e0 == 0 and all(s in model.bounds for s in model.states + model.inputs):
-        import sympy as sp
-        from ..residuals import sampled_band_refusal, sampled_threshold
-        if not sampled_band_refusal(model, observer):  # else the band of continuous
-            return sampled_threshold(  # observation, with a note (unsampled_band_note)
-                model, observer, sp.Rational(repr(float(sample_time))))
-    return apply_threshold(model, observer, spec, scenario=scenario, initial_error=e0,
-                           runs=getattr(args, "quantile_runs", 200), seed=seed)
+    why = ""
+    if spec.kind == "guaranteed" and sample_time is not None and model.time == "continuous":
+        why = _sampled_band_obstacle(model, observer, e0)
+        if not why:
+            import sympy as sp
+            from ..residuals import sampled_threshold
+            return sampled_threshold(model, observer, sp.Rational(repr(float(sample_time))))
+    try:
+        out = apply_threshold(model, observer, spec, scenario=scenario, initial_error=e0,
+                              runs=getattr(args, "quantile_runs", 200), seed=seed)
+    except UsageError as exc:
+        if why.startswith("no sampled-data band"):  # neither band: say both reasons
+            raise UsageError(f"{exc}; and {why}") from None
+        raise
+    if not why:
+        return out
+    # the band of continuous observation on a sampled observer: the gap is a listed condition
+    from ..synthesis import Condition
+    c = Condition("sampling", False, f"the sampling at h = {float(sample_time):.10g} s (y and u"
+                  f" held over each step) is not covered; {why}", "METHOD §3", required=False)
+    th = dataclasses.replace(out.threshold, conditions=tuple(out.threshold.conditions) + (c,))
+    return dataclasses.replace(out, threshold=th, conditions=tuple(out.conditions) + (c,))
 
 
-def unsampled_band_note(model, observer, h) -> str:
-    """For a guaranteed band of continuous observation on a continuous-time observer that
-    runs sampled at ``h``: one line saying that the hold over each step is not covered and
-    what gives the band that covers it (the sampled-data one); "" otherwise."""
-    th = observer.threshold
-    if model.time != "continuous" or th is None or th.kind != "guaranteed" \
-            or th.sample_time is not None:
-        return ""
+def _sampled_band_obstacle(model, observer, e0) -> str:
+    """Why the sampled-data band does not apply ("" when it does)."""
+    if e0 != 0:
+        return "--initial-error gives the band of continuous observation"
     missing = [str(s) for s in model.states + model.inputs if s not in model.bounds]
-    why = (f"declare bounds for every state and input (the operating envelope; {missing[0]}"
-           " has none) for the sampled-data band" if missing else
-           "the sampled-data band needs a plant and residual generator linear in their"
-           " states and inputs")
-    return (f"note: this band is that of continuous observation: the sampling at h = {h:.10g} s"
-            f" (y and u held over each step) is not covered; {why}")
+    if missing:
+        return (f"declare bounds for every state and input (the operating envelope; {missing[0]}"
+                " has none) for the sampled-data band")
+    from ..residuals import sampled_band_refusal
+    why = sampled_band_refusal(model, observer)
+    prefix = f"{model.where}: "
+    return f"no sampled-data band: {why[len(prefix):] if why.startswith(prefix) else why}" if why else ""
+
+
+def unsampled_band_note(observer) -> str:
+    """The note line for a guaranteed band of continuous observation on a continuous-time
+    observer that runs sampled (its "sampling" condition), "" otherwise."""
+    th = observer.threshold
+    c = next((c for c in th.conditions if c.name == "sampling"), None) if th is not None else None
+    return f"note: this band is that of continuous observation: {c.detail}" if c else ""
 
 
 def refuse_failed(observer) -> None:

@@ -158,7 +158,7 @@ def _print_findings(mon, res) -> None:
     if mon.rule is None:
         return
     print(f"threshold: {mon.observer.threshold.text()}")
-    note = unsampled_band_note(mon.model, mon.observer, mon.h)
+    note = unsampled_band_note(mon.observer)
     if note:
         print(note)
     alarm = np.asarray(res["alarm"]) != 0

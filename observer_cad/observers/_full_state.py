@@ -25,12 +25,9 @@ def full_state_intervals(model: PlantModel, *, lambdas=None, margin=None, domain
     measured states are the columns where H is nonzero). The paper assumes H0⁻¹ ≥ 0;
     here H0⁻¹ is split into ⁺/⁻ over the noise box, so the assumption is only reported.
     """
-    from ..synthesis import design_jordan
     work = model.substitute_parameters() if model.parameters else model
     st = extract_structure(work)
-    if st.has_feedthrough:
-        raise UsageError(f"{work.where}: full-state intervals do not take inputs, faults or"
-                         " disturbances in the outputs (output feedthrough) yet")
+    designer = _designer(st)
     H, W = sp.Matrix(st.H), sp.Matrix(st.W)
     n, l = len(work.states), H.rows
     meas = [j for j in range(n) if any(H[i, j] != 0 for i in range(l))]
@@ -41,13 +38,16 @@ def full_state_intervals(model: PlantModel, *, lambdas=None, margin=None, domain
                          f" invertible; H has {l} rows and is nonzero in {len(meas)} state columns")
     H0i = H0.inv()
     ys = list(output_symbols(l))
+    measured, W, through = _measured_outputs(work, st, ys, W)
     if W.cols:
-        wlo, whi = bounds_box(work, work.noise, "noise")
+        if through:  # a missing bound named by its role
+            bounds_box(work, through, "the fault or disturbance in the outputs")
+        wlo, whi = bounds_box(work, list(work.noise) + through, "noise")
         off_lo, off_hi = -box_max(W, wlo, whi), -box_min(W, wlo, whi)
     else:
         off_lo = off_hi = sp.zeros(l, 1)
-    ylo = sp.Matrix(ys) + off_lo
-    yhi = sp.Matrix(ys) + off_hi
+    ylo = sp.Matrix(measured) + off_lo
+    yhi = sp.Matrix(measured) + off_hi
     x1lo, x1hi = box_min(H0i, ylo, yhi), box_max(H0i, ylo, yhi)
     bounds = {}
     for r, j in enumerate(meas):
@@ -64,11 +64,11 @@ def full_state_intervals(model: PlantModel, *, lambdas=None, margin=None, domain
     if rest:
         est = [str(work.states[j]) for j in rest]
         try:
-            designs = [design_jordan(work, observer="interval", estimate=est, lambdas=lambdas)]
+            designs = [designer(work, observer="interval", estimate=est, lambdas=lambdas)]
             groups = [rest]
         except InfeasibleDesignError:
-            designs = [design_jordan(work, observer="interval", estimate=str(work.states[j]),
-                                     lambdas=lambdas) for j in rest]
+            designs = [designer(work, observer="interval", estimate=str(work.states[j]),
+                                lambdas=lambdas) for j in rest]
             groups = [[j] for j in rest]
         offset = 0
         for dsg, grp in zip(designs, groups):
@@ -105,4 +105,30 @@ def full_state_intervals(model: PlantModel, *, lambdas=None, margin=None, domain
         update=tuple(update) + tuple(upd_u), outputs=tuple(outputs), initial=initial,
         conditions=tuple(conds), assumptions=tuple(assumptions),
         design=None, description="full-state intervals: measured states from y ∓ w*, the others"
-        " from an interval observer (seed 002 §4)")
+        " from an interval observer (seed 002 §4)"
+        + ("; reads y − Gy u, the faults and disturbances of the outputs bounded like the noise"
+           if st.has_feedthrough else ""))
+
+
+def _designer(st):
+    """design_jordan, or with output feedthrough the entry point that lifts the design
+    (observer_cad.synthesis.design: y − Gy u, METHOD §2)."""
+    from ..synthesis import design, design_jordan
+    return design if st.has_feedthrough else design_jordan
+
+
+def _measured_outputs(work, st, ys, W) -> tuple:
+    """(y − Gy u per output, [W E], the faults and disturbances of E): with output
+    feedthrough the measured states read y − Gy u and every fault or disturbance in
+    the outputs is bounded like the noise (observers/_interval_feedthrough.py)."""
+    if not st.has_feedthrough:
+        return list(ys), W, []
+    measured = list(ys)
+    if work.inputs:
+        Gu = sp.Matrix(st.Gy) * sp.Matrix(work.inputs)
+        measured = [y - Gu[k] for k, y in enumerate(ys)]
+    through = [s for s in list(work.faults) + list(work.disturbances)
+               if not st.output_columns([s]).is_zero_matrix]
+    if through:
+        W = sp.Matrix.hstack(W, sp.Matrix(st.output_columns(through)))
+    return measured, W, through

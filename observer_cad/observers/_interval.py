@@ -66,6 +66,7 @@ from ..analysis import (Domain, RangeAnalyzer, argument_range, derivative_range,
                         interval_scale, lipschitz, nonlinear_conditions, range_sign,
                         reduced_nonlinearity)
 from ._interval_decomposition import decomposed_row, decomposition_conditions, interval_text
+from ._interval_feedthrough import output_feedthrough
 
 __all__ = ["interval_observer_nonlinear"]
 
@@ -130,7 +131,7 @@ class _Reduced:
     H: sp.Matrix
     W: sp.Matrix
     xs: list
-    ys: list
+    ys: list  # the measured outputs read: y, or y − Gy u with output feedthrough
     yt: list
     us: list
     xl: list
@@ -147,6 +148,7 @@ class _Reduced:
     off_hi: sp.Matrix
     terms: list  # (j, C*_col, arg (in xs, yt), clipped arg, phi(s), s, φ' range (lo, hi, kind))
     args_info: list  # (j, argument text, its range (lo, hi), φ' range (lo, hi, kind))
+    through: tuple = ()  # faults, disturbances in the outputs read (columns of W past w)
 
     def f_row(self, i, xv, yv):
         """f_i at states xv, outputs yv (lists of expressions)."""
@@ -234,10 +236,14 @@ def _unknown_inputs(work, st, Phi, k):
     return unk, Bu, ulo, uhi, bmin, bmax
 
 
-def _noise_offsets(work, W, l):
-    """The noise box and the range of ỹ − y = −W w: (w lo, w hi, offset lo, offset hi)."""
+def _noise_offsets(work, W, l, through=()):
+    """The noise box and the range of ỹ − y = −W w: (w lo, w hi, offset lo, offset hi);
+    with output feedthrough, W holds [W E] and ``through`` the faults and disturbances of
+    E, bounded like the noise (see :mod:`._interval_feedthrough`)."""
     if W.cols:
-        wlo, whi = bounds_box(work, work.noise, "noise")
+        if through:  # a missing bound named by its role
+            bounds_box(work, through, "the fault or disturbance in the outputs")
+        wlo, whi = bounds_box(work, list(work.noise) + list(through), "noise")
         return wlo, whi, -box_max(W, wlo, whi), -box_min(W, wlo, whi)
     wlo = whi = sp.zeros(0, 1)
     off_lo = off_hi = sp.zeros(l, 1)
@@ -274,20 +280,21 @@ def _reduced(work: PlantModel, d: Design, dom) -> _Reduced:
     k, l = d.k, len(work.outputs)
     m = d.matrices
     Phi = sp.Matrix(m.Phi)
-    W = sp.Matrix(st.W)
+    ft = output_feedthrough(work, d)  # y − Gy u; faults, disturbances in y bounded like w
+    W = sp.Matrix.hstack(sp.Matrix(st.W), ft.E) if ft.names else sp.Matrix(st.W)
     xs = list(d.observer_states) or list(sp.symbols(f"xs1:{k + 1}"))
     yt = list(sp.symbols(f"ytilde1:{l + 1}"))  # noise-free outputs H x
     unk, Bu, ulo, uhi, bmin, bmax = _unknown_inputs(work, st, Phi, k)
-    wlo, whi, off_lo, off_hi = _noise_offsets(work, W, l)
+    wlo, whi, off_lo, off_hi = _noise_offsets(work, W, l, ft.names)
     terms, args_info = _nonlinear_terms(work, d, st, xs, yt, dom)
     return _Reduced(
         time=work.time, k=k, l=l, Fs=sp.Matrix(m.F_star), Js=sp.Matrix(m.J_star),
-        Gs=sp.Matrix(m.G_star), Phi=Phi, Hz=sp.Matrix(m.Hz), Q=sp.Matrix(m.Q),
-        H=sp.Matrix(st.H), W=W, xs=xs, ys=list(output_symbols(l)), yt=yt,
+        Gs=ft.Gs, Phi=Phi, Hz=sp.Matrix(m.Hz), Q=sp.Matrix(m.Q),
+        H=sp.Matrix(st.H), W=W, xs=xs, ys=ft.measured, yt=yt,
         us=list(work.inputs), xl=list(sp.symbols(f"xl1:{k + 1}")),
         xu=list(sp.symbols(f"xu1:{k + 1}")), unk=unk, Bu=Bu, ulo=ulo, uhi=uhi, bmin=bmin,
         bmax=bmax, wlo=wlo, whi=whi, off_lo=off_lo, off_hi=off_hi, terms=terms,
-        args_info=args_info)
+        args_info=args_info, through=tuple(ft.names))
 
 
 def _margin_mode(margin, k):
@@ -494,6 +501,13 @@ def _conditions(work, d, red: _Reduced, rows, dom) -> list:
         "noise through y bounded", True,
         "; ".join(f"row {i + 1} ({r.how}): {r.margin}" for i, r in enumerate(rows))
         + f"; ỹ − y ∈ [{list(red.off_lo)}, {list(red.off_hi)}]", "METHOD §3; seed 002 §4, §6"))
+    if red.through:  # output feedthrough: the faults and disturbances in y, bounded like w
+        conds.append(Condition(
+            "inputs of the outputs bounded", True,
+            f"ỹ = H x = y − Gy u − E e − W w; E = {red.W[:, len(work.noise):].tolist()} over"
+            f" {[str(s) for s in red.through]} ∈ [{list(red.wlo[len(work.noise):, :])},"
+            f" {list(red.whi[len(work.noise):, :])}], bounded with the noise",
+            "METHOD §3 (output feedthrough)"))
     if red.unk:
         what = "Φ [L D Bw]" if set(red.unk) & set(work.noise) else "Φ [L D]"
         conds.append(Condition("unknown inputs bounded", True,
@@ -554,7 +568,8 @@ def interval_observer_nonlinear(model: PlantModel, design: Design, *, margin=Non
     xl, xu = red.xl, red.xu
     return Observer(
         name=name or f"{work.name}_interval", kind="interval", time=work.time,
-        states=tuple(xl) + tuple(xu), signals=tuple(red.ys) + tuple(red.us), parameters={},
+        states=tuple(xl) + tuple(xu), signals=tuple(output_symbols(red.l)) + tuple(red.us),
+        parameters={},
         update=tuple(upd_l) + tuple(upd_u), outputs=tuple(outputs),
         initial=_initial(work, red.Phi, xl, xu), conditions=tuple(conds),
         assumptions=tuple(assumptions), design=d,

@@ -64,6 +64,7 @@ from ..errors import ModelError, UsageError
 from ..model import PlantModel, to_rational
 from ._observer import Observer, output_symbols
 from ._uio_continuous import continuous_unknown_input_observer
+from ._uio_feedthrough import known_input_view, reading_y_less_Gy_u
 from ._uio_derivation import (Derivation, ReducedModel, bound_symbols, bound_terms, derivation,
                               gain_symbols, is_negligible, lag_symbol, nonlinear_part,
                               reduced_model)
@@ -214,6 +215,10 @@ def unknown_input_observer(model: PlantModel, design: Design, *, g=None, bounds=
         kind ``"unknown-input"``; states ``xl1…xlk``, ``xu1…xuk`` (the two copies) and the
         memory states ``<signal>_lag<j>``; output ``<name>_hat`` with delay m.
     """
+    view, sub = known_input_view(model)
+    if sub:  # the known inputs in the outputs: built in y − Gy u (._uio_feedthrough)
+        return reading_y_less_Gy_u(unknown_input_observer(
+            view, design, g=g, bounds=bounds, alpha_eps=alpha_eps, tau=tau), sub)
     if model.time == "continuous":
         if g is not None:
             raise UsageError("the gains g (--gain) belong to the discrete-time estimator; the"
@@ -428,8 +433,10 @@ def vector_unknown_input_observer(model: PlantModel, names: Sequence[str] | None
     default 1/2); ``designs`` may supply them instead. ``g`` maps a component to its gains.
     Outputs ``<name>_hat`` for every component, each with its own delay.
     """
-    from ..synthesis import design_canonical, design_jordan_unknown_input
+    from ..synthesis import design, design_canonical, design_jordan_unknown_input
     names = list(names) if names else [f.name for f in model.faults]
+    known = set(model.inputs) | set(model.faults) | set(model.disturbances)
+    lifted = any(sp.sympify(h).free_symbols & known for h in model.outputs)
     if not names:
         raise ModelError(f"{model.where}: no unknown inputs to estimate")
     built = {}
@@ -437,6 +444,10 @@ def vector_unknown_input_observer(model: PlantModel, names: Sequence[str] | None
         others = [o for o in names if o != nm]
         if designs and nm in designs:
             des = designs[nm]
+        elif lifted and form in ("canonical", "jordan"):  # output feedthrough: lifted (y − Gy u)
+            lam = [(lambdas or {}).get(nm, sp.Rational(1, 2))] if form == "jordan" else None
+            des = design(model, observer="unknown-input", faults=[nm], disturbances=others,
+                         form=form, lambdas=lam, symbolic=symbolic)
         elif form == "canonical":
             des = design_canonical(model, unknown_input=nm, decouple=others, symbolic=symbolic)
         elif form == "jordan":

@@ -43,6 +43,7 @@ from ..model import PlantModel, to_rational
 from ..synthesis import Condition, Design, continuous_estimation_check
 from ._observer import Observer, output_symbols
 from ._uio_derivation import ReducedModel, nonlinear_part, reduced_model
+from ._uio_feedthrough import known_input_view, reading_y_less_Gy_u
 
 __all__ = ["continuous_unknown_input_observer", "DEFAULT_TAU"]
 
@@ -176,6 +177,9 @@ def continuous_unknown_input_observer(model: PlantModel, design: Design, *, tau=
     """
     if model.time != "continuous":
         raise UsageError("continuous_unknown_input_observer takes a continuous-time model")
+    view, sub = known_input_view(model)
+    if sub:  # the known inputs in the outputs: built in y − Gy u (._uio_feedthrough)
+        return reading_y_less_Gy_u(continuous_unknown_input_observer(view, design, tau=tau), sub)
     red = reduced_model(model, design, continuous=True)
     name = red.target.name
     if not design.approximate:  # the structural refusal first: it names the right alternative

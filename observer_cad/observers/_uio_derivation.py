@@ -145,6 +145,9 @@ def reduced_model(model: PlantModel, design: Design, *, continuous: bool = False
     Ds = sp.Matrix([Ds[i, 0] if i == rows[0] else 0 for i in range(k)])
     Gs = sp.Matrix(mats.G_star) if mats.G_star is not None else sp.zeros(k, len(model.inputs))
     Js = sp.Matrix(mats.J_star)
+    st = design.structure
+    if st is not None and model.inputs and not st.Gy.is_zero_matrix:
+        Gs = Gs + Js * sp.Matrix(st.Gy)  # Φ G: the estimator reads y − Gy u (._uio_feedthrough)
     Cs = sp.Matrix(mats.C_star) if mats.C_star is not None else sp.zeros(k, 0)
     Ls = sp.Matrix(mats.L_star) if mats.L_star is not None else sp.zeros(k, 0)
     rho = ()

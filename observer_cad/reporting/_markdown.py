@@ -413,6 +413,11 @@ def bank_markdown(bank, observer=None) -> str:
         out.append("Isolated pairs (both detected, columns differ): " + ", ".join(
             f"{md_escape(a)}/{md_escape(b)} {'yes' if ok else 'no'}" for (a, b), ok in bank.isolable)
             + ".")
+    if tuple(bank.strong_structure) != tuple(bank.structure_matrix):
+        out += ["", "Strong structure matrix (1 = a nonzero steady-state gain): " + ", ".join(
+            f"r{i} {''.join(map(str, r))}" for i, r in enumerate(bank.strong_structure, 1)) + "."]
+    if bank.transient_note:
+        out += ["", md_escape(bank.transient_note)]
     out += ["", f"**Choice**: {md_escape(bank.choice)}.", ""]
     if bank.refused:
         out += ["Rows tried and not achievable:", ""]

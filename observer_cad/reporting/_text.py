@@ -231,6 +231,11 @@ def format_bank(bank) -> str:
     if len(faults) > 1:
         out.append("Isolable pairs (both detected, columns differ): " + ", ".join(
             f"{a}/{b} {'yes' if ok else 'NO'}" for (a, b), ok in bank.isolable))
+    if tuple(bank.strong_structure) != tuple(bank.structure_matrix):
+        out.append("Strong structure matrix (1 = a nonzero steady-state gain): " + ", ".join(
+            f"r{i} {''.join(map(str, r))}" for i, r in enumerate(bank.strong_structure, 1)))
+    if bank.transient_note:
+        out.append(bank.transient_note)
     out.append(f"\nChoice\n  {bank.choice}")
     if bank.refused:
         out.append("\nRows tried and not achievable")

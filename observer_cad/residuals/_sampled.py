@@ -41,6 +41,9 @@ from ..synthesis import Condition
 from ..analysis import format_number
 from ..observers import Observer, output_symbols
 from ._l1 import transient_envelope, worst_case_sums
+from ._sampled_algebra import (DPS, Affine, affine_and_rest, box_of, exp_tail, hold_step, split_affine,
+                               to_mp, to_np)
+from ._sampled_nonlinear import nonlinear_identities, nonlinear_inputs, nonlinear_plant
 from ._threshold import ErrorSystem, Threshold, residual_names
 
 __all__ = ["sampled_threshold", "sampled_band_refusal", "SAMPLED_DISCRETISATIONS", "ROUNDOFF_FACTOR"]
@@ -53,17 +56,6 @@ ROUNDOFF_FACTOR = 4096.0
 
 _REF = "METHOD §3 (residual evaluation)"
 _L1REF = "Dahleh & Diaz-Bobillo 1995"
-_DPS = 40
-
-
-@dataclasses.dataclass(frozen=True)
-class _Affine:
-    """An expression vector split as M_x x + M_u u + m0 + Σ_t (coefficients) φ_t."""
-
-    Mx: sp.Matrix
-    Mu: sp.Matrix
-    m0: sp.Matrix
-    rest: list  # of (monomial φ, column vector of coefficients)
 
 
 def _nominal(model: PlantModel) -> tuple:
@@ -89,100 +81,6 @@ def _nominal(model: PlantModel) -> tuple:
     return dyn, outs, box, (sp.Matrix(fault_cols), sp.Matrix(out_cols))
 
 
-def _split(exprs, xs, us, uncertain, what: str, where: str) -> _Affine:
-    """Split into the nominal affine part in (x, u) and the monomials carrying an uncertain
-    symbol; refuse a nominal part that is not affine with constant coefficients."""
-    gens = list(xs) + list(us) + list(uncertain)
-    n = len(exprs)
-    Mx, Mu, m0 = sp.zeros(n, len(xs)), sp.zeros(n, len(us)), sp.zeros(n, 1)
-    rest: dict = {}
-    unc = set(uncertain)
-    for i, e in enumerate(exprs):
-        try:
-            poly = sp.Poly(e, *gens) if gens else None
-        except sp.PolynomialError:
-            poly = None
-        if poly is None or any(c.free_symbols for c in poly.coeffs()):
-            raise UsageError(f"{where}: {what} {i + 1} is not polynomial with constant"
-                             f" coefficients ({e}); sampled guaranteed thresholds need a plant"
-                             " linear in its states and inputs")
-        for monom, c in poly.terms():
-            syms = {g for g, a in zip(gens, monom) if a}
-            phi = sp.Mul(*[g ** a for g, a in zip(gens, monom) if a])
-            if syms & unc:
-                rest.setdefault(phi, sp.zeros(n, 1))[i] += c
-            elif not syms:
-                m0[i] += c
-            elif len(syms) == 1 and sum(monom) == 1:
-                g = syms.pop()
-                if g in xs:
-                    Mx[i, list(xs).index(g)] += c
-                else:
-                    Mu[i, list(us).index(g)] += c
-            else:
-                raise UsageError(f"{where}: {what} {i + 1} has the nonlinear nominal term {phi}"
-                                 "; sampled guaranteed thresholds need a plant linear in its"
-                                 " states and inputs (use the continuous-time guaranteed band)")
-    return _Affine(Mx, Mu, m0, list(rest.items()))
-
-
-def _box_of(phi, box, where: str) -> tuple:
-    """Exact range [lo, hi] of a monomial over the boxes."""
-    lo = hi = sp.Integer(1)
-    for s, a in phi.as_powers_dict().items():
-        if s.is_number:
-            lo, hi = lo * s ** a, hi * s ** a
-            continue
-        if s not in box:
-            raise UsageError(f"{where}: '{s}' has no declared bounds; the sampled guaranteed"
-                             f" threshold needs them (declare bounds={{{s}: (low, high)}})")
-        l, u = box[s]
-        a = int(a)
-        if a % 2 == 0 and l < 0 < u:
-            pl, ph = sp.Integer(0), max(l ** a, u ** a)
-        else:
-            pl, ph = sorted((l ** a, u ** a))
-        ps = [lo * pl, lo * ph, hi * pl, hi * ph]
-        lo, hi = min(ps), max(ps)
-    return lo, hi
-
-
-def _mp(M) -> mpmath.matrix:
-    M = sp.Matrix(M)
-    out = mpmath.matrix(M.rows, M.cols)
-    for i in range(M.rows):
-        for j in range(M.cols):
-            out[i, j] = mpmath.mpf(sp.Rational(M[i, j]).p) / sp.Rational(M[i, j]).q
-    return out
-
-
-def _hold(A, h, how: str) -> tuple:
-    """(e^{A h}, ∫₀ʰ e^{A τ} dτ) for how = "exact", or RK4's (F, Q) for how = "rk4",
-    in 40-digit arithmetic (RK4: exact rationals)."""
-    k = A.rows
-    if how == "rk4":
-        hA = sp.Matrix(A) * h
-        I = sp.eye(k)
-        F = I + hA + hA ** 2 / 2 + hA ** 3 / 6 + hA ** 4 / 24
-        Q = h * (I + hA / 2 + hA ** 2 / 6 + hA ** 3 / 24)
-        return _mp(F), _mp(Q)
-    with mpmath.workdps(_DPS):
-        M = mpmath.zeros(2 * k, 2 * k)
-        Am = _mp(A)
-        hm = mpmath.mpf(sp.Rational(h).p) / sp.Rational(h).q
-        for i in range(k):
-            M[i, k + i] = hm
-            for j in range(k):
-                M[i, j] = Am[i, j] * hm
-        E = mpmath.expm(M) if k else M
-        return E[:k, :k] if k else mpmath.zeros(0, 0), E[:k, k:] if k else mpmath.zeros(0, 0)
-
-
-def _mpn(M) -> np.ndarray:
-    return np.array([[float(M[i, j]) for j in range(M.cols)] for i in range(M.rows)],
-                    dtype=float).reshape(M.rows, M.cols)
-
-
 def _generator(model: PlantModel, observer: Observer, residuals, where: str) -> dict:
     """The residual generator's matrices (ξ' = A ξ + G y + G_u u + c0, r = C_r ξ + G_r y +
     G_ru u + c_r) and Φ (from x*(0) = Φ x(0)); refused unless affine with constant
@@ -196,10 +94,18 @@ def _generator(model: PlantModel, observer: Observer, residuals, where: str) -> 
     us = list(model.inputs)
     upd = [sp.expand(sp.sympify(e).xreplace(par)) for e in observer.update]
     outmap = {n: sp.expand(sp.sympify(e).xreplace(par)) for n, e in observer.outputs}
+    # the update's terms in the measured signals only that are not affine: n(y, u)
+    split = [affine_and_rest(e, xi + ys + us) for e in upd]
+    nl = sp.Matrix([r for _, r in split]) if split else sp.zeros(0, 1)
+    if any(r.free_symbols & set(xi) for r in nl):
+        raise UsageError(f"{where}: the observer update is not affine in the observer states;"
+                         " sampled guaranteed thresholds need a residual generator linear in"
+                         " its own states")
     parts = []
-    for what, exprs in (("observer update", upd), ("residual", [outmap[r] for r in residuals])):
+    for what, exprs in (("observer update", [a for a, _ in split]),
+                        ("residual", [outmap[r] for r in residuals])):
         try:
-            parts.append(_split(exprs, xi + ys, us, (), what, where))
+            parts.append(split_affine(exprs, xi + ys, us, (), what, where))
         except UsageError:
             raise UsageError(f"{where}: the {what} is not affine in the observer states, outputs"
                              " and inputs with constant coefficients; sampled guaranteed"
@@ -211,10 +117,11 @@ def _generator(model: PlantModel, observer: Observer, residuals, where: str) -> 
         raise UsageError(f"{where}: the observer's map x*(0) = Φ x(0) is not in the plant states")
     Phi = sp.Matrix(phi).jacobian(model.states) if phi else sp.zeros(0, len(model.states))
     return dict(xi=xi, upd=upd, A=up.Mx[:, :k], G=up.Mx[:, k:], Gu=up.Mu, c0=up.m0,
-                Cr=rp.Mx[:, :k], Gr=rp.Mx[:, k:], Gru=rp.Mu, cr=rp.m0, Phi=Phi, outmap=outmap)
+                Cr=rp.Mx[:, :k], Gr=rp.Mx[:, k:], Gru=rp.Mu, cr=rp.m0, Phi=Phi, outmap=outmap,
+                n=nl, ys=ys)
 
 
-def _identities(g: dict, dyn: _Affine, out: _Affine, where: str) -> Condition:
+def _identities(g: dict, dyn: Affine, out: Affine, where: str) -> Condition:
     """The exact decoupling identities the band rests on."""
     Phi, A, G, Gu, Cr, Gr = g["Phi"], g["A"], g["G"], g["Gu"], g["Cr"], g["Gr"]
     checks = {
@@ -248,7 +155,7 @@ def _envelope(model: PlantModel, box: dict, where: str) -> dict:
     return full
 
 
-def _inputs(g: dict, dyn: _Affine, out: _Affine, hold: dict, full: dict, where: str) -> dict:
+def _inputs(g: dict, dyn: Affine, out: Affine, hold: dict, full: dict, where: str) -> dict:
     """The error system the band sums over, with its bounded scalar inputs (the module
     docstring's terms). With a stable plant step (ρ(e^{A0 h}) < 1) the state is z = [x; e]
     (the plant moves the held terms K_x x: exact); otherwise z = e and x(k) is an input
@@ -256,12 +163,12 @@ def _inputs(g: dict, dyn: _Affine, out: _Affine, hold: dict, full: dict, where: 
     Phi, G, Gr = g["Phi"], g["G"], g["Gr"]
     F, Q, E0, G0, h = hold["F"], hold["Q"], hold["E0"], hold["G0"], hold["h"]
     sampled = hold["sampled"]
-    Phim, Gm, Hm = _mp(Phi), _mp(G), _mp(out.Mx)
+    Phim, Gm, Hm = to_mp(Phi), to_mp(G), to_mp(out.Mx)
     k, m, n = Phi.rows, Gr.rows, Phi.cols
-    E0n = _mpn(E0)
+    E0n = to_np(E0)
     joint = bool(n) and float(max(np.abs(np.linalg.eigvals(E0n)))) < 1 - 1e-9
     cols, labels = [], []
-    Phin = _mpn(Phi)
+    Phin = to_np(Phi)
 
     def add(bx, be, c, lo, hi, label):
         bx = [float(v) for v in bx] if joint else []
@@ -269,11 +176,11 @@ def _inputs(g: dict, dyn: _Affine, out: _Affine, hold: dict, full: dict, where: 
         if any(bx) or any(be) or any(c):
             cols.append((bx + be, c, float(lo), float(hi)))
             labels.append(label)
-    with mpmath.workdps(_DPS):
+    with mpmath.workdps(DPS):
         Kx = Phim * E0 - F * Phim - Q * Gm * Hm
-        Ku = Phim * G0 * _mp(dyn.Mu) - Q * (Gm * _mp(out.Mu) + _mp(g["Gu"]))
-        K1 = Phim * G0 * _mp(dyn.m0) - Q * (Gm * _mp(out.m0) + _mp(g["c0"]))
-        Bx, b0 = G0 * _mp(dyn.Mu), G0 * _mp(dyn.m0)
+        Ku = Phim * G0 * to_mp(dyn.Mu) - Q * (Gm * to_mp(out.Mu) + to_mp(g["Gu"]))
+        K1 = Phim * G0 * to_mp(dyn.m0) - Q * (Gm * to_mp(out.m0) + to_mp(g["c0"]))
+        Bx, b0 = G0 * to_mp(dyn.Mu), G0 * to_mp(dyn.m0)
         if not joint:
             for j, x in enumerate(full["__states"]):
                 add([], Kx[:, j], [0] * m, *full[x], f"{x} (hold)")
@@ -281,20 +188,20 @@ def _inputs(g: dict, dyn: _Affine, out: _Affine, hold: dict, full: dict, where: 
             add(Bx[:, j], Ku[:, j], [0] * m, *full[u], f"{u} (hold)")
         add(b0[:, 0], K1[:, 0], [0] * m, 1, 1, "constant (hold)")
         for phi, w in out.rest:  # sampled output terms: noise, uncertain sensors
-            b = -(Q * Gm * _mp(w))
-            add([0] * n, b[:, 0], list(Gr * w), *_box_of(phi, full, where), f"{phi} (sampled output)")
+            b = -(Q * Gm * to_mp(w))
+            add([0] * n, b[:, 0], list(Gr * w), *box_of(phi, full, where), f"{phi} (sampled output)")
     Rx, Re = np.zeros(n), np.zeros(k)
     hf = 1.0 if sampled else float(h)
-    tail = _exp_tail(np.abs(_mpn(dyn.Mx)) * hf) * (1 + 1e-9)
+    tail = exp_tail(np.abs(to_np(dyn.Mx)) * hf) * (1 + 1e-9)
     for phi, v in dyn.rest:  # dynamics terms: disturbances, uncertain parameters
-        lo, hi = _box_of(phi, full, where)
+        lo, hi = box_of(phi, full, where)
         vv = v * (1 if sampled else h)
         add(list(vv), list(Phi * vv), [0] * m, lo, hi, f"{phi} (dynamics)")
         if not sampled:
             big = float(max(abs(lo), abs(hi)))
-            va = np.abs(_mpn(v)[:, 0])
-            Rx += (np.abs(_mpn(dyn.Mx * v)[:, 0]) * hf * hf / 2 + hf * (tail @ va)) * big
-            Re += (np.abs(_mpn(Phi * dyn.Mx * v)[:, 0]) * hf * hf / 2
+            va = np.abs(to_np(v)[:, 0])
+            Rx += (np.abs(to_np(dyn.Mx * v)[:, 0]) * hf * hf / 2 + hf * (tail @ va)) * big
+            Re += (np.abs(to_np(Phi * dyn.Mx * v)[:, 0]) * hf * hf / 2
                    + hf * (np.abs(Phin) @ (tail @ va))) * big
     if joint:
         for i in range(n):
@@ -306,10 +213,10 @@ def _inputs(g: dict, dyn: _Affine, out: _Affine, hold: dict, full: dict, where: 
             if Re[i] > 0:
                 add([], [Re[i] if j == i else 0 for j in range(k)], [0] * m, -1, 1,
                     f"intersample remainder {i + 1}")
-    N = -_mpn(g["Cr"])
-    Fe = _mpn(F)
+    N = -to_np(g["Cr"])
+    Fe = to_np(F)
     if joint:
-        Fz = np.block([[E0n, np.zeros((n, k))], [_mpn(Kx), Fe]])
+        Fz = np.block([[E0n, np.zeros((n, k))], [to_np(Kx), Fe]])
         Nz = np.hstack([np.zeros((m, n)), N])
     else:
         Fz, Nz = Fe, N
@@ -319,17 +226,6 @@ def _inputs(g: dict, dyn: _Affine, out: _Affine, hold: dict, full: dict, where: 
     Cd = np.array([c[1] for c in cols]).T.reshape(m, T) if T else np.zeros((m, 0))
     return dict(F=Fz, N=Nz, B=B, Cd=Cd, lo=np.array([c[2] for c in cols]),
                 hi=np.array([c[3] for c in cols]), labels=labels, joint=joint, n=n, k=k)
-
-
-def _exp_tail(M: np.ndarray) -> np.ndarray:
-    """Σ_{m ≥ 2} M^m/m! of a nonnegative matrix (positive terms: no cancellation)."""
-    term, total = M.copy(), np.zeros_like(M)
-    for j in range(2, 200):
-        term = term @ M / j
-        total += term
-        if not np.any(term > 1e-18 * (total + 1e-300)):
-            break
-    return total
 
 
 def _checked_step(model: PlantModel, h, discretisation: str) -> tuple:
@@ -350,15 +246,15 @@ def _checked_step(model: PlantModel, h, discretisation: str) -> tuple:
     return hr, discretisation
 
 
-def _hold_matrices(g: dict, dyn: _Affine, h, how: str) -> dict:
+def _hold_matrices(g: dict, dyn: Affine, h, how: str) -> dict:
     """The observer's discrete step (F, Q) and the plant's (e^{A0 h}, Γ0) in 40 digits."""
-    with mpmath.workdps(_DPS):
+    with mpmath.workdps(DPS):
         if how == "discrete":
             k, n = g["A"].rows, dyn.Mx.rows
-            return dict(F=_mp(g["A"]), Q=mpmath.eye(k) if k else mpmath.zeros(0, 0),
-                        E0=_mp(dyn.Mx), G0=mpmath.eye(n), h=1, sampled=True)
-        F, Q = _hold(g["A"], h, "rk4" if how == "rk4" else "exact")
-        E0, G0 = _hold(dyn.Mx, h, "exact")
+            return dict(F=to_mp(g["A"]), Q=mpmath.eye(k) if k else mpmath.zeros(0, 0),
+                        E0=to_mp(dyn.Mx), G0=mpmath.eye(n), h=1, sampled=True)
+        F, Q = hold_step(g["A"], h, "rk4" if how == "rk4" else "exact")
+        E0, G0 = hold_step(dyn.Mx, h, "exact")
         return dict(F=F, Q=Q, E0=E0, G0=G0, h=h, sampled=False)
 
 
@@ -387,21 +283,21 @@ def _decay(F: np.ndarray, h, how: str) -> tuple:
     return -alpha, q * (1 - 1e-12)
 
 
-def _magnitudes(g: dict, out: _Affine, hold: dict, full: dict, model: PlantModel, where) -> tuple:
+def _magnitudes(g: dict, out: Affine, hold: dict, full: dict, model: PlantModel, where) -> tuple:
     """Per residual: the magnitude of the terms the computed residual adds up (from the
     envelope), and the per-step magnitude of the terms the observer's step adds up."""
     X = np.array([float(max(abs(a), abs(b))) for a, b in (full[x] for x in model.states)])
     U = np.array([float(max(abs(a), abs(b))) for a, b in (full[u] for u in model.inputs)])
-    ab = lambda M: np.abs(_mpn(M))  # noqa: E731
+    ab = lambda M: np.abs(to_np(M))  # noqa: E731
     ny = out.Mx.rows
     Y = ab(out.Mx) @ X + (ab(out.Mu) @ U if U.size else 0) + ab(out.m0)[:, 0]
     for phi, w in out.rest:
-        lo, hi = _box_of(phi, full, where)
-        Y = Y + np.abs(_mpn(w)[:, 0]) * float(max(abs(lo), abs(hi)))
+        lo, hi = box_of(phi, full, where)
+        Y = Y + np.abs(to_np(w)[:, 0]) * float(max(abs(lo), abs(hi)))
     Xi = ab(g["Phi"]) @ X
     res = ab(g["Cr"]) @ Xi + ab(g["Gr"]) @ Y + (ab(g["Gru"]) @ U if U.size else 0) \
         + ab(g["cr"])[:, 0]
-    F, Q = np.abs(_mpn(hold["F"])), np.abs(_mpn(hold["Q"]))
+    F, Q = np.abs(to_np(hold["F"])), np.abs(to_np(hold["Q"]))
     step = F @ Xi + Q @ (ab(g["G"]) @ Y.reshape(ny) + (ab(g["Gu"]) @ U if U.size else 0)
                          + ab(g["c0"])[:, 0])
     return res, step
@@ -448,7 +344,7 @@ def _transient(model: PlantModel, g: dict, sysm: dict, full: dict, hr, how: str)
     """K (per residual) with abs(transient of r) ≤ K q^k, the decay state's coefficient, q, the
     condition text, and the observer's start Φ c (None: keep x*(0) = Φ x(0))."""
     F, N, n = sysm["F"], sysm["N"], sysm["n"]
-    Phin = _mpn(g["Phi"])
+    Phin = to_np(g["Phi"])
     start, cols = None, []
     if model.initial:
         box = [model.initial[x] for x in model.states]
@@ -457,7 +353,7 @@ def _transient(model: PlantModel, g: dict, sysm: dict, full: dict, hr, how: str)
         start = g["Phi"] * c
         if sysm["joint"]:  # z(0) = [c; 0] + [I; Φ] (x(0) − c)
             cols = [np.concatenate([np.eye(n)[:, j], Phin[:, j]]) * rad[j] for j in range(n)]
-            cols.append(np.concatenate([_mpn(c)[:, 0], np.zeros(Phin.shape[0])]))
+            cols.append(np.concatenate([to_np(c)[:, 0], np.zeros(Phin.shape[0])]))
         else:
             cols = [Phin[:, j] * rad[j] for j in range(n)]
         x0_text = ("x(0) in the initial box " + ", ".join(
@@ -489,9 +385,12 @@ def _error_system(model: PlantModel, g: dict, hold: dict, sysm: dict, Bf, residu
         Bx = sp.zeros(g["Phi"].cols, 0)
     else:
         Bf, Df = Bf
-        Bx = Bf if hold["sampled"] else rat(_mpn(hold["G0"] * _mp(Bf)))
-    # a fault in the outputs enters the observer's step (−Q G D_f) and r (G_r D_f) directly
-    Be = g["Phi"] * Bx - rat(_mpn(hold["Q"] * _mp(g["G"]) * _mp(Df))) if Df.cols else g["Phi"] * Bx
+        Bx = Bf if hold["sampled"] else (None if hold["G0"] is None else
+                                         rat(to_np(hold["G0"] * to_mp(Bf))))
+    # a fault in the outputs enters the observer's step (−Q G D_f) and r (G_r D_f) directly;
+    # a nonlinear plant's fault through the observer's side, Γ Φ D_f over a step
+    PhiBx = g["Phi"] * Bx if Bx is not None else rat(to_np(hold["Gamma"] * to_mp(g["Phi"] * Bf)))
+    Be = PhiBx - rat(to_np(hold["Q"] * to_mp(g["G"]) * to_mp(Df))) if Df.cols else PhiBx
     if sysm["joint"]:
         fin, C = Bx.col_join(Be), sp.zeros(len(residuals), sysm["n"]).row_join(g["Cr"])
     else:
@@ -504,16 +403,26 @@ def _error_system(model: PlantModel, g: dict, hold: dict, sysm: dict, Bf, residu
 
 
 def sampled_band_refusal(model: PlantModel, observer: Observer) -> str:
-    """Why :func:`sampled_threshold` cannot bound this plant and residual generator (its
-    plant or its residual generator is not linear with constant coefficients), "" when it
-    can (the envelope and the step are checked by :func:`sampled_threshold` itself)."""
+    """Why :func:`sampled_threshold` cannot bound this plant and residual generator (not
+    affine with constant coefficients where it must be, or, for a nonlinear plant, a term
+    without a finite bound over the operating envelope), "" when it can (the step is
+    checked by :func:`sampled_threshold` itself)."""
     where = model.where
     try:
-        _generator(model, observer, residual_names(observer), where)
+        g = _generator(model, observer, residual_names(observer), where)
         dynx, outx, box, _ = _nominal(model)
         unc = tuple(box) + tuple(model.disturbances) + tuple(model.noise)
-        _split(dynx, model.states, model.inputs, unc, "dynamics equation", where)
-        _split(outx, model.states, model.inputs, unc, "output", where)
+        nl = nonlinear_plant(model, g, dynx, outx, unc, where)
+        if nl is None:
+            split_affine(dynx, model.states, model.inputs, unc, "dynamics equation", where)
+            split_affine(outx, model.states, model.inputs, unc, "output", where)
+        else:  # the identities and every interval bound (at a step of 1/100: they do not
+            nonlinear_identities(g, nl, model.states, where)  # depend on it being finite)
+            h = sp.Rational(1, 100)
+            with mpmath.workdps(DPS):
+                F, Q = hold_step(g["A"], h, "rk4")
+            nonlinear_inputs(g, nl, model, dict(F=F, Q=Q, h=h), _envelope(model, box, where),
+                             where)
     except UsageError as exc:
         return str(exc)
     return ""
@@ -544,21 +453,33 @@ def sampled_threshold(model: PlantModel, observer: Observer, h=None, *,
     g = _generator(model, observer, residuals, where)
     dynx, outx, box, Bf = _nominal(model)
     unc = tuple(box) + tuple(model.disturbances) + tuple(model.noise)
-    dyn = _split(dynx, model.states, model.inputs, unc, "dynamics equation", where)
-    out = _split(outx, model.states, model.inputs, unc, "output", where)
-    conds = [_identities(g, dyn, out, where)]
+    nl = nonlinear_plant(model, g, dynx, outx, unc, where)
     full = _envelope(model, box, where)
-    full["__states"], full["__inputs"] = tuple(model.states), tuple(model.inputs)
-    hold = _hold_matrices(g, dyn, hr, how)
-    sysm = _inputs(g, dyn, out, hold, full, where)
+    if nl is None:
+        dyn = split_affine(dynx, model.states, model.inputs, unc, "dynamics equation", where)
+        out = split_affine(outx, model.states, model.inputs, unc, "output", where)
+        conds = [_identities(g, dyn, out, where)]
+        full["__states"], full["__inputs"] = tuple(model.states), tuple(model.inputs)
+        hold = _hold_matrices(g, dyn, hr, how)
+        sysm = _inputs(g, dyn, out, hold, full, where)
+    else:
+        out = nl.out
+        conds = [nonlinear_identities(g, nl, model.states, where)]
+        with mpmath.workdps(DPS):
+            F, Q = hold_step(g["A"], hr, "rk4" if how == "rk4" else "exact")
+        hold = dict(F=F, Q=Q, E0=None, G0=None, h=hr, sampled=False)
+        sysm = nonlinear_inputs(g, nl, model, hold, full, where)
+        hold["Gamma"] = sysm["Gamma"]
     F, N, labels = sysm["F"], sysm["N"], sysm["labels"]
     rho_F = float(max(np.abs(np.linalg.eigvals(F)))) if F.size else 0.0
     if not rho_F < 1:
         raise UsageError(f"{where}: the observer's discrete step is not stable (spectral radius"
                          f" {rho_F:.6g}); no bounded band at this sample time")
     wc = worst_case_sums(F, N, sysm["B"], sysm["Cd"], sysm["lo"], sysm["hi"])
-    Fe, Ne = _mpn(hold["F"]), -_mpn(g["Cr"])
+    Fe, Ne = to_np(hold["F"]), -to_np(g["Cr"])
     res_mag, step_mag = _magnitudes(g, out, hold, full, model, where)
+    if nl is not None:  # the observer's nonlinear terms add up in its step too
+        step_mag = step_mag + np.abs(to_np(hold["Q"])) @ sysm["n_mag"]
     acc = worst_case_sums(Fe, Ne, np.diag(step_mag), np.zeros((Ne.shape[0], len(step_mag))),
                           -np.ones(len(step_mag)), np.ones(len(step_mag))).upper
     eps = float(np.finfo(float).eps)

@@ -23,7 +23,9 @@ from ..errors import InfeasibleDesignError, UsageError
 from ..model import ObserverKind, PlantModel, Task, resolve_task
 from .canonical import design_canonical
 from .core import PROOF_SECONDS, Design, DesignRequest, prepare
-from .core import feedthrough_view, has_output_feedthrough, lift_design, zero_order_design
+from .core import feedthrough_view, has_output_feedthrough, lift_kind_design, zero_order_design
+from .core import check_kind_feedthrough, check_robust_feedthrough, lift_robust_design
+from .core import zero_order_first
 from .canonical import design_diagnostic_canonical
 from .jordan import design_jordan, design_jordan_unknown_input, proof_seconds_value
 from .core import default_eigenvalues
@@ -85,15 +87,13 @@ def design(model: PlantModel, *, observer: str, faults: Sequence[str] = (),
         raise UsageError("name the fault to detect with --fault NAME")
     view = None
     if has_output_feedthrough(problem.work):  # y = H x + Gy u + Dy d + Ly ρ + W w
+        check_kind_feedthrough(problem.work, task)  # an estimated input in y: refused
         view = feedthrough_view(problem.work, task)
-        if robust:
-            raise UsageError(f"{model.where}: robust designs do not take output feedthrough"
-                             " (inputs, faults or disturbances in the outputs) yet")
     if kind == ObserverKind.UNKNOWN_INPUT and not robust:  # continuous time: rank tests first
         continuous_estimation_check(model, task.targets[0], task.decoupled)
     try:
-        if view is not None and task.targets and not view.inner.targets:
-            # every fault to detect enters the outputs only: a zero-order residual
+        if view is not None and zero_order_first(view):
+            # the outputs alone give the residual (every fault to detect enters them)
             d = zero_order_design(view, Design, form=form)
         else:
             d = _exact(model if view is None else view.model,
@@ -101,21 +101,26 @@ def design(model: PlantModel, *, observer: str, faults: Sequence[str] = (),
                        form, lambdas, eigenvalues, variant, symbolic, method, rtol,
                        proof_seconds)
             if view is not None:
-                d = lift_design(d, view)
+                d = lift_kind_design(d, view)
     except InfeasibleDesignError as exc:
         if not robust:
             raise
+        if view is not None:  # known inputs in the outputs only (else one line)
+            check_robust_feedthrough(view, exc)
+        measured = model if view is None else view.model  # (y − Gy u: lifted below)
         if form == "jordan":
             if kind not in (ObserverKind.VIRTUAL_SENSOR, ObserverKind.INTERVAL):
                 raise UsageError("a robust Jordan design needs --estimate (virtual-sensor or"
                                  " interval)") from exc
-            d = design_robust_jordan(model, estimate=estimate, lambdas=lambdas,
+            d = design_robust_jordan(measured, estimate=estimate, lambdas=lambdas,
                                      decouple=disturbances)
         else:
-            d = design_robust_canonical(model, unknown_input=faults[0] if faults else None,
+            d = design_robust_canonical(measured, unknown_input=faults[0] if faults else None,
                                         estimate=estimate, decouple=disturbances,
                                         symbolic=symbolic)
         d = d.with_task(observer=kind)
+        if view is not None:
+            d = lift_robust_design(d, view)
     request = DesignRequest(
         observer=kind.value, faults=tuple(faults), disturbances=tuple(disturbances),
         estimate=None if estimate is None else str(estimate), form=form,

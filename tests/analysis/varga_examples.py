@@ -105,6 +105,19 @@ def yuan_1997():
     return structure(A, C, Bf, name="yuan_1997")
 
 
+def triplex_sensor():
+    """Varga 2017, Example 5.10 (FaultDetectionTools.jl, Examples/Ex5_10.jl): triplex
+    sensor redundancy, three sensors of one signal v = G_u u + G_d d with a fault each,
+    y_i = v + f_i. Varga draws G_u and G_d at random (what is asserted does not depend
+    on the draw); here G_u = 1/(s + 1), G_d = 1/(s + 2). A plant model: the faults enter
+    the outputs only."""
+    x1, x2, u, d, f1, f2, f3 = sp.symbols("x1 x2 u d f1 f2 f3")
+    v = x1 + x2
+    return PlantModel(name="triplex_sensor", time="continuous", states=[x1, x2], inputs=[u],
+                      faults=[f1, f2, f3], disturbances=[d], outputs=[v + f1, v + f2, v + f3],
+                      dynamics=[-x1 + u, -2 * x2 + d])
+
+
 def rows(patterns):
     """'00111' strings -> the set of fault tuples (f1…) they mark sensitive."""
     return {tuple(f"f{i + 1}" for i, c in enumerate(p) if c == "1") for p in patterns}

@@ -350,42 +350,40 @@ def test_codegen_says_when_its_band_leaves_the_sampling_out(capsys, tmp_path):
     assert "note:" not in so and "wrote" in so
 
 
-NONLINEAR = '''
+DRAIN = '''
 import sympy as sp
 from observer_cad import PlantModel
 x1, x2, u, f, w1, w2 = sp.symbols("x1 x2 u f w1 w2")
 model = PlantModel(
-    name="pendulum_like", time="continuous", states=[x1, x2], inputs=[u], faults=[f],
+    name="drain", time="continuous", states=[x1, x2], inputs=[u], faults=[f],
     noise=[w1, w2], outputs=[x1 + w1, x2 + w2],
-    dynamics=[x2, -x1 + x1**3 / 6 - x2 + u + f],
-    bounds={x1: (-1, 1), x2: (-2, 2), u: (-1, 1), f: (-1, 1), w1: (-0.01, 0.01),
+    dynamics=[x2, -sp.sqrt(x1 + 1) - x2 + u + f],
+    bounds={x1: (LOW, 1), x2: (-2, 2), u: (-1, 2), f: (-1, 1), w1: (-0.01, 0.01),
             w2: (-0.01, 0.01)})
 '''
 
 
-def test_a_nonlinear_plant_with_an_envelope_gets_the_continuous_band_and_a_note(
-        capsys, tmp_path):
-    """The sampled-data band bounds linear plants only: for a nonlinear one that declares
-    its envelope the monitor keeps the band of continuous observation and says what it
-    leaves out, instead of refusing the run."""
+def test_a_nonlinear_plant_gets_the_sampled_band_or_one_line(capsys, tmp_path):
+    """A nonlinear plant with its envelope: the sampled-data band where every term has a
+    finite bound over it (x1 ≥ −1/2: a square root the band of continuous observation does
+    not take); where the drain's slope is unbounded (x1 = −1 in the envelope) one line,
+    exit 2, nothing written."""
     import numpy as np
-    from observer_cad import build_observer, design, load_model
-    from observer_cad.residuals import sampled_band_refusal
-    path = tmp_path / "pendulum_like.py"
-    path.write_text(NONLINEAR)
-    m = load_model(path)
-    o = build_observer(m, design(m, observer="diagnostic"))
-    assert "need a linear residual generator" in sampled_band_refusal(m, o)
-    motor = load_model(ROOT / "models" / "dc_motor_sampled.py")
-    assert sampled_band_refusal(motor, build_observer(
-        motor, design(motor, observer="diagnostic", lambdas=[-4]))) == ""
     t = np.arange(0, 2.001, 0.01)
     data = tmp_path / "data.csv"
-    np.savetxt(data, np.column_stack([t, 0.1 * np.sin(t), 0 * t, 0 * t]), delimiter=",",
+    np.savetxt(data, np.column_stack([t, 1 + 0 * t, 0 * t, 0 * t]), delimiter=",",
                header="t,u,y1,y2", comments="")
-    rc, so, se = run(capsys, ["monitor", path, "--observer", "diagnostic", "--threshold",
-                              "guaranteed", "--data", data, "--out", tmp_path / "mon"])
-    assert rc == 0, se
-    assert "threshold: guaranteed adaptive threshold" in so
-    assert ("the sampling at h = 0.01 s (y and u held over each step) is not covered; the"
-            " sampled-data band needs a plant and residual generator linear") in so
+    for low, sampled in (("-1", False), ("-0.5", True)):
+        path = tmp_path / f"drain{low}.py"
+        path.write_text(DRAIN.replace("LOW", low))
+        out = tmp_path / f"mon{low}"
+        rc, so, se = run(capsys, ["monitor", path, "--observer", "diagnostic", "--threshold",
+                                  "guaranteed", "--data", data, "--out", out])
+        if sampled:
+            assert rc == 0, se
+            assert "threshold: guaranteed threshold of the sampled algorithm at h = 0.01" in so
+            assert "note:" not in so
+        else:
+            assert rc == 2 and se.count("\n") == 1 and se.startswith("observer-cad: error:")
+            assert "no sampled-data band" in se and "no finite bound" in se
+            assert not out.exists()

@@ -246,8 +246,18 @@ def test_refusals_are_one_line(models_dir, motor):
         sampled_threshold(m, o, -1)
     wl = m.states[2]
     cubic = dataclasses.replace(m, dynamics=list(m.dynamics[:2]) + [m.dynamics[2] - wl ** 3 / 100])
-    with pytest.raises(UsageError, match="nonlinear nominal term wl\\*\\*3") as err:
-        sampled_threshold(cubic, o, H)
+    # a cubic term the residual generator does not see (Φ has no wl column): the identity
+    # Φ f0 = A Φ x + p still holds exactly, and the band is the nonlinear plant's
+    ot = sampled_threshold(cubic, o, H)
+    conds = {c.name: c.detail for c in ot.threshold.conditions}
+    assert "nominal nonlinear plant" in conds["fault-free residual identity"]
+    # a cubic term in the current's equation, which it does see (x*(0) = i): the observer
+    # does not reproduce the plant, refused in one line
+    i = m.states[0]
+    assert o.initial[o.states[0]] == i
+    seen = dataclasses.replace(m, dynamics=[m.dynamics[0] - i ** 3 / 100] + list(m.dynamics[1:]))
+    with pytest.raises(UsageError, match="does not reproduce the nominal plant") as err:
+        sampled_threshold(seen, o, H)
     assert "\n" not in str(err.value)
 
 

@@ -462,7 +462,7 @@ def _check_equations(d, work) -> None:
     if d.observer == ObserverKind.SLIDING_MODE:
         fault = d.task.targets[0] if d.task.targets else ""
         options = [sliding_equations(m, work.inputs, xs[:1], ys, str(fault), inj,
-                                     nonlinear=d.nonlinear)
+                                     nonlinear=d.nonlinear, measured=measured)
                    for inj in INJECTIONS]
         candidates = [(u, dict(o)) for states, u, o in options
                       if [str(s) for s in states] == [str(s) for s in xs]]

@@ -10,19 +10,35 @@ The decoupling conditions with feedthrough (for x* = Φ x and r = R* (y − Gy u
 Every designer is reused unchanged on the *measured part* of the plant: the outputs
 ỹ = N (y − Gy u), with N a basis of the left null space of Ly (the feedthrough columns
 of the inputs the design is decoupled from; N = I when there are none), so that ỹ does
-not see the decoupled inputs at all. A design (Φ, F*, J̃*, R̃*, …) for ỹ is one for y with
-J* = J̃* N, R* = R̃* N, Q = Q̃ N (then Φ L − J* Ly = Φ L = 0 and R* Ly = 0), and
-G* = Φ G − J* Gy, D* = Φ D − J* Dy; the observer's equations read ỹ = N (y − Gy u).
-This is sufficient, not necessary: a design that uses the dynamics to cancel J* Ly
-(Φ L = J* Ly ≠ 0) is not searched for, so with decoupled inputs in the outputs the order
-found can exceed the least order. The lifted design is certified again on the plant with
-its feedthrough (the identities above, and against the model's own equations).
+not see the decoupled inputs at all. The outputs that do see them are not thrown away
+(diagnostic and virtual-sensor designs, :mod:`._eliminate`): with M rows completing N,
+y_a = M (y − Gy u) = M H x + M Dy d + Y₁ ρ₁ + … solves for a set ρ₁ of the decoupled
+inputs, which is put into the dynamics; the designers see y_a as a further known input
+and are decoupled from the remaining ρ₂ only. A design (Φ, F*, J̃*, G̃*, R̃*, …) of that
+plant is one for y with J* = J̃* N + Φ L₁ Y₁⁻¹ M (the gain of y_a, read from G̃*, times
+M), R* = R̃* N, Q = Q̃ N (then Φ L − J* Ly = 0, R* Ly = 0), and G* = Φ G − J* Gy,
+D* = Φ D − J* Dy; the observer's equations read ỹ = N (y − Gy u) and y_a = M (y − Gy u).
+This is exact, not only sufficient: every design of the plant has that form
+(J* = J̃ N + S M with S = Φ L₁ Y₁⁻¹ forced by Φ L = J* Ly), so no order is lost: the
+designed orders are the least orders of :func:`observer_cad.analysis.feedthrough_orders`
+wherever the designers reach them (they search orders below n, for a residual that sees
+each fault to detect through Φ D; one that would see a fault only through its output
+column N Dy, with Φ D = 0, is not searched for). It holds for every model
+the structure extraction accepts (ρ enters the dynamics linearly with constant
+coefficients; the outputs are linear in x).
+Other observer kinds see ỹ alone (sufficient, not necessary). The lifted design is
+certified again on the plant with its feedthrough (the identities above, and against the
+model's own equations).
 
 Faults to detect that all enter the outputs only (sensor faults: no Φ D for the designers
-to search on) get a zero-order residual r = R* (y − Gy u) with R* H = 0, R* Ly = 0 and
-R* Dy ≠ 0 for each of them (:func:`zero_order_design`; no observer state), or a one-line
-refusal when the outputs alone cannot give one. Unknown-input, sliding-mode and interval
-observers and robust designs on plants with feedthrough are refused in one line.
+to search on, after the elimination above: a bias on a sensor that a decoupled input also
+reaches enters the dynamics through y_a) get a zero-order residual r = R* (y − Gy u) with
+R* H = 0, R* Ly = 0 and R* Dy ≠ 0 for each of them (:func:`zero_order_design`; no
+observer state), or a one-line refusal when the outputs alone cannot give one. A
+diagnostic design whose faults all enter the outputs gets that zero-order residual too
+whenever one exists (order 0, the least; :func:`zero_order_first`). Unknown-input,
+sliding-mode and interval observers and robust designs with feedthrough:
+:mod:`._feedthrough_kinds`.
 """
 from __future__ import annotations
 
@@ -34,14 +50,20 @@ import sympy as sp
 from ...errors import InfeasibleDesignError, UsageError
 from ...model import ObserverKind, PlantModel, Structure, Task, extract_structure
 from ..certificates import MODEL_PREFIX, Certificate, certify_design
+from ._eliminate import Elimination, eliminate_decoupled
 from ._reduced import output_symbols
 from ._values import Condition
 
 __all__ = ["has_output_feedthrough", "FeedthroughView", "feedthrough_view", "lift_design",
-           "feedthrough_outputs_error", "zero_order_design"]
+           "feedthrough_outputs_error", "zero_order_design", "zero_order_first"]
 
 #: the observer kinds designed with feedthrough (the others are refused)
-FEEDTHROUGH_KINDS = (ObserverKind.DIAGNOSTIC, ObserverKind.VIRTUAL_SENSOR)
+FEEDTHROUGH_KINDS = (ObserverKind.DIAGNOSTIC, ObserverKind.VIRTUAL_SENSOR,
+                     ObserverKind.INTERVAL, ObserverKind.UNKNOWN_INPUT,
+                     ObserverKind.SLIDING_MODE)
+#: the kinds whose designs see the decoupled inputs' measured part as a known input
+#: (the others are designed on ỹ = N (y − Gy u) alone)
+ELIMINATING_KINDS = (ObserverKind.DIAGNOSTIC, ObserverKind.VIRTUAL_SENSOR)
 
 
 def has_output_feedthrough(model: PlantModel) -> bool:
@@ -63,6 +85,9 @@ class FeedthroughView:
     #: the task the designers are given: the faults to detect that enter the outputs only
     #: (no Φ D to search on) are left to the signature, which checks the residual sees them
     inner: Task
+    #: the decoupled inputs' measured part y_a = M (y − Gy u), eliminated from the
+    #: dynamics (:mod:`._eliminate`); None when no decoupled input enters the outputs
+    elimination: Elimination | None = None
 
 
 def feedthrough_view(work: PlantModel, task: Task) -> FeedthroughView:
@@ -75,11 +100,6 @@ def feedthrough_view(work: PlantModel, task: Task) -> FeedthroughView:
             " observers do not take output feedthrough yet (diagnostic and virtual-sensor"
             " observers do)")
     st = extract_structure(work)
-    outputs_only = [n for n in task.targets if st.unknown_input_columns([n]).is_zero_matrix
-                    and not st.output_columns([n]).is_zero_matrix]
-    inner = dataclasses.replace(task, targets=tuple(n for n in task.targets
-                                                    if n not in outputs_only),
-                                assumed_zero=tuple(task.assumed_zero) + tuple(outputs_only))
     Ly = sp.Matrix(st.output_columns(task.decoupled))
     if Ly.free_symbols:
         raise UsageError(f"{where}: the outputs' feedthrough of the decoupled inputs has"
@@ -93,27 +113,49 @@ def feedthrough_view(work: PlantModel, task: Task) -> FeedthroughView:
                 f"{where}: every output carries some of the decoupled inputs"
                 f" ({', '.join(task.decoupled)}) directly; no output combination is free of them")
         N = sp.Matrix.vstack(*[v.T for v in basis])
+    elim = (eliminate_decoupled(work, st, task, N) if task.observer in ELIMINATING_KINDS
+            else None)
+    # the targets' columns in the dynamics the designers see (D − L₁ Y₁⁻¹ M Dy)
+    D = task.D(st) if elim is None else elim.D
+    outputs_only = [n for j, n in enumerate(task.targets) if sp.Matrix(D[:, j]).is_zero_matrix
+                    and not st.output_columns([n]).is_zero_matrix]
+    inner = dataclasses.replace(task, targets=tuple(n for n in task.targets
+                                                    if n not in outputs_only),
+                                assumed_zero=tuple(task.assumed_zero) + tuple(outputs_only))
     zero = {s: 0 for s in list(work.inputs) + list(work.faults) + list(work.disturbances)}
     outs = [h.xreplace(zero) for h in work.outputs]
     if N != sp.eye(st.l):
         outs = [sp.expand(e) for e in N * sp.Matrix(outs)]
     measured = copy.copy(work)  # the same model, its outputs the measured part (no re-check:
     object.__setattr__(measured, "outputs", tuple(outs))  # a sensor fault may vanish from it)
-    return FeedthroughView(measured, sp.ImmutableMatrix(N), st, task, inner)
+    if elim is not None:  # y_a a known input, ρ₁ solved from it in the dynamics
+        object.__setattr__(measured, "inputs", tuple(work.inputs) + elim.measured)
+        object.__setattr__(measured, "dynamics", elim.dynamics)
+        object.__setattr__(measured, "linear_part", elim.linear_part)
+    return FeedthroughView(measured, sp.ImmutableMatrix(N), st, task, inner, elim)
 
 
 def _lifted_matrices(d, view: FeedthroughView) -> dict:
-    """J* = J̃* N, R* = R̃* N, Q = Q̃ N, G* = Φ G − J* Gy, D* = Φ D − J* Dy."""
+    """J* = J̃* N + G̃*_a M (G̃*_a: the gain of the known inputs y_a = M (y − Gy u), when
+    decoupled inputs were eliminated), R* = R̃* N, Q = Q̃ N, G* = Φ G − J* Gy,
+    D* = Φ D − J* Dy."""
     st, N = view.structure, sp.Matrix(view.N)
     m = d.matrices.as_dict()
-    for key in ("J_star", "R_star", "Q", "J_diag"):
+    m_in = len(st.model.inputs)
+    for key in ("R_star", "Q"):
         if m.get(key) is not None:
             m[key] = sp.Matrix(m[key]) * N
     Gy = sp.Matrix(st.Gy)
-    if Gy.cols:
-        m["G_star"] = sp.Matrix(m["G_star"]) - sp.Matrix(m["J_star"]) * Gy
-        if m.get("G_diag") is not None:
-            m["G_diag"] = sp.Matrix(m["G_diag"]) - sp.Matrix(m["J_diag"]) * Gy
+    for J, G in (("J_star", "G_star"), ("J_diag", "G_diag")):
+        if m.get(J) is None:
+            continue
+        m[J] = sp.Matrix(m[J]) * N
+        if view.elimination is not None and m.get(G) is not None:
+            Gt = sp.Matrix(m[G])
+            m[J] = m[J] + Gt[:, m_in:] * sp.Matrix(view.elimination.M)
+            m[G] = Gt[:, :m_in]
+        if m.get(G) is not None and Gy.cols:
+            m[G] = sp.Matrix(m[G]) - sp.Matrix(m[J]) * Gy
     task = view.task
     if m.get("D_star") is not None and task.targets:
         m["D_star"] = sp.Matrix(m["Phi"]) * task.D(st) - sp.Matrix(m["J_star"]) * sp.Matrix(
@@ -131,9 +173,13 @@ def lift_design(d, view: FeedthroughView):
     ys_tilde = output_symbols(N.rows)
     ys = sp.Matrix(output_symbols(st.l))
     u = sp.Matrix(st.model.inputs) if st.model.inputs else sp.zeros(0, 1)
-    corrected = N * (ys - sp.Matrix(st.Gy) * u) if u.rows else N * ys
+    measured = ys - sp.Matrix(st.Gy) * u if u.rows else ys
+    corrected = N * measured
     # simultaneous: y1 of the view may stand for y2 − y1 of the plant
     sub = {yt: corrected[i] for i, yt in enumerate(ys_tilde)}
+    if view.elimination is not None:  # the known inputs y_a = M (y − Gy u)
+        ya = sp.Matrix(view.elimination.M) * measured
+        sub.update({s: ya[i] for i, s in enumerate(view.elimination.measured)})
 
     def tr(e):
         return sp.expand(sp.sympify(e).xreplace(sub))
@@ -152,11 +198,28 @@ def lift_design(d, view: FeedthroughView):
     cert = Certificate(tuple(cert.identities) + kept, cert.exact, cert.tolerance)
     conds = tuple(dataclasses.replace(c, holds=cert.passed, detail=cert.summary())
                   if c.name == "certificate" else c for c in d.conditions)
+    if view.elimination is not None:
+        conds += (_elimination_condition(view),)
     return dataclasses.replace(
         d, structure=st, task=task, matrices=mats, certificate=cert, nonlinear=nonlinear,
         conditions=conds,
         equations=tuple(tr(e) for e in d.equations),
         outputs=tuple((name, tr(e)) for name, e in d.outputs))
+
+
+def _elimination_condition(view: FeedthroughView) -> Condition:
+    """What the design read of the decoupled inputs that enter the outputs (for the
+    record: the certificate checks Φ L − J* Ly = 0 and R* Ly = 0 on the plant)."""
+    el = view.elimination
+    M = sp.Matrix(el.M)
+    used = ", ".join(f"y{j + 1}" for i in range(M.rows) for j in range(M.cols) if M[i, j])
+    solved = ", ".join(map(str, el.solved))
+    return Condition(
+        "decoupled inputs in the outputs", True,
+        f"{solved} solved from the measured part M (y − Gy u) of {used} and put into the"
+        " dynamics (a known input there): J* = J̃* N + Φ L₁ Y₁⁻¹ M, R* = R̃* N; no order"
+        " is lost to the outputs that carry decoupled inputs",
+        "METHOD §2 (output feedthrough)", required=False)
 
 
 def feedthrough_outputs_error(d) -> str:
@@ -209,6 +272,25 @@ def _zero_order_row(st: Structure, task: Task):
             den = next(e for e in row if e != 0)
             return (row / den).applyfunc(sp.nsimplify)
     return None
+
+
+def zero_order_first(view: FeedthroughView) -> bool:
+    """Whether the design for ``view`` is the zero-order residual r = R* (y − Gy u): when
+    every fault to detect enters the outputs only, and, for a diagnostic design, when
+    every one is in the outputs and some R* with R* H = 0, R* Ly = 0 sees them all
+    (order 0, the least there is: Varga 2017, ``efdsyn``'s zero-order residuals)."""
+    task, st = view.task, view.structure
+    if not task.targets:
+        return False
+    if not view.inner.targets:
+        return True
+    if task.observer != ObserverKind.DIAGNOSTIC:
+        return False
+    Dy = sp.Matrix(st.output_columns(task.targets))
+    if any(Dy[:, j].is_zero_matrix for j in range(Dy.cols)) or Dy.free_symbols \
+            or sp.Matrix(st.H).free_symbols:
+        return False
+    return _zero_order_row(st, task) is not None
 
 
 def zero_order_design(view: FeedthroughView, design_cls, *, form: str):

@@ -103,13 +103,15 @@ def jordan_equations(mats, inputs, xs, ys, observer, M, nonlinear=(), q=0):
 
 
 def sliding_equations(mats, inputs, xs, ys, fault_name: str, injection: str, *,
-                      nonlinear=(), q: int | None = None) -> tuple:
+                      nonlinear=(), q: int | None = None, measured=None) -> tuple:
     """(states, update, outputs) of a one-row sliding-mode observer (seed 002 §5): the
     reduced model's right-hand side minus K1·v, v the injection of e = x*_1 − R* y —
     e/(abs(e) + ε) ("regularised") or sign(e), filtered by the state vf ("sign") —
-    with the estimate ``<fault>_hat`` = −K1 v / D* and the residual r = R* y − x*_1."""
+    with the estimate ``<fault>_hat`` = −K1 v / D* and the residual r = R* y − x*_1
+    (``measured``: y − Gy u in place of y in e and r, inputs in the outputs)."""
     x = xs[0]
-    ystar = (sp.Matrix(_get(mats, "R_star")) * sp.Matrix(ys))[0, 0]
+    ystar = (sp.Matrix(_get(mats, "R_star"))
+             * sp.Matrix(ys if measured is None else measured))[0, 0]
     e = x - ystar
     model_rhs = reduced_equations(mats, inputs, xs, ys, nonlinear=nonlinear, q=q, deep=True)[0]
     Dst = sp.Matrix(_get(mats, "D_star"))[0, 0]
