@@ -64,7 +64,7 @@ def cmd_monitor(args) -> int:
         return Monitor(model, obs, rule=rule, sample_time=args.sample_time, initial=initial,
                        engine=engine), how
     if data is None:
-        if _band_needs_h(args, model, observer):  # the sampled band, once two rows give h
+        if _band_needs_h(args, model):  # the band of the data's h, once two rows give it
             return _stream(args, None, rename, "", later=(monitor_at, observer, model))
         mon, how = monitor_at(None)
         return _stream(args, mon, rename, how)
@@ -74,16 +74,12 @@ def cmd_monitor(args) -> int:
     return _finish(args, mon, res, how)
 
 
-def _band_needs_h(args, model, observer) -> bool:
-    """Whether --threshold asks for the sampled-data band of the data's own sample time
-    (guaranteed, a continuous-time model declaring its operating envelope, a plant and
-    residual generator it can bound)."""
-    from ..residuals import sampled_band_refusal
+def _band_needs_h(args, model) -> bool:
+    """Whether the band --threshold asks for depends on the data's sample time: a
+    guaranteed band on a continuous-time model is the sampled-data one at h, or that of
+    continuous observation with its "sampling" condition saying what h leaves out."""
     return model.time == "continuous" and args.threshold is not None \
-        and ThresholdSpec.parse(args.threshold).kind == "guaranteed" \
-        and getattr(args, "initial_error", "0") == "0" \
-        and all(s in model.bounds for s in model.states + model.inputs) \
-        and not sampled_band_refusal(model, observer)
+        and ThresholdSpec.parse(args.threshold).kind == "guaranteed"
 
 
 def _data_step(data, rename):
@@ -192,9 +188,8 @@ def _warn_envelope(mon, res) -> None:
 def _stream(args, mon, rename: dict, how: str, *, later=None) -> int:
     """--data -: rows from stdin as they arrive, each change of alarm or diagnosis printed
     (flushed) at once; at the end of the input the files as for a file. ``later``:
-    (``monitor_at(h)``, the observer, the model) when the band is the sampled one of the
-    data's sample time: the monitor is made once the first two rows give h, then steps
-    them."""
+    (``monitor_at(h)``, the observer, the model) when the band depends on the data's
+    sample time: the monitor is made once the first two rows give h, then steps them."""
     import csv
     from ..simulation import declared_envelope, monitor_signals, parse_row
     src = "<stdin>"
@@ -214,8 +209,8 @@ def _stream(args, mon, rename: dict, how: str, *, later=None) -> int:
     extra = [c for c in envelope if c not in col and rename.get(c, c) in header]
     col.update({c: rename.get(c, c) for c in extra})
     print(f"monitoring rows from stdin ({', '.join(col.values())}; " + (
-        how if mon is not None else "the guaranteed band is the sampled one of the data's"
-        " sample time: made once the first two rows give it") + ")", flush=True)
+        how if mon is not None else "the guaranteed band is that of the data's sample time:"
+        " made once the first two rows give it") + ")", flush=True)
     row, warned, first = 0, False, []
     try:
         for line in sys.stdin:

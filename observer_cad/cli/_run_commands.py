@@ -66,8 +66,7 @@ def cmd_simulate(args) -> int:
     print("\n".join(lines))
     if decisions is not None:
         _print_evaluation(model, observer, res, decisions)
-        note = unsampled_band_note(model, observer, scenario.sample_time) \
-            if scenario.sample_time is not None else ""
+        note = unsampled_band_note(observer)
         if note:
             print(note)
         _warn_bounds(written, out_of_bounds)

@@ -208,6 +208,8 @@ def test_streaming_terminated_writes_the_rows_read(tmp_path):
     p.stdin.write("\n".join(lines[:431]) + "\n")   # up to t = 21.45, past the first alarm
     p.stdin.flush()
     assert p.stdout.readline().startswith("monitoring rows from stdin")
+    # the band of the data's h, made once two rows have arrived
+    assert p.stdout.readline().startswith("sample time h = 0.05 s (the first two rows")
     assert p.stdout.readline().startswith("t = 20.55: alarm")   # row 412 has been read
     p.send_signal(signal.SIGTERM)
     rc = p.wait(timeout=120)
