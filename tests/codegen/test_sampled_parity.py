@@ -5,6 +5,7 @@ the exported C example on that file give simulate's residuals and bands (rtol 1e
 its alarms, sample for sample."""
 from __future__ import annotations
 
+import dataclasses
 import subprocess
 from pathlib import Path
 
@@ -85,3 +86,16 @@ def test_simulate_monitor_and_exported_c_run_the_same_algorithm(motor, tmp_path)
     again = simulate(m, obs, _scenario(5), sample_time=H, engine=CompiledMonitorEngine(obs))
     for c in ("r", "r_lower", "r_upper"):
         _close(again[c], res[c], f"simulate, compiled engine: {c}")
+
+
+@needs_cc
+def test_the_joint_compiled_trajectory_refuses_a_sampled_scenario(motor):
+    """CompiledSimulator integrates plant and observer together: a scenario with
+    "sample_time" is refused in one line naming the way that runs it."""
+    from observer_cad import CompiledSimulator
+    from observer_cad.errors import UsageError
+    m, obs, _ = motor
+    sc = dataclasses.replace(_scenario(1), sample_time=H)
+    with pytest.raises(UsageError, match="engine=CompiledMonitorEngine") as err:
+        CompiledSimulator(m, obs).simulate(sc)
+    assert "\n" not in str(err.value)
