@@ -18,7 +18,7 @@ from typing import Mapping
 import numpy as np
 import sympy as sp
 
-from ..errors import UsageError
+from ..errors import NonFiniteError, UsageError
 from ..model import PlantModel
 from ..numerics import algebraic_to_float
 from ..observers import Observer
@@ -135,7 +135,12 @@ def step_runs(engine, observer: Observer, signals: Mapping, x0: np.ndarray, h: f
         V = np.ascontiguousarray(np.column_stack([np.asarray(signals[s], dtype=float)[r]
                                                   for s in names])
                                  if names else np.zeros((n, 0)))
-        O, _ = engine.run(x0[r], V, h)
+        try:
+            O, _ = engine.run(x0[r], V, h)
+        except (ArithmeticError, ValueError) as exc:  # Python floats: 1/0, sqrt(−1) raise
+            raise NonFiniteError(f"the observer's step failed in run {r} ({exc}): it left"
+                                 " its domain (a division by zero, sqrt or log of a negative"
+                                 " argument) or diverged") from None
         out[r] = O
     return out
 

@@ -196,3 +196,17 @@ def test_a_nonlinear_plant_runs_sampled_too():
     one = simulate(m, ot, sc, sample_time=0.01)
     table = Monitor(m, ot).run({c: one[c] for c in ("t", "u", "y1", "y2")})
     np.testing.assert_array_equal(table["r"], one["r"])
+
+
+def test_a_step_that_fails_in_python_floats_is_one_line(motor):
+    """The monitor's Python step raises on 1/0 (Python floats do): one NonFiniteError line
+    (exit status 4 in the CLI), not a traceback."""
+    from observer_cad.errors import NonFiniteError
+    m, o, _ = motor
+    name, e = o.outputs[0]
+    u = next(s for s in o.signals if str(s) == "u")
+    bad = dataclasses.replace(o, outputs=((name, e / u),))
+    sc = scenario_from_dict({"t_end": 0.1, "dt": 0.01, "signals": {"u": "sin(t)"}})
+    with pytest.raises(NonFiniteError, match="float division by zero") as err:
+        simulate(m, bad, sc, sample_time=0.01)
+    assert "\n" not in str(err.value)
