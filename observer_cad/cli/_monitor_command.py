@@ -46,32 +46,40 @@ def cmd_monitor(args) -> int:
     from ..observers import build_observer
     observer = build_observer(model, result, **observer_options(args, result))
     refuse_failed(observer)
-    if data is None and model.time == "continuous" and args.threshold is not None \
-            and ThresholdSpec.parse(args.threshold).kind == "guaranteed" \
-            and all(s in model.bounds for s in model.states + model.inputs):
-        raise UsageError(f"--data - with --threshold guaranteed: {model.name} declares its"
-                         " operating envelope, and its guaranteed band is the sampled-data one"
-                         " of the data's own sample time, which a stream does not give before"
-                         " its rows arrive: monitor a recorded file (--data FILE)")
-    observer = threshold_from_args(args, model, observer, sample_time=_data_step(data, rename))
-    refuse_failed(observer)
-    rule = None
-    if observer.threshold is not None:
-        from ..residuals import decision_rule
-        rule = decision_rule(model, result, persistence=args.persistence)
-    elif args.persistence != 1:
-        raise UsageError("--persistence applies with --threshold")
     if model.time == "continuous" and args.sample_time is not None:
         raise UsageError(f"--sample-time applies to discrete-time models; {model.name} is"
                          " continuous (its sample time is the interval of t)")
-    engine, how = _engine(args, observer)
-    mon = Monitor(model, observer, rule=rule, sample_time=args.sample_time, initial=initial,
-                  engine=engine)
+
+    def monitor_at(h):
+        """(the monitor with the band of the data's sample time h, its engine's name)."""
+        obs = threshold_from_args(args, model, observer, sample_time=h)
+        refuse_failed(obs)
+        rule = None
+        if obs.threshold is not None:
+            from ..residuals import decision_rule
+            rule = decision_rule(model, result, persistence=args.persistence)
+        elif args.persistence != 1:
+            raise UsageError("--persistence applies with --threshold")
+        engine, how = _engine(args, obs)
+        return Monitor(model, obs, rule=rule, sample_time=args.sample_time, initial=initial,
+                       engine=engine), how
     if data is None:
+        if _band_needs_h(args, model):  # the band of the data's h, once two rows give it
+            return _stream(args, None, rename, "", later=(monitor_at, observer, model))
+        mon, how = monitor_at(None)
         return _stream(args, mon, rename, how)
+    mon, how = monitor_at(_data_step(data, rename))
     report("monitoring", stage=True)
     res = mon.run(data, rename=rename, source=str(args.data))
     return _finish(args, mon, res, how)
+
+
+def _band_needs_h(args, model) -> bool:
+    """Whether the band --threshold asks for depends on the data's sample time: a
+    guaranteed band on a continuous-time model is the sampled-data one at h, or that of
+    continuous observation with its "sampling" condition saying what h leaves out."""
+    return model.time == "continuous" and args.threshold is not None \
+        and ThresholdSpec.parse(args.threshold).kind == "guaranteed"
 
 
 def _data_step(data, rename):
@@ -177,24 +185,33 @@ def _warn_envelope(mon, res) -> None:
           " out (in_bounds = 0): no guarantee is claimed there", file=sys.stderr)
 
 
-def _stream(args, mon, rename: dict, how: str) -> int:
+def _stream(args, mon, rename: dict, how: str, *, later=None) -> int:
     """--data -: rows from stdin as they arrive, each change of alarm or diagnosis printed
-    (flushed) at once; at the end of the input the files as for a file."""
+    (flushed) at once; at the end of the input the files as for a file. ``later``:
+    (``monitor_at(h)``, the observer, the model) when the band depends on the data's
+    sample time: the monitor is made once the first two rows give h, then steps them."""
     import csv
-    from ..simulation import parse_row
-    src = mon.source = "<stdin>"
+    from ..simulation import declared_envelope, monitor_signals, parse_row
+    src = "<stdin>"
+    if mon is not None:
+        mon.source = src
+    signals = mon.signals if mon is not None else tuple(
+        s for group in monitor_signals(later[1]) for s in group)
+    envelope = mon.envelope if mon is not None else declared_envelope(later[2])
     line = sys.stdin.readline().lstrip("\ufeff")
     header = [h.strip() for h in next(csv.reader([line]), [])]
     if not header or header == [""]:
         raise UsageError(f"{src}: no header row (t and the signals' columns)")
-    col = {s: rename.get(s, s) for s in ("t",) + mon.signals}
+    col = {s: rename.get(s, s) for s in ("t",) + signals}
     missing = [c for c in col.values() if c not in header]
     if missing:
         raise UsageError(f"{src}: no column '{missing[0]}'; columns: {', '.join(header)}")
-    extra = [c for c in mon.envelope if c not in col and rename.get(c, c) in header]
+    extra = [c for c in envelope if c not in col and rename.get(c, c) in header]
     col.update({c: rename.get(c, c) for c in extra})
-    print(f"monitoring rows from stdin ({', '.join(col.values())}; {how})", flush=True)
-    row, warned = 0, False
+    print(f"monitoring rows from stdin ({', '.join(col.values())}; " + (
+        how if mon is not None else "the guaranteed band is that of the data's sample time:"
+        " made once the first two rows give it") + ")", flush=True)
+    row, warned, first = 0, False, []
     try:
         for line in sys.stdin:
             if not line.strip():
@@ -208,23 +225,57 @@ def _stream(args, mon, rename: dict, how: str) -> int:
             if not all(map(_finite, v.values())) or not _finite(t):
                 bad = next(s for s in ["t"] + list(v) if not _finite(v.get(s, t)))
                 raise UsageError(f"{src}, row {row}, column '{col[bad]}': not a finite number")
-            s = mon.step(t, {k: x for k, x in v.items() if not k.startswith("y")},
-                         {k: x for k, x in v.items() if k.startswith("y")})
-            if s.alarm is not None and (s.changed and (row > 1 or s.alarm)):
-                print(f"t = {t:g}: " + (f"alarm, diagnosis {s.diagnosis}" if s.alarm
-                                        else f"alarm cleared ({s.diagnosis})"), flush=True)
-            if not s.in_bounds and not warned:
-                warned = True
-                print(f"{PROG}: warning: t = {t:g}: the data leave the declared envelope (no"
-                      " guarantee while they are out; in_bounds = 0)", file=sys.stderr, flush=True)
+            if mon is None:
+                first.append((t, v))
+                if len(first) < 2:
+                    continue
+                mon, how = _monitor_from_two_rows(later[0], first, src)
+                for k, (tk, vk) in enumerate(first):
+                    warned = _stream_step(mon, tk, vk, k + 1, warned)
+                continue
+            warned = _stream_step(mon, t, v, row, warned)
     except (KeyboardInterrupt, SystemExit) as exc:  # Ctrl-C, or SIGTERM (SystemExit 143)
-        print(f"{PROG}: interrupted after {row} rows; writing them", file=sys.stderr)
-        if row:
+        print(f"{PROG}: interrupted after {row} rows; " + (
+            "writing them" if mon is not None else "nothing written (the band waited for a"
+            " second row)"), file=sys.stderr)
+        if row and mon is not None:
             _finish(args, mon, mon.result(), how)
         return exc.code if isinstance(exc, SystemExit) and isinstance(exc.code, int) else 130
     if row == 0:
         raise UsageError(f"{src}: no rows after the header")
+    if mon is None:
+        raise UsageError(f"{src}: one row: the guaranteed band is that of the data's sample"
+                         " time, which needs two rows")
     return _finish(args, mon, mon.result(), how)
+
+
+def _monitor_from_two_rows(monitor_at, first, src):
+    """(monitor, its engine's name) with the band of h = t1 − t0 of the first two rows,
+    said on one line (flushed)."""
+    (t0, _), (t1, _) = first
+    if not t1 > t0:
+        raise UsageError(f"{src}, row 2, column 't': t = {t1:.17g} does not increase (the row"
+                         f" before has {t0:.17g})")
+    mon, how = monitor_at(t1 - t0)
+    mon.source = src
+    print(f"sample time h = {t1 - t0:.10g} s (the first two rows; {how}); threshold:"
+          f" {mon.observer.threshold.text()}", flush=True)
+    return mon, how
+
+
+def _stream_step(mon, t: float, v: dict, row: int, warned: bool) -> bool:
+    """One row through the monitor, its change of alarm or diagnosis printed (flushed);
+    returns whether the envelope warning has been given."""
+    s = mon.step(t, {k: x for k, x in v.items() if not k.startswith("y")},
+                 {k: x for k, x in v.items() if k.startswith("y")})
+    if s.alarm is not None and (s.changed and (row > 1 or s.alarm)):
+        print(f"t = {t:g}: " + (f"alarm, diagnosis {s.diagnosis}" if s.alarm
+                                else f"alarm cleared ({s.diagnosis})"), flush=True)
+    if not s.in_bounds and not warned:
+        warned = True
+        print(f"{PROG}: warning: t = {t:g}: the data leave the declared envelope (no"
+              " guarantee while they are out; in_bounds = 0)", file=sys.stderr, flush=True)
+    return warned
 
 
 def _finite(x: float) -> bool:

@@ -102,6 +102,14 @@ def _add_simulate(sub) -> None:
                           " written literally; an empty cell always means 'not available') and"
                           " exit with status 4 after a one-line warning")
     _add_run_options(sim)
+    sim.add_argument("--sample-time", metavar="H", type=_positive_float("--sample-time"),
+                     default=None,
+                     help="continuous time: the observer as deployed, stepped every H by the"
+                          " monitor's step (RK4, y and u held) on the plant's outputs sampled"
+                          " at t = 0, H, 2H, ..., its inputs held over each H; the CSV's rows are"
+                          " the samples; H a whole multiple of the scenario's dt (with"
+                          " --threshold guaranteed and a declared envelope, the band of the"
+                          " sampled algorithm at H)")
     _add_threshold_options(sim, quantile=True)
 
 
@@ -124,6 +132,11 @@ def _add_ensemble(sub) -> None:
     en.add_argument("--runs", metavar="N", type=_positive_int("--runs"), required=True,
                     help="samples per fault case (run i is sample i mod N of case i div N)")
     en.add_argument("--out", metavar="DIR", type=_out_dir, required=True, help="output directory")
+    en.add_argument("--sample-time", metavar="H", type=_positive_float("--sample-time"),
+                    default=None,
+                    help="continuous time: every run with the observer as deployed (as simulate"
+                         " --sample-time H: stepped every H by the monitor's step on sampled"
+                         " outputs, inputs held); the plant runs in numpy, on threads")
     en.add_argument("--workers", metavar="W", type=_positive_int("--workers"), default=None,
                     help="threads or processes (default: every core)")
     en.add_argument("--backend", choices=["threads", "processes", "dask", "serial"], default=None,

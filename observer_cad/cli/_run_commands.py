@@ -8,7 +8,8 @@ from pathlib import Path
 
 from ..errors import UsageError
 from ..progress import report
-from ._from_args import design_or_load, observer_options, refuse_failed, threshold_from_args
+from ._from_args import (design_or_load, observer_options, refuse_failed, threshold_from_args,
+                         unsampled_band_note)
 from ._parser import PROG
 
 __all__ = ["cmd_simulate", "cmd_ensemble", "CALIBRATION_OFFSET"]
@@ -25,7 +26,12 @@ def cmd_simulate(args) -> int:
     report("building the observer", stage=True)
     observer = build_observer(model, result, **observer_options(args, result))
     refuse_failed(observer)
-    observer = threshold_from_args(args, model, observer, scenario)
+    scenario = _sampled_scenario(args, scenario)
+    h = scenario.sample_time
+    if h is not None:
+        from ..simulation import sample_steps
+        sample_steps(model, observer, scenario, h)  # its one-line errors before the band's work
+    observer = threshold_from_args(args, model, observer, scenario, sample_time=h)
     refuse_failed(observer)
     report("simulating", stage=True)
     res, engine = _simulate_with_engine(args, model, observer, scenario)
@@ -60,6 +66,9 @@ def cmd_simulate(args) -> int:
     print("\n".join(lines))
     if decisions is not None:
         _print_evaluation(model, observer, res, decisions)
+        note = unsampled_band_note(observer)
+        if note:
+            print(note)
         _warn_bounds(written, out_of_bounds)
     if res.nonfinite is not None:
         print(f"{PROG}: warning: {res.nonfinite} (kept in the CSV as nan/inf)", file=sys.stderr)
@@ -72,6 +81,15 @@ def cmd_simulate(args) -> int:
             return 3
         print(rep.message)
     return 0
+
+
+def _sampled_scenario(args, scenario):
+    """The scenario with --sample-time as its "sample_time" (a quantile threshold is then
+    estimated on the sampled runs too)."""
+    if getattr(args, "sample_time", None) is None:
+        return scenario
+    import dataclasses
+    return dataclasses.replace(scenario, sample_time=float(args.sample_time))
 
 
 def _simulate_with_engine(args, model, observer, scenario):
@@ -96,6 +114,8 @@ def _simulate_with_engine(args, model, observer, scenario):
         signal_program(model, scenario, np.zeros(1), case=c)  # (t = 0 only: no grid built)
     kw = dict(keep_nonfinite=args.keep_nonfinite, first_run=args.run or 0, case=case,
               samples=args.samples)
+    if scenario.sample_time is not None:
+        return _simulate_sampled(args, model, observer, scenario, kw)
     if args.engine == "compiled":
         from ..codegen import CodegenError, CompiledSimulator
         try:
@@ -108,15 +128,48 @@ def _simulate_with_engine(args, model, observer, scenario):
     return simulate(model, observer, scenario, **kw), "reference simulator (numpy)"
 
 
+def _simulate_sampled(args, model, observer, scenario, kw):
+    """--sample-time H (or the scenario's "sample_time"): the plant (numpy, on the
+    scenario's grid, inputs held) sampled every H and the observer stepped by the
+    monitor's engine (compiled C by default, as ``monitor``): (result, the engines'
+    description)."""
+    from ..simulation import ReferenceMonitorEngine, simulate
+    h = float(scenario.sample_time)
+    engine, how = None, "reference engine (Python)"
+    if args.engine == "compiled" and observer is not None:
+        from ..codegen import CodegenError, CompiledMonitorEngine
+        try:
+            engine = CompiledMonitorEngine(observer)
+        except CodegenError as exc:
+            print(f"{PROG}: warning: not compiled ({str(exc).splitlines()[0]}); using the"
+                  " monitor's reference engine", file=sys.stderr)
+        else:
+            how = "compiled C" + (" (cache hit)" if engine.cached else "")
+    if engine is None and observer is not None:
+        engine = ReferenceMonitorEngine(observer)
+    res = simulate(model, observer, scenario, engine=engine, **kw)
+    return res, (f"sampled at h = {h:g}: the plant by the reference simulator (numpy, inputs"
+                 f" held), the observer by the monitor's step ({how})")
+
+
 def _with_bounds(model, res):
     """(the result with ``in_bounds`` appended — 1 while every disturbance, noise and
-    bounded input the scenario drew lies in its declared range —, the first violation
-    ``(index, name, value, low, high)`` or None)."""
+    bounded input the scenario drew lies in its declared range, in a sampled run over each
+    sample's hold —, the first violation ``(index, name, value, low, high)`` or None)."""
     import dataclasses
     import numpy as np
     from ..simulation import bounds_check, declared_signal_bounds
     n = int(np.asarray(res["t"]).size)
-    ok, first = bounds_check(declared_signal_bounds(model), res.columns, n)
+    ranges = declared_signal_bounds(model)
+    ok, first = bounds_check(ranges, res.columns, n)
+    for name, (lo_k, hi_k) in res.holds.items():  # sampled: between the samples too
+        if name in ranges:
+            k_ok, k_first = bounds_check({name: ranges[name]}, {name: lo_k}, n)
+            h_ok, h_first = bounds_check({name: ranges[name]}, {name: hi_k}, n)
+            ok &= k_ok & h_ok
+            for f in (k_first, h_first):
+                if f is not None and (first is None or f[0] < first[0]):
+                    first = f
     cols = dict(res.columns)
     cols["in_bounds"] = ok.astype(np.int64)
     return dataclasses.replace(res, columns=cols, order=tuple(res.order) + ("in_bounds",)), first
@@ -186,7 +239,7 @@ def cmd_ensemble(args) -> int:
     from ..simulation import load_scenario
     if args.symbolic:
         raise UsageError("ensemble needs numeric parameters: drop --symbolic")
-    scenario = load_scenario(args.scenario)
+    scenario = _sampled_scenario(args, load_scenario(args.scenario))
     backend = _backend(args)
     model, observer, rule = _ensemble_observer(args, scenario)
     out = Path(args.out)
@@ -199,7 +252,7 @@ def cmd_ensemble(args) -> int:
                              folders=["figures", "worst"])
     title = f"{model.name}, {observer.kind}"
     sim = None
-    if args.engine == "compiled":
+    if args.engine == "compiled" and scenario.sample_time is None:
         from ..codegen import CodegenError, CompiledSimulator
         report("compiling", stage=True)
         try:
@@ -236,8 +289,12 @@ def _ensemble_observer(args, scenario) -> tuple:
     observer = build_observer(model, result, **observer_options(args, result))
     refuse_failed(observer)
     # a quantile threshold is estimated on other samples than the ones it is validated on
+    if scenario.sample_time is not None:
+        from ..simulation import sample_steps
+        sample_steps(model, observer, scenario, scenario.sample_time)
     observer = threshold_from_args(args, model, observer, scenario,
-                                   seed=(scenario.seed + CALIBRATION_OFFSET) % 2 ** 64)
+                                   seed=(scenario.seed + CALIBRATION_OFFSET) % 2 ** 64,
+                                   sample_time=scenario.sample_time)
     refuse_failed(observer)
     rule = None
     if observer.threshold is not None:

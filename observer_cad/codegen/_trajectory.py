@@ -457,6 +457,11 @@ class CompiledSimulator:
 
         The columns of a result are views of one block of memory, reused for a later
         result once every column of this one has been dropped (``RECYCLE_BYTES``)."""
+        if scenario.sample_time is not None:
+            raise UsageError(f"{scenario.source or 'scenario'}: \"sample_time\" runs the"
+                             " observer as deployed, which the joint compiled trajectory does"
+                             " not: simulate(model, observer, scenario,"
+                             " engine=CompiledMonitorEngine(observer))")
         R = 1 if runs is None else int(runs)
         if R < 1:
             raise UsageError(f"runs must be at least 1, got {runs}")

@@ -12,6 +12,10 @@ summaries), never O(runs × steps). The summaries, and so the statistics, do not
 the chunk size, the backend or the number of workers: a run is the same computation
 wherever it happens (tested bit for bit).
 
+A scenario with ``"sample_time"`` runs as :func:`~observer_cad.simulation.simulate` runs it
+(the plant in numpy, the observer stepped by the monitor's engine — compiled C under
+``engine="compiled"``), in chunks on threads.
+
 The worst runs are replayed afterwards (:func:`replay`: the same run alone, bit-identical
 summary — checked) to keep their full trajectories.
 """
@@ -192,12 +196,14 @@ class _ReferencePayload:
     cases: tuple
     runs: int
     monitors: Monitors
+    step: object = None     # a sampled scenario: the monitor's engine
 
 
 def _reference_chunk(payload: _ReferencePayload, chunk: Chunk) -> RunSummaries:
     res = simulate(payload.model, payload.observer, payload.scenario, runs=chunk.count,
                    first_run=chunk.first, case=payload.cases[chunk.case],
-                   samples=payload.runs, keep_nonfinite=True)
+                   samples=payload.runs, keep_nonfinite=True,
+                   **({} if payload.step is None else {"engine": payload.step}))
     t = np.asarray(res["t"])[0]
     return summarise(payload.monitors, res.columns, t)
 
@@ -341,7 +347,8 @@ def run_ensemble(model: PlantModel, observer: Observer, scenario: Scenario, *, r
     check_memory(scenario, model.time, runs=held_runs(runs * len(cases), min(chunk, runs),
                                                       1 if backend.kind == "serial" else
                                                       backend.workers), columns=ncols)
-    if engine == "compiled":
+    sim = None
+    if engine == "compiled" and scenario.sample_time is None:
         from ..codegen import CompiledSimulator
         sim = simulator if simulator is not None else CompiledSimulator(model, observer)
         programs = tuple(signal_program(model, scenario, t, case=c) for c in cases)
@@ -353,13 +360,14 @@ def run_ensemble(model: PlantModel, observer: Observer, scenario: Scenario, *, r
         desc = "compiled C" + (" (cache hit)" if sim.cached else "")
     else:
         if backend.kind not in ("serial", "threads"):
-            raise UsageError("ensemble: the reference engine runs in this process only"
-                             " (backend serial or threads)")
+            what = "the reference engine runs" if scenario.sample_time is None else \
+                "a sampled scenario (\"sample_time\") runs"
+            raise UsageError(f"ensemble: {what} in this process only (backend serial or threads)")
         for c in cases:  # check every case before starting
             signal_program(model, scenario, t[:1], case=c)
-        payload = _ReferencePayload(model, observer, scenario, cases, runs, mon)
+        step, desc = _monitor_engine(model, observer, scenario, engine)
+        payload = _ReferencePayload(model, observer, scenario, cases, runs, mon, step)
         task = _reference_chunk
-        desc = "reference simulator (numpy)"
     acc = EnsembleStatistics(mon)
     done = 0
     interrupted = False
@@ -387,14 +395,38 @@ def run_ensemble(model: PlantModel, observer: Observer, scenario: Scenario, *, r
     if keep and not interrupted and done:
         result = dataclasses.replace(result, kept=replay_worst(
             result, model, observer, scenario, keep, worst_by=field, engine=engine,
-            simulator=sim if engine == "compiled" else None, monitors_=mon))
+            simulator=sim if engine == "compiled" else None, monitors_=mon,
+            monitor_engine=payload.step if sim is None else None))
     return result
+
+
+def _monitor_engine(model: PlantModel, observer: Observer, scenario: Scenario,
+                    engine: str) -> tuple:
+    """(the monitor's engine a sampled scenario steps the observer by — None otherwise —,
+    the description of how the runs are simulated)."""
+    if scenario.sample_time is None:
+        return None, "reference simulator (numpy)"
+    from ..simulation import ReferenceMonitorEngine, sample_steps
+    sample_steps(model, observer, scenario, scenario.sample_time)
+    how = f"sampled at h = {scenario.sample_time:g}: the plant by the reference simulator"
+    if engine == "compiled" and observer is not None:
+        from ..codegen import CodegenError, CompiledMonitorEngine
+        try:
+            step = CompiledMonitorEngine(observer)
+        except CodegenError as exc:  # no C compiler: the same step in Python
+            how += f" (not compiled: {str(exc).splitlines()[0]})"
+        else:
+            return step, how + ", the observer by the monitor's compiled C step" + (
+                " (cache hit)" if step.cached else "")
+    step = ReferenceMonitorEngine(observer) if observer is not None else None
+    return step, how + ", the observer by the monitor's step (Python)"
 
 
 def replay_worst(result: EnsembleResult, model: PlantModel, observer: Observer,
                  scenario: Scenario, k: int, *, worst_by: str | None = None,
                  engine: str = "compiled", simulator=None, monitors_: Monitors | None = None,
-                 settle: float = 0.0, rule: DecisionRule | None = None) -> tuple:
+                 settle: float = 0.0, rule: DecisionRule | None = None,
+                 monitor_engine=None) -> tuple:
     """The ``k`` worst runs of ``result`` by ``worst_by`` (default
     :func:`default_worst_field`), replayed: tuples (run, case, sample, SimulationResult),
     each checked to reproduce its recorded summary bit for bit (:class:`ReplayError`).
@@ -407,7 +439,8 @@ def replay_worst(result: EnsembleResult, model: PlantModel, observer: Observer,
     for run in result.accumulator.worst(field, min(int(k), result.completed)):
         case, sample = result.locate(run)
         res = replay(model, observer, scenario, run, runs=result.runs, engine=engine,
-                     simulator=simulator, monitors_=mon, expect=result.accumulator)
+                     simulator=simulator, monitors_=mon, expect=result.accumulator,
+                     monitor_engine=monitor_engine)
         kept.append((int(run), case, sample, res))
     return tuple(kept)
 
@@ -415,7 +448,7 @@ def replay_worst(result: EnsembleResult, model: PlantModel, observer: Observer,
 def replay(model: PlantModel, observer: Observer, scenario: Scenario, run: int, *, runs: int,
            engine: str = "compiled", simulator=None, monitors_: Monitors | None = None,
            expect: EnsembleStatistics | None = None, settle: float = 0.0,
-           rule: DecisionRule | None = None):
+           rule: DecisionRule | None = None, monitor_engine=None):
     """The full trajectories of run ``run`` of an ensemble of ``runs`` samples per case
     (a :class:`~observer_cad.simulation.SimulationResult` of one run: (N,) columns). With ``expect``
     (the ensemble's accumulator), the replayed run's summary must equal the recorded one
@@ -425,7 +458,11 @@ def replay(model: PlantModel, observer: Observer, scenario: Scenario, run: int, 
     if c >= len(cases):
         raise UsageError(f"ensemble: run {run} does not exist ({runs} runs × {len(cases)} cases)")
     kw = dict(first_run=k, case=cases[c], samples=runs, keep_nonfinite=True)
-    if engine == "compiled":
+    if scenario.sample_time is not None:  # the plant in numpy, the observer by the monitor's step
+        if monitor_engine is None:
+            monitor_engine, _ = _monitor_engine(model, observer, scenario, engine)
+        res = simulate(model, observer, scenario, engine=monitor_engine, **kw)
+    elif engine == "compiled":
         from ..codegen import CompiledSimulator
         sim = simulator if simulator is not None else CompiledSimulator(model, observer)
         res = sim.simulate(scenario, threads=1, **kw)

@@ -8,6 +8,7 @@ from ._sampling import (Distribution, SignalProgram, signal_program, RunDraws, d
 from ._quantile import (quantile_threshold, fault_free, apply_threshold)
 from ._summaries import (SummaryField, Monitors, monitors, RunSummaries, summarise)
 from ._recording import (TIME_RTOL, declared_envelope, declared_signal_bounds, bounds_check, read_table, parse_row)
+from ._engine import (sample_steps, check_band_step)
 from ._monitor import (Monitor, MonitorStep, ReferenceMonitorEngine, monitor_signals, monitor_signal_columns,
                        CategoricalColumn)
 
@@ -20,6 +21,5 @@ __all__ = [
     "parameter_layout", "SummaryField", "Monitors", "monitors", "RunSummaries", "summarise",
     "TIME_RTOL", "declared_envelope", "declared_signal_bounds", "bounds_check", "read_table",
     "parse_row", "Monitor", "MonitorStep", "ReferenceMonitorEngine", "monitor_signals",
-    "CategoricalColumn",
-    "monitor_signal_columns"
+    "CategoricalColumn", "monitor_signal_columns", "sample_steps", "check_band_step"
 ]

@@ -9,7 +9,7 @@ with the row's inputs and outputs held over the interval (zero-order hold); for 
 discrete-time one a row is a step. The rows' checks are those of
 :mod:`observer_cad.simulation` ``_recording``.
 
-The numbers come from an *engine*: :class:`ReferenceMonitorEngine` here (sympy →
+The numbers come from an *engine*: :class:`ReferenceMonitorEngine` (``_engine``: sympy →
 Python floats, a loop over rows), or the compiled C of
 :func:`observer_cad.codegen.compiled_monitor_engine` (the default of
 ``observer-cad monitor``), both with ``run(x0, V, h) -> (O, x)``: ``V`` (N, ny + nu)
@@ -26,17 +26,16 @@ from row to row, so :meth:`Monitor.step` and :meth:`Monitor.run` agree).
 from __future__ import annotations
 
 import dataclasses
-import re
 from typing import Mapping
 
 import numpy as np
-import sympy as sp
 
 from ..errors import UsageError
 from ..model import PlantModel
-from ..numerics import algebraic_to_float
 from ..observers import Observer
 from ..residuals import DecisionRule, decide
+from ._engine import (ReferenceMonitorEngine, check_band_step, monitor_initial_state,
+                      monitor_signals)
 from ._recording import TIME_RTOL, check_times, declared_envelope, recording_from_columns
 from ._simulate import SimulationResult, align_delay, column_units
 
@@ -50,45 +49,11 @@ __all__ = ["Monitor", "MonitorStep", "ReferenceMonitorEngine", "monitor_signals"
 MONITOR_COLUMNS = ("alarm", "diagnosis", "in_bounds")
 
 
-def monitor_signals(observer: Observer) -> tuple:
-    """(measurements y1…, known inputs) the observer reads, as names in its order (the
-    order of the exported C's ``y`` and ``u`` arguments)."""
-    names = [str(s) for s in observer.signals]
-    ys = [s for s in names if re.fullmatch(r"y\d+", s)]
-    return tuple(ys), tuple(s for s in names if s not in ys)
-
-
 def monitor_signal_columns(observer: Observer) -> tuple:
     """The signals' columns of ``monitor.csv`` (and of the exported C's output), in order:
     the measurements by number (y1, y2, …), then the known inputs in the observer's order."""
     ys, us = monitor_signals(observer)
     return tuple(sorted(ys, key=lambda s: int(s[1:]))) + us
-
-
-def monitor_initial_state(observer: Observer, initial: Mapping | None = None, *,
-                          zeroed: list | None = None) -> np.ndarray:
-    """The observer's initial state: ``observer.initial`` with the plant symbols it
-    mentions set from ``initial`` (name → value; an observer state's name sets that
-    state) and the rest 0 — the default of the exported C. ``zeroed``: a list that
-    receives the names taken as 0."""
-    given = {str(k): float(v) for k, v in (initial or {}).items()}
-    par = dict(observer.parameters)
-    x0 = []
-    taken = set()
-    for s in observer.states:
-        if str(s) in given:
-            x0.append(given[str(s)])
-            continue
-        e = algebraic_to_float(sp.sympify(observer.initial.get(s, 0))).xreplace(par)
-        sub = {v: given.get(str(v), 0.0) for v in e.free_symbols}
-        taken.update(str(v) for v in e.free_symbols if str(v) not in given)
-        try:
-            x0.append(float(e.xreplace(sub)))
-        except TypeError:
-            raise UsageError(f"monitor: the initial value of {s} ({e}) is not a number") from None
-    if zeroed is not None:
-        zeroed.extend(sorted(taken))
-    return np.array(x0, dtype=float)
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
@@ -150,47 +115,6 @@ class CategoricalColumn:
 
     def __repr__(self) -> str:
         return f"CategoricalColumn({self.size} rows, texts {self.texts!r})"
-
-
-class ReferenceMonitorEngine:
-    """The observer's step in Python floats (sympy lambdify; a loop over rows): the
-    reference the compiled engine is tested against."""
-
-    kind = "reference (Python)"
-
-    def __init__(self, observer: Observer):
-        ys, us = monitor_signals(observer)
-        par = dict(observer.parameters)
-        xs = list(observer.states)
-        sig = [sp.Symbol(n) for n in ys + us]
-        sym = {str(s): s for s in observer.signals}
-        args = xs + [sym[n] for n in ys + us]
-        fix = [algebraic_to_float(sp.sympify(e)).xreplace(par) for e in observer.update]
-        out = [algebraic_to_float(sp.sympify(e)).xreplace(par) for _, e in observer.outputs]
-        self._upd = sp.lambdify(args, fix or [0], modules="math")
-        self._out = sp.lambdify(args, out or [0], modules="math")
-        self.nx, self.no, self.nv = len(xs), len(out), len(sig)
-        self.continuous = observer.time == "continuous"
-
-    def run(self, x0, V, h: float):
-        x = [float(v) for v in x0]
-        V = np.asarray(V, dtype=float).reshape(-1, self.nv)
-        O = np.empty((V.shape[0], self.no))
-        upd, fo, n = self._upd, self._out, self.nx
-        for k, row in enumerate(V.tolist()):
-            O[k] = fo(*x, *row)[:self.no] if self.no else ()
-            if not n:
-                continue
-            if not self.continuous:
-                x = list(upd(*x, *row))
-                continue
-            k1 = upd(*x, *row)   # RK4 in the operation order of codegen.rk4
-            k2 = upd(*[h / 2 * a + b for a, b in zip(k1, x)], *row)
-            k3 = upd(*[h / 2 * a + b for a, b in zip(k2, x)], *row)
-            k4 = upd(*[h * a + b for a, b in zip(k3, x)], *row)
-            x = [h / 6 * (a + 2 * b + 2 * c + d) + xv
-                 for a, b, c, d, xv in zip(k1, k2, k3, k4, x)]
-        return O, np.array(x, dtype=float)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -333,18 +257,16 @@ class Monitor:
 
     def _check_band_step(self, h) -> None:
         """A sampled-data band (threshold.sample_time) holds only at its own step."""
-        th = getattr(self.observer, "threshold", None)
-        how = getattr(th, "discretisation", "") or ""
-        if how not in ("", "rk4", "discrete"):
-            raise UsageError(f"monitor: the guaranteed band holds for the {how} discretisation;"
-                             " the monitor steps RK4 (build the threshold with"
-                             " discretisation='rk4')")
-        hb = getattr(th, "sample_time", None)
-        if hb is not None and h is not None and self.model.time == "continuous" \
-                and abs(float(h) - hb) > 1e-9 * hb:
-            raise UsageError(f"monitor: the guaranteed band holds for the algorithm stepped at"
-                             f" h = {hb:g}; the data's sample time is {float(h):g} (build the"
-                             " threshold at the data's sample time)")
+        check_band_step(self.model, self.observer, h)
+
+    def _check_exact_step(self, t0: float, t1: float, row: int) -> None:
+        """A sampled-data band holds for steps of exactly its h (as :meth:`run` checks)."""
+        hb = getattr(getattr(self.observer, "threshold", None), "sample_time", None)
+        if hb is not None and self.model.time == "continuous" and \
+                abs((t1 - t0) - hb) > 1e-9 * hb + 4 * np.finfo(float).eps * abs(t1):
+            raise UsageError(f"{self.source}: the guaranteed band holds for steps of exactly"
+                             f" h = {hb:g}; the interval before t = {t1:g} (row {row + 1}) is"
+                             f" {t1 - t0:.12g}")
 
     def _in_bounds(self, cols: Mapping, n: int) -> np.ndarray:
         ok = np.ones(n, dtype=bool)
@@ -423,6 +345,7 @@ class Monitor:
                             sample_time=self.sample_time, source=self.source, first_row=n,
                             h=self.h)
             self._check_band_step(h)
+            self._check_exact_step(self._t[-1], t, n)
             if self._pending is not None:  # the first interval gives h: the first step now
                 with np.errstate(all="ignore"):
                     _, self.x = self.engine.run(self.x, self._pending, h)

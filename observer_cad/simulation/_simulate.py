@@ -20,7 +20,9 @@ allocated); :func:`check_memory` refuses arrays above ``$OBSERVER_CAD_MEMORY_LIM
 Every input, fault, disturbance and noise not given is zero. Signals are held constant
 over a step. Continuous time: plant and observer are integrated as one system by
 fixed-step RK4 (the outputs y = h(x, u, d, ρ, w) are evaluated inside the stages, so the
-observer sees the plant exactly as the equations say). Discrete time: both step at once.
+observer sees the plant exactly as the equations say); with ``"sample_time": h`` the observer
+runs as deployed instead: stepped every h by the monitor's step on the plant's sampled
+outputs, the inputs held over h (:func:`simulate`). Discrete time: both step at once.
 
 :func:`simulate` runs one scenario; with ``runs=R`` it runs R seeded realisations of
 the random signals at once (vectorised over runs) for Monte-Carlo checks.
@@ -44,6 +46,8 @@ from ..files import read_json_file
 from ..model import PlantModel, parse_expression
 from ..numerics import algebraic_to_float
 from ..observers import Observer, output_symbols
+from ._engine import (ReferenceMonitorEngine, hold_ranges, monitor_initial_state, sample_steps,
+                      step_runs)
 from ._sampling import (DECLARED, NOMINAL_CASE, SAMPLING_METHODS, check_distribution, draw_runs,
                         parameter_layout, signal_program)
 
@@ -59,7 +63,8 @@ MEMORY_LIMIT_ENV = "OBSERVER_CAD_MEMORY_LIMIT"
 #: default limit of :func:`check_memory`: 2 GiB
 DEFAULT_MEMORY_LIMIT = 2 * 1024 ** 3
 _KNOWN_KEYS = ("steps", "t_end", "dt", "seed", "initial", "observer_initial", "signals",
-               "description", "parameters", "observer_parameters", "sampling", "cases")
+               "description", "parameters", "observer_parameters", "sampling", "cases",
+               "sample_time")
 
 
 def _is_number(v) -> bool:
@@ -155,6 +160,7 @@ class Scenario:
     observer_parameters: Mapping | None = None
     sampling: str = "random"
     cases: Mapping | None = None
+    sample_time: float | None = None
 
     def __post_init__(self):
         where = self.source or "scenario"
@@ -199,7 +205,7 @@ class Scenario:
             if st < 1:
                 raise UsageError(f"{where}: 'steps' must be at least 1, got {st}")
             object.__setattr__(self, "steps", st)
-        for key in ("t_end", "dt"):
+        for key in ("t_end", "dt", "sample_time"):
             v = getattr(self, key)
             if v is not None:
                 _finite(where, f"'{key}'", v)
@@ -269,7 +275,8 @@ def scenario_from_dict(data: dict, source: str | None = None) -> Scenario:
                     t_end=data.get("t_end"), dt=data.get("dt"), seed=data.get("seed", 0),
                     source=source, parameters=data.get("parameters"),
                     observer_parameters=data.get("observer_parameters"),
-                    sampling=data.get("sampling", "random"), cases=data.get("cases"))
+                    sampling=data.get("sampling", "random"), cases=data.get("cases"),
+                    sample_time=data.get("sample_time"))
 
 
 def memory_limit() -> int:
@@ -326,7 +333,8 @@ class SimulationResult:
     available (NaN); ``nonfinite``: when non-finite values were kept
     (``keep_nonfinite=True``), the one-line description of the first; ``units`` maps a
     column to its unit (columns without one are absent, see :func:`column_units`);
-    ``model`` and ``time`` name the simulated plant and its time domain.
+    ``model`` and ``time`` name the simulated plant and its time domain; ``holds``: a
+    sampled run's (min, max) per sample of each disturbance and noise over its hold.
     """
 
     columns: dict
@@ -337,6 +345,7 @@ class SimulationResult:
     model: str | None = None
     time: str | None = None
     parameters: Mapping = dataclasses.field(default_factory=dict)  # the true plant's, per run
+    holds: Mapping = dataclasses.field(default_factory=dict)
 
     def __getitem__(self, name):
         return self.columns[name]
@@ -551,7 +560,8 @@ def _integrate(f, X, U, pvals, t, *, discrete: bool) -> None:
 
 def simulate(model: PlantModel, observer: Observer | None, scenario: Scenario, *,
              runs: int | None = None, keep_nonfinite: bool = False, first_run: int = 0,
-             case: str | None = None, samples: int | None = None) -> SimulationResult:
+             case: str | None = None, samples: int | None = None,
+             sample_time: float | None = None, engine=None) -> SimulationResult:
     """Simulate the plant with the observer attached.
 
     The plant's parameters are the scenario's ``"parameters"`` (sampled per run) or the
@@ -568,8 +578,21 @@ def simulate(model: PlantModel, observer: Observer | None, scenario: Scenario, *
     state, an output or an observer output raises :class:`NonFiniteError` naming the
     first one (time, column, likely cause) — or, with ``keep_nonfinite=True``, is kept
     and described in ``result.nonfinite``.
+
+    ``sample_time=h`` (default the scenario's ``"sample_time"``; continuous time, a whole
+    multiple of the scenario's ``dt``): the observer as deployed. The plant is integrated
+    on the scenario's grid with its inputs held (ZOH) over each h, its outputs are sampled
+    at t = 0, h, 2h, … and the observer is stepped once per sample by the monitor's step
+    (``engine``: an object with ``run(x0, V, h)``, default :class:`ReferenceMonitorEngine`;
+    ``observer_cad.codegen.CompiledMonitorEngine`` gives the same numbers to ~1e-15),
+    from where the monitor starts. The rows are the samples; the observer columns are
+    what :class:`~observer_cad.simulation.Monitor` (and the exported C) computes on the
+    t, u and y columns.
     """
     m = model
+    if sample_time is None:
+        sample_time = scenario.sample_time
+    steps = sample_steps(m, observer, scenario, sample_time, engine)
     if observer is not None and observer.time != m.time:
         raise UsageError(f"observer is {observer.time}-time but the model is {m.time}-time")
     R = 1 if runs is None else int(runs)
@@ -592,10 +615,16 @@ def simulate(model: PlantModel, observer: Observer | None, scenario: Scenario, *
     prog = signal_program(m, scenario, t, case=case)
     Vall = prog.values(scenario.seed, ks)
     fns = _numeric_functions(m, observer, layout)
+    U = np.ascontiguousarray(np.moveaxis(Vall, 2, 0)) if fns.ins else np.zeros((0, R, t.size))
+    if steps:
+        cols, order, delays, ts = _sampled_columns(m, observer, fns, layout, draws, U, t, steps,
+                                                   engine, float(sample_time),
+                                                   set(scenario.observer_initial or {}))
+        res = _finished(cols, order, delays, ts, m, observer, runs, keep_nonfinite, scenario, draws)
+        return dataclasses.replace(res, holds=hold_ranges(m, fns.ins, U, steps, runs is None))
     X = np.zeros((len(fns.xs) + len(fns.obs_states), R, t.size))
     X[:len(fns.xs), :, 0] = draws.x0.T
     X[len(fns.xs):, :, 0] = draws.xi0.T
-    U = np.ascontiguousarray(np.moveaxis(Vall, 2, 0)) if fns.ins else np.zeros((0, R, t.size))
     with np.errstate(all="ignore"):  # non-finite values are reported below, not warned
         if R == 1:
             _integrate(fns.f_joint.raw, X[:, 0, :], U[:, 0, :], [v[0] for v in pvals], t,
@@ -603,12 +632,63 @@ def simulate(model: PlantModel, observer: Observer | None, scenario: Scenario, *
         else:
             _integrate(fns.f_joint, X, U, pvals, t, discrete=m.time == "discrete")
     cols, order, delays = _result_columns(m, observer, fns, X, U, pvals, t)
+    return _finished(cols, order, delays, t, m, observer, runs, keep_nonfinite, scenario, draws)
+
+
+def _finished(cols, order, delays, t, m, observer, runs, keep_nonfinite, scenario, draws):
+    """:func:`finish_result`, with the plant parameters the scenario drew."""
     res = finish_result(cols, order, delays, t, m, observer, runs, keep_nonfinite,
                         where=scenario.source)
     if draws.plant:
         par_cols = {name: (v if runs is not None else v[0]) for name, v in draws.plant.items()}
         res = dataclasses.replace(res, parameters=par_cols)
     return res
+
+
+def _sampled_columns(m: PlantModel, observer, fns: _Functions, layout, draws, U, t, steps: int,
+                     engine, h: float, given=()) -> tuple:
+    """(columns (R, n), CSV order, delays, sample times) of the sampled-data runs
+    (:func:`simulate` with ``sample_time``): the plant on the grid ``t`` with its inputs
+    held over each sample, its outputs sampled, the observer stepped by ``engine`` (the
+    states named in ``given`` start as the scenario says, the others as the monitor's)."""
+    pars = list(layout.plant) + list(layout.observer)
+    pvals = [draws.P[:, j] for j in range(len(pars))]
+    R, N = U.shape[1], t.size
+    ni = len(m.inputs)  # ZOH: the input of sample k over [k h, (k + 1) h)
+    U[:ni] = U[:ni][:, :, (np.arange(N) // steps) * steps]
+    X = np.zeros((len(fns.xs), R, N))
+    X[:, :, 0] = draws.x0.T
+    f_plant = _vector_fn(fns.xs + fns.ins + pars, list(m.dynamics))
+    with np.errstate(all="ignore"):
+        if R == 1:
+            _integrate(f_plant.raw, X[:, 0, :], U[:, 0, :], [v[0] for v in pvals], t,
+                       discrete=False)
+        else:
+            _integrate(f_plant, X, U, pvals, t, discrete=False)
+    idx = np.arange(0, N, steps)
+    ts, Xs, Us = t[idx], X[:, :, idx], np.ascontiguousarray(U[:, :, idx])
+    n = ts.size
+    cols = {"t": np.broadcast_to(ts, (R, n)).copy()}
+    cols.update({s.name: Xs[j] for j, s in enumerate(fns.xs)})
+    with np.errstate(all="ignore"):
+        yv = fns.f_y(*Xs, *Us, *[v[:, None] for v in pvals])
+    cols.update({str(y): np.asarray(v, dtype=float) for y, v in zip(fns.ys, yv)})
+    cols.update({s.name: Us[j] for j, s in enumerate(fns.ins)})
+    order = ["t"] + [s.name for s in fns.xs] + [str(y) for y in fns.ys] + \
+        [s.name for s in fns.ins if s not in m.noise]
+    delays = {}
+    if observer is not None and observer.outputs:
+        if engine is None:
+            engine = ReferenceMonitorEngine(observer)
+        mine = [str(s) in given for s in observer.states]  # else the monitor's start
+        xi0 = np.where(mine, draws.xi0, monitor_initial_state(observer)).reshape(draws.xi0.shape)
+        with np.errstate(all="ignore"):
+            O = step_runs(engine, observer, cols, xi0, h, n)
+        for j, (name, _) in enumerate(observer.outputs):
+            delays[name] = int(observer.delays.get(name, 0))
+            cols[name] = align_delay(np.ascontiguousarray(O[:, :, j]), delays[name])
+            order.append(name)
+    return cols, order, delays, ts
 
 
 class _Functions(NamedTuple):

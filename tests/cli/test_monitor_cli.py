@@ -208,6 +208,8 @@ def test_streaming_terminated_writes_the_rows_read(tmp_path):
     p.stdin.write("\n".join(lines[:431]) + "\n")   # up to t = 21.45, past the first alarm
     p.stdin.flush()
     assert p.stdout.readline().startswith("monitoring rows from stdin")
+    # the band of the data's h, made once two rows have arrived
+    assert p.stdout.readline().startswith("sample time h = 0.05 s (the first two rows")
     assert p.stdout.readline().startswith("t = 20.55: alarm")   # row 412 has been read
     p.send_signal(signal.SIGTERM)
     rc = p.wait(timeout=120)
@@ -260,15 +262,38 @@ MOTOR_DATA = ROOT / "examples" / "dc_motor_sampled.csv"
 MOTOR_BAND = ["--observer", "diagnostic", "--lambda=-4", "--threshold", "guaranteed"]
 
 
-def test_stream_refuses_a_band_that_needs_the_sample_time(capsys, tmp_path, monkeypatch):
+def test_stream_makes_the_sampled_band_from_its_first_two_rows(capsys, tmp_path, monkeypatch):
     """A continuous-time model with an operating envelope gets the sampled-data band of the
-    data's own sample time; a stream cannot give it before its rows arrive, so the continuous
-    band (which false-alarms on this recording) is refused, not silently used."""
+    data's own sample time: a stream makes it once its first two rows give h = t1 − t0 (not
+    the continuous band, which false-alarms on this recording), and writes the file's
+    monitor.csv."""
     import io
     monkeypatch.setattr(sys, "stdin", io.StringIO(MOTOR_DATA.read_text()))
+    rc, so, se = run(capsys, ["monitor", MOTOR, *MOTOR_BAND, "--data", "-", "--out",
+                              tmp_path / "m", "--engine", "reference"])
+    assert rc == 0, se
+    assert "sample time h = 0.01 s (the first two rows" in so
+    assert "sampled algorithm at h = 0.01 (RK4)" in so and "no alarm in 501 samples" in so
+    rc, _, se = run(capsys, ["monitor", MOTOR, *MOTOR_BAND, "--data", MOTOR_DATA, "--out",
+                             tmp_path / "f", "--engine", "reference"])
+    assert rc == 0, se
+    assert (tmp_path / "m" / "monitor.csv").read_text() == \
+        (tmp_path / "f" / "monitor.csv").read_text()
+
+
+@pytest.mark.parametrize("edit, words", [
+    (lambda lines: lines[:2], "one row: the guaranteed band is that of the data's sample time"),
+    (lambda lines: lines[:3] + [lines[3].replace(lines[3].split(",")[0], "0.0200001", 1)]
+     + lines[4:], "steps of exactly h = 0.01; the interval before t = 0.0200001 (row 3)"),
+])
+def test_stream_with_a_sampled_band_refuses_in_one_line(capsys, tmp_path, monkeypatch, edit,
+                                                         words):
+    import io
+    lines = MOTOR_DATA.read_text().splitlines()
+    monkeypatch.setattr(sys, "stdin", io.StringIO("\n".join(edit(lines)) + "\n"))
     rc, _, se = run(capsys, ["monitor", MOTOR, *MOTOR_BAND, "--data", "-", "--out",
-                             tmp_path / "m"])
-    assert rc == 2 and len(se.strip().splitlines()) == 1 and "--data FILE" in se, se
+                             tmp_path / "m", "--engine", "reference"])
+    assert rc == 2 and len(se.strip().splitlines()) == 1 and words in se, se
     assert not (tmp_path / "m").exists()
 
 
