@@ -209,8 +209,8 @@ def _stream(args, mon, rename: dict, how: str, *, later=None) -> int:
     extra = [c for c in envelope if c not in col and rename.get(c, c) in header]
     col.update({c: rename.get(c, c) for c in extra})
     print(f"monitoring rows from stdin ({', '.join(col.values())}; " + (
-        how if mon is not None else "the guaranteed band is that of the data's sample time:"
-        " made once the first two rows give it") + ")", flush=True)
+        how if mon is not None else "the guaranteed band needs the data's sample time: made"
+        " once the first two rows give it") + ")", flush=True)
     row, warned, first = 0, False, []
     try:
         for line in sys.stdin:
