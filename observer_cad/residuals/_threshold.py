@@ -527,13 +527,35 @@ def _comparison_system(A, time: str) -> tuple:
     return Ad, Ap, An, cond
 
 
-def _run_conditions(time: str, E0, margin: float) -> list:
+def _initial_box(model: PlantModel, observer: Observer, xi, Phi):
+    """(x*(0) = Φ c, the bounds |Φ| ρ of e(0) = Φ (x(0) − c)) for the model's initial box
+    (c its centre, ρ its half-widths); None without a box (or with Φ not numeric)."""
+    if not model.initial or not all(x in model.initial for x in model.states):
+        return None
+    P = sp.Matrix(Phi).xreplace(dict(observer.parameters))
+    if P.free_symbols:
+        return None
+    c = {x: (sp.Rational(lo) + sp.Rational(hi)) / 2 for x, (lo, hi) in model.initial.items()}
+    rad = sp.Matrix([(sp.Rational(model.initial[x][1]) - sp.Rational(model.initial[x][0])) / 2
+                     for x in model.states])
+    par = dict(observer.parameters)
+    start = [sp.nsimplify(sp.sympify(observer.initial[s]).xreplace(par).xreplace(c)) for s in xi]
+    return start, list(P.applyfunc(abs) * rad), model.initial
+
+
+def _run_conditions(time: str, E0, margin: float, box=None) -> list:
     """What the band assumes of the run: the initial error, the roundoff margin, the
     integration (continuous time)."""
-    conds = [Condition(
-        "initial error", True,
-        "observer started at x*(0) = Φ x(0) (e(0) = 0)" if E0 == 0 else
-        f"|e_i(0)| ≤ {format_number(E0)} for every observer state", _REF)]
+    if box is not None:
+        text = ("x(0) in the initial box " + ", ".join(
+            f"{x} ∈ [{format_number(lo)}, {format_number(hi)}]" for x, (lo, hi) in box[2].items())
+            + "; observer started at x*(0) = Φ c (c the box centre): |e(0)| ≤ |Φ| (half-widths) = "
+            + ", ".join(format_number(r) for r in box[1]))
+    else:
+        text = ("x(0) known: observer started at x*(0) = Φ x(0) (e(0) = 0); no initial box"
+                " declared" if E0 == 0 else
+                f"|e_i(0)| ≤ {format_number(E0)} for every observer state")
+    conds = [Condition("initial error", True, text, _REF)]
     if margin:
         conds.append(Condition("roundoff margin", True,
                                f"{margin:g} plus {RELATIVE_ROUNDOFF}·eps × (the magnitude of the"
@@ -622,7 +644,8 @@ def guaranteed_threshold(model: PlantModel, observer: Observer, *, initial_error
     conds += bound_conds
     Ad, Ap, An, stability = _comparison_system(A, model.time)
     conds.append(stability)
-    conds += _run_conditions(model.time, E0, margin)
+    box = _initial_box(model, observer, xi, Phi) if E0 == 0 else None
+    conds += _run_conditions(model.time, E0, margin, box)
     # the augmented observer
     step_mag, res_mag = _roundoff(model.time, xi, upd, g, A, C) if margin else ([], [])
     if margin and model.time == "discrete":  # the step's roundoff enters the error bounds
@@ -636,8 +659,13 @@ def guaranteed_threshold(model: PlantModel, observer: Observer, *, initial_error
         outputs.append((f"{r}_lower", rl[i] - mg))
         outputs.append((f"{r}_upper", rh[i] + mg))
     initial = dict(observer.initial)
-    initial.update({s: -E0 for s in elo})
-    initial.update({s: E0 for s in ehi})
+    if box is not None:  # started at Φ c: e(0) = Φ (x(0) − c) within ±|Φ| (half-widths)
+        initial.update(dict(zip(xi, box[0])))
+        initial.update({s: -r for s, r in zip(elo, box[1])})
+        initial.update({s: r for s, r in zip(ehi, box[1])})
+    else:
+        initial.update({s: -E0 for s in elo})
+        initial.update({s: E0 for s in ehi})
     Bf, Gf = _fault_inputs(model, Phi, dyn, outs, upd, g, deltas)
     es = ErrorSystem(model.time, sp.ImmutableMatrix(A), sp.ImmutableMatrix(C),
                      sp.ImmutableMatrix(Bf), sp.ImmutableMatrix(Gf),

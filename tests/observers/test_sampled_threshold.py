@@ -336,3 +336,32 @@ def test_scalar_worst_case_sum_is_the_closed_form(a, c, lo, hi):
     assert expect - 1e-9 <= wc.upper[0] <= expect + 1e-9
     expect_lo = min(c * lo, c * hi) + np.sum(np.minimum(p * lo, p * hi))
     assert expect_lo - 1e-9 <= wc.lower[0] <= expect_lo + 1e-9
+
+
+def test_the_continuous_band_starts_from_the_initial_box(motor):
+    """The band of continuous observation reads the model's initial box too: the observer
+    starts at Φ c (c the box centre) with the error bounds ±|Φ| (half-widths), so runs whose
+    x(0) is anywhere in the box stay inside it (the initial error is felt), and the condition
+    says what it rests on."""
+    from observer_cad.residuals import guaranteed_threshold
+    m, o, _ = motor
+    i, w, wl = m.states
+    boxed = dataclasses.replace(m, initial={i: (0, 1), w: (-1, 1), wl: (-1, 1)})
+    ot = guaranteed_threshold(boxed, o)
+    xi = o.states[0]
+    assert o.initial[xi] == i and ot.initial[xi] == sp.Rational(1, 2)  # Φ = (1, 0, 0), c = (1/2, 0, 0)
+    assert ot.initial[sp.Symbol(f"{xi}_elo")] == -sp.Rational(1, 2)
+    assert ot.initial[sp.Symbol(f"{xi}_ehi")] == sp.Rational(1, 2)
+    cond = {c.name: c.detail for c in ot.threshold.conditions}["initial error"]
+    assert cond.startswith("x(0) in the initial box i ∈ [0, 1]") and "Φ c" in cond
+    sc = scenario_from_dict({"t_end": 3, "dt": 0.01, "seed": 4,
+                             "initial": {"i": {"uniform": [0, 1]}, "w": {"uniform": [-1, 1]},
+                                         "wl": {"uniform": [-1, 1]}},
+                             "signals": {"u": "2*sin(3*t)", "rho": {"uniform": [-0.5, 0.5]}}})
+    res = simulate(boxed, ot, sc, runs=40)
+    r, lo, up = res["r"], res["r_lower"], res["r_upper"]
+    assert int(np.sum((r < lo) | (r > up))) == 0
+    assert np.max(np.abs(r[:, :20])) > 0.2  # the initial error is felt
+    known = {c.name: c.detail for c in guaranteed_threshold(dataclasses.replace(m, initial={}),
+                                                             o).threshold.conditions}
+    assert known["initial error"].startswith("x(0) known")
