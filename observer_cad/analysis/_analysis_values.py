@@ -169,13 +169,20 @@ class Analysis:
                 f" structure rows>")
 
     def _repr_markdown_(self) -> str:
-        """Notebook view: detectability, isolability and the achievable structure matrix."""
+        """Notebook view: detectability (weak, and strong when computed), isolability and
+        the achievable structure matrices."""
+        strong = {s.fault: s for s in (self.strong or ())}
         lines = [f"**Diagnosability** of `{self.model_name}` with"
                  f" {', '.join(self.disturbances) or 'nothing'} decoupled", "",
-                 "| fault | detectable | minimal order | reason |", "|---|---|---|---|"]
+                 "| fault | detectable | minimal order | strongly detectable | reason |",
+                 "|---|---|---|---|---|"]
         for r in self.fault_results:
+            sf = strong.get(r.fault)
+            st = ("—" if sf is None or sf.strongly_detectable is None else
+                  f"✅ (order {sf.min_order})" if sf.strongly_detectable else "❌ transient only"
+                  if r.detectable else "❌")
             lines.append(f"| {r.fault} | {'✅' if r.detectable else '❌'} |"
-                         f" {r.min_order if r.min_order is not None else '—'} |"
+                         f" {r.min_order if r.min_order is not None else '—'} | {st} |"
                          f" {r.reason.replace('|', '/')} |")
         if self.pairs:
             lines += ["", "| pair | isolable |", "|---|---|"]
@@ -188,6 +195,19 @@ class Analysis:
                 bits = row.row(self.faults)
                 lines.append(f"| {', '.join(row.decoupled) or '—'} | "
                              + " | ".join(str(bits[f]) for f in self.faults) + " |")
+        if self.strong:
+            lines += ["", "Strong structure rows (every 1 with a nonzero gain at the analysed"
+                      f" frequencies ω = {', '.join(map(str, self.frequencies))}):", ""]
+            if self.strong_structure:
+                lines += ["| decoupled | " + " | ".join(self.faults) + " | order |",
+                          "|---|" + "---|" * (len(self.faults) + 1)]
+                for row in self.strong_structure:
+                    bits = row.row(self.faults)
+                    lines.append(f"| {', '.join(row.decoupled) or '—'} | "
+                                 + " | ".join(str(bits[f]) for f in self.faults)
+                                 + f" | {row.order} |")
+            else:
+                lines.append("none: no fault is strongly detectable")
         return "\n".join(lines)
 
     def fault(self, name: str) -> FaultAnalysis:

@@ -32,5 +32,19 @@ def test_analysis_reprs(models_dir):
     r = repr(a)
     assert len(r) < 200 and "faults detectable" in r
     md = a._repr_markdown_()
-    assert "| fault | detectable | minimal order | reason |" in md
+    assert "| fault | detectable | minimal order | strongly detectable | reason |" in md
     assert md.count("\n| f") >= len(a.faults)
+    # the strong answers: f1, f2 strongly detectable at order 2 (f3 decoupled), f3 not at all
+    assert "| f1 | ✅ | 2 | ✅ (order 2) |" in md and "| f3 | ❌ | — | ❌ |" in md
+    assert "Strong structure rows (every 1 with a nonzero gain at the analysed frequencies ω = 0)" in md
+    assert "| f3 | 1 | 1 | 0 | 2 |" in md
+    # a fault seen only as a transient: y = x1 − x2 with x1' = −x1 + f, x2' = −2 x2 + 2 f,
+    # whose transfer −s/((s + 1)(s + 2)) vanishes at s = 0
+    import sympy as sp
+    from observer_cad import PlantModel
+    x1, x2, f = sp.symbols("x1 x2 f")
+    m = PlantModel(name="washout", time="continuous", states=[x1, x2], faults=[f],
+                   outputs=[x1 - x2], dynamics=[-x1 + f, -2 * x2 + 2 * f])
+    md = analyze(m)._repr_markdown_()
+    assert "| f | ✅ |" in md and "❌ transient only" in md
+    assert "none: no fault is strongly detectable" in md
