@@ -236,9 +236,10 @@ def _conditions(view, mats, k, dim, rank, attempts, cert, eigs, cl, placed, belo
                      for j, n in enumerate(task.targets))
     lower = "; ".join(["k=0: no zero-order residual"] + list(attempts))
     into = [n for j, n in enumerate(task.targets) if not Dy[:, j].is_zero_matrix]
-    why = (f"the designs that see the faults through Φ D̃ on the measured part have order"
+    them = "it" if len(into) == 1 else "them"
+    why = (f"the designs that see {them} through Φ D̃ on the measured part have order"
            f" {below}" if below is not None else
-           "no design of the measured part sees them through Φ D̃ alone")
+           f"no design of the measured part sees {them} through Φ D̃")
     return (
         Condition("faults seen through the outputs", True,
                   f"{', '.join(into)} {'enters' if len(into) == 1 else 'enter'} the outputs"
