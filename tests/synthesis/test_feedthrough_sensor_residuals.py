@@ -33,7 +33,7 @@ from observer_cad.errors import InfeasibleDesignError, UsageError
 from observer_cad.simulation import scenario_from_dict
 from observer_cad.synthesis import Design, design, load_design_data
 
-from ..analysis.varga_examples import rows, xiong_saif_1
+from ..analysis.varga_examples import boeing_747, rows, xiong_saif_1
 from .test_feedthrough_orders import plant, row_least_order
 
 
@@ -94,6 +94,26 @@ def test_xiong_saif_row_01_at_its_published_least_order():
     d3 = design(m, observer="diagnostic", faults=["f2"], disturbances=["f1"],
                 form="canonical", eigenvalues=[-3])
     assert d3.k == 1 and [str(e) for e in d3.closed_loop_eigenvalues] == ["-3"]
+
+
+# (the Boeing 747, Varga 2007, as in FaultDetectionTools.jl: f5 enters the second output;
+# fdichkspec's least orders of the weak rows that detect f5)
+BOEING_F5_ROWS = [("00001", 1), ("00111", 1), ("11001", 1), ("11111", 1)]
+
+
+@pytest.mark.parametrize("pattern, published", BOEING_F5_ROWS, ids=[p for p, _ in BOEING_F5_ROWS])
+def test_boeing_rows_with_the_fault_in_an_output_keep_their_least_order(pattern, published):
+    """f5 enters the dynamics and an output: the designers' residuals of the published
+    least order stay (no lower order exists); each sees exactly its row's faults."""
+    st = boeing_747()
+    (sensitive,) = rows([pattern])
+    assert row_least_order(st, sensitive) == published
+    m = plant(st)
+    names = [f.name for f in m.faults]
+    d = design(m, observer="diagnostic", faults=list(sensitive),
+               disturbances=[f for f in names if f not in sensitive])
+    assert d.k == published and d.certificate.passed
+    assert {s.name for s in d.signature if s.sensitive} == set(sensitive)
 
 
 # ------------------------------------------------------------------ lower than the designers
@@ -219,6 +239,51 @@ def test_random_plants_with_faults_in_the_outputs_get_the_least_order(seed):
     assert not _numerator(d, st).is_zero_matrix
     if d.k:
         assert np.max(np.abs(_residual_run(d, st, seed, fault=False))) < 1e-9
+
+
+def _random_two_fault_plant(seed: int) -> PlantModel:
+    """As :func:`_random_plant` with a second fault g in the dynamics (sometimes in the
+    outputs too); both are to be detected."""
+    rng = np.random.default_rng(seed)
+    n, l = 3, int(rng.integers(2, 4))  # noqa: E741
+    time = ("continuous", "discrete")[int(rng.integers(2))]
+    xs = sp.symbols("x1:4")
+    u, f, g, rho = sp.symbols("u f g rho")
+    Fm, Hm = rng.integers(-2, 3, size=(n, n)), rng.integers(-1, 2, size=(l, n))
+    gc, dcol, ecol, lcol = (rng.integers(-2, 3, size=n) for _ in range(4))
+    dcol = dcol * int(rng.integers(2))
+    lcol[rng.integers(n)] = 1
+    ecol[rng.integers(n)] = 1
+    gy, fy = rng.integers(-1, 2, size=l), rng.integers(-1, 2, size=l)
+    ey = rng.integers(-1, 2, size=l) * int(rng.integers(2))
+    fy[rng.integers(l)] = 1
+    ly = rng.integers(-1, 2, size=l) * int(rng.integers(2))
+    dyn = [sum(int(Fm[i, j]) * xs[j] for j in range(n)) + int(gc[i]) * u + int(dcol[i]) * f
+           + int(ecol[i]) * g + int(lcol[i]) * rho for i in range(n)]
+    outs = [sum(int(Hm[i, j]) * xs[j] for j in range(n)) + int(gy[i]) * u + int(fy[i]) * f
+            + int(ey[i]) * g + int(ly[i]) * rho for i in range(l)]
+    return PlantModel(name="rnd2", time=time, states=list(xs), inputs=[u], faults=[f, g],
+                      disturbances=[rho], outputs=outs, dynamics=dyn)
+
+
+@pytest.mark.parametrize("seed", [6, 8, 20, 45, 66, 19])
+def test_two_faults_to_detect_get_the_largest_of_their_least_orders(seed):
+    """Several faults to detect: a generic combination of the basis rows sees them all at
+    the largest of their least orders (the spaces are nested). Seeds 6 and 45 the
+    designers refused, 20 and 66 they made at order 2 (least 1), 8 has a sensor reading
+    g alone (y1 = g, whose measured part is 0), 19 is refused (least order n)."""
+    m = _random_two_fault_plant(seed)
+    st = extract_structure(m)
+    orders, _ = feedthrough_orders(st.F, st.H, st.L, st.Ly, st.D, st.Dy, time=m.time)
+    least = None if None in orders else max(orders)
+    if least is None or least >= st.n:
+        with pytest.raises(InfeasibleDesignError):
+            design(m, observer="diagnostic", faults=["f", "g"])
+        return
+    d = design(m, observer="diagnostic", faults=["f", "g"])
+    assert d.k == least and d.certificate.passed
+    assert d.signature_map == {"f": True, "g": True}
+    assert all(not _numerator(d, st)[:, j].is_zero_matrix for j in range(2))
 
 
 @pytest.mark.parametrize("seed", [100, 229, 1, 97, 5])

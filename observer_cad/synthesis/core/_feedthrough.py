@@ -127,7 +127,7 @@ def feedthrough_view(work: PlantModel, task: Task) -> FeedthroughView:
     inner = dataclasses.replace(task, targets=tuple(n for n in task.targets
                                                     if n not in outputs_only),
                                 assumed_zero=tuple(task.assumed_zero) + tuple(outputs_only))
-    zero = {s: 0 for s in list(work.inputs) + list(work.faults) + list(work.disturbances)}
+    zero = {s: sp.S.Zero for s in list(work.inputs) + list(work.faults) + list(work.disturbances)}
     outs = [h.xreplace(zero) for h in work.outputs]
     if N != sp.eye(st.l):
         outs = [sp.expand(e) for e in N * sp.Matrix(outs)]
