@@ -116,6 +116,28 @@ def test_boeing_rows_with_the_fault_in_an_output_keep_their_least_order(pattern,
     assert {s.name for s in d.signature if s.sensitive} == set(sensitive)
 
 
+def test_nonlinear_and_symbolic_plants_are_refused_in_one_line():
+    """The search is for linear plants with numeric matrices: a sensor bias on the
+    nonlinear three-tank (√ outflows), or on a linear one designed with --symbolic, is
+    refused in one line saying so (the same plant with numeric parameters is designed)."""
+    x1, x2, x3, u1, u2, fs, rho, k = sp.symbols("x1 x2 x3 u1 u2 fs rho k")
+    nl = PlantModel(name="nl", time="continuous", states=[x1, x2, x3], inputs=[u1, u2],
+                    faults=[fs], disturbances=[rho], outputs=[x1 + fs, x2, x3],
+                    dynamics=[-sp.sqrt(x1 - x2) + u1,
+                              sp.sqrt(x1 - x2) - sp.sqrt(x2 - x3) + u2 + rho,
+                              sp.sqrt(x2 - x3) - sp.sqrt(x3)],
+                    domain=[x1 >= x2, x2 >= x3, x3 >= 0])
+    lin = PlantModel(name="lin", time="continuous", states=[x1, x2, x3], inputs=[u1, u2],
+                     faults=[fs], disturbances=[rho], outputs=[x1 + fs, x2, x3],
+                     parameters={k: 2}, dynamics=[-k * x1 + x2 + u1,
+                                                  x1 - 2 * x2 + x3 + u2 + rho, x2 - 2 * x3])
+    for m, symbolic in ((nl, False), (lin, True)):
+        with pytest.raises(InfeasibleDesignError, match="linear plants with numeric") as e:
+            design(m, observer="diagnostic", faults=["fs"], symbolic=symbolic)
+        assert "\n" not in str(e.value)
+    assert design(lin, observer="diagnostic", faults=["fs"]).k == 1
+
+
 # ------------------------------------------------------------------ lower than the designers
 def _lower_plant() -> PlantModel:
     """f in the outputs only, ρ in the dynamics and in sensor 2 (a random plant, seed 29 of

@@ -314,7 +314,7 @@ def zero_order_design(view: FeedthroughView, design_cls, *, form: str):
             f"{where}: {which} the outputs only, and no combination R* y of the outputs is"
             f" free of the states (R* H = 0){dec} while seeing it: no zero-order residual;"
             " dynamic residuals that see such faults through the outputs are designed for"
-            " linear plants with numeric parameters (design without --symbolic)")
+            " linear plants with numeric parameters (not nonlinear ones, nor with --symbolic)")
     n, l, m_in = st.n, st.l, len(st.model.inputs)
     mats = {"Phi": sp.zeros(0, n), "F_star": sp.zeros(0, 0), "J_star": sp.zeros(0, l),
             "G_star": sp.zeros(0, m_in), "R_star": R, "H_star": sp.zeros(1, 0),
