@@ -242,7 +242,8 @@ def _residual_run(d, st, seed: int, *, fault: bool) -> np.ndarray:
     return np.array(out)
 
 
-@settings(max_examples=10, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@settings(max_examples=10, deadline=None, derandomize=True,
+          suppress_health_check=[HealthCheck.too_slow])
 @given(seed=st_.integers(0, 100_000))
 def test_random_plants_with_faults_in_the_outputs_get_the_least_order(seed):
     """Designed order = analysis' least order below n (a refusal in one line otherwise);
