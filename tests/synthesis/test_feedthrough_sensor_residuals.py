@@ -9,13 +9,16 @@ Grouped by what they prove:
 * a published example (docs/REFERENCES.md: "FaultDetectionTools.jl", Xiong and Saif 2000,
   Example 1, whose least orders ``fdichkspec`` asserts): row 01 — the sensor fault f2
   with f1 decoupled — designed at its least order 1, certified, its residual in the tool's
-  simulation equal to f2 (and zero under f1 and the disturbances);
+  simulation equal to f2 (and zero under f1 and the disturbances); the Boeing 747's rows
+  with f5 (in an output) keep their published least orders;
 * a plant on which the designers' residual (seeing the fault through Φ D̃ on the measured
   part) has order 2 while one of order 1 sees it through the outputs: the least is made;
 * random plants with the fault in the outputs: designed order = analysis' least order
   (observer_cad.analysis.feedthrough_orders) whenever it is below n, refused in one line
   otherwise; the residual stays at zero under ρ and u in a simulation written here, and
-  its numerator (R* Dy, Φ D − J* Dy), recomputed from the matrices, is not zero.
+  its numerator (R* Dy, Φ D − J* Dy), recomputed from the matrices, is not zero; with two
+  faults to detect, the largest of their least orders;
+* nonlinear plants and --symbolic designs are refused in one line.
 """
 from __future__ import annotations
 
@@ -42,8 +45,8 @@ def _f(M):
 
 
 def _numerator(d, st) -> sp.Matrix:
-    """(R* Dy, Φ D − J* Dy) for the designed faults, from the matrices: the coefficients of
-    the residual's transfer numerator R* Dy sᵏ + Σ D*_i s^{k−i}."""
+    """(R* Dy, Φ D − J* Dy) for the designed faults, from the matrices (in the canonical
+    form the coefficients of the residual's transfer numerator R* Dy sᵏ + Σ D*_i s^{k−i})."""
     m, task = d.matrices, d.task
     Dy = sp.Matrix(st.output_columns(task.targets))
     Ds = sp.Matrix(m.Phi) * task.D(st) - sp.Matrix(m.J_star) * Dy
