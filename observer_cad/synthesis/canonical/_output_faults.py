@@ -38,7 +38,10 @@ target the first with rank Φ = k is taken (else the first, reported). The obser
 stabilised by output injection K r with the eigenvalues of F* − K H* placed exactly
 (:func:`~observer_cad.synthesis.core.pole_placement`), as the canonical diagnostic
 designer does. Linear plants with numeric (rational) matrices; orders below n, as the
-other designers.
+other designers. :func:`observer_cad.synthesis.design` takes this design when a fault to
+detect enters the outputs and the zero-order residual and the designers give none (or one
+that does not respond to it), and, without chosen λ or eigenvalues, when it is of a lower
+order than theirs (searched below their k).
 """
 from __future__ import annotations
 
