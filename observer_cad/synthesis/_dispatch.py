@@ -98,7 +98,7 @@ def design(model: PlantModel, *, observer: str, faults: Sequence[str] = (),
             if view is not None and d.k > 1 and not (lambdas or eigenvalues) \
                     and sees_through_outputs(view):
                 # a lower order may see the faults of the outputs through R* Dy or J* Dy
-                d = design_output_faults(view, Design, form=form, below=d.k) or d
+                d = _as_strong(d, design_output_faults(view, Design, form=form, below=d.k))
         except InfeasibleDesignError:
             if view is None or not sees_through_outputs(view):
                 raise
@@ -147,6 +147,17 @@ def _require_seen(d: Design, model: PlantModel) -> None:
         raise InfeasibleDesignError(
             f"{model.where}: the residual found does not respond to {s.name}: Φ D_{s.name} ="
             f" {list(s.entry)} enters only rows r does not read (H* (sI − F*)⁻¹ Φ D = 0)")
+
+
+def _as_strong(d: Design, lower: Design | None) -> Design:
+    """``lower`` (a design of lower order) unless it is None or sees a fault to detect as a
+    transient only (a zero steady-state gain) that ``d`` sees with a nonzero one."""
+    if lower is None:
+        return d
+    was = {s.name: s.transient_only for s in d.with_signature().signature}
+    lost = [s.name for s in lower.with_signature().signature
+            if s.role == "detected" and s.transient_only and not was.get(s.name, False)]
+    return d if lost else lower
 
 
 def _first_design(model, view, task, faults, disturbances, estimate, form, lambdas,

@@ -171,6 +171,25 @@ def test_lower_order_than_the_designers_through_the_outputs():
     assert np.max(np.abs(_residual_run(d, st, 3, fault=True))) > 1e-3
 
 
+def test_a_steady_state_gain_is_kept_where_a_member_has_one():
+    """f in every output (a random draw, seed 239 of the property's generator): of the two
+    members of V_1 that see f, the first basis row does so as a transient only; a member
+    with a nonzero steady-state gain exists and is the one chosen (the gain recomputed
+    from the matrices: R* Dy · 0 + D*_1 at s = 0)."""
+    x1, x2, x3, u, f, rho = sp.symbols("x1 x2 x3 u f rho")
+    m = PlantModel(name="dc", time="continuous", states=[x1, x2, x3], inputs=[u], faults=[f],
+                   disturbances=[rho],
+                   outputs=[f - u - x1, f - u + x1 - x2 + x3, f + u + x1 - x2],
+                   dynamics=[-rho - x1 - x2 - x3, rho + 2 * u + x1 + x2, rho + 2 * x1 + 2 * x2])
+    d = design(m, observer="diagnostic", faults=["f"])
+    st = d.structure
+    assert d.k == 1 and d.certificate.passed
+    assert (sp.Matrix(d.matrices.Phi) * st.D - sp.Matrix(d.matrices.J_star) * st.Dy)[0] != 0
+    (sig,) = d.signature
+    assert sig.sensitive and not sig.transient_only
+    assert "with a nonzero steady-state gain to each" in d.choice
+
+
 # ------------------------------------------------------------------ random plants
 def _random_plant(seed: int) -> PlantModel:
     """Three states, two or three outputs, a control u in the dynamics and the outputs, a

@@ -31,10 +31,14 @@ found here is analysis' least order for the task (the largest of the targets' ow
 spaces are nested, V_{k−1} padded with J*_k = 0 lies in V_k).
 
 The member: the reduced-echelon basis b_1 … b_d of V_k first, then the combinations
-``Σ c^{i−1} b_i`` for c = 1 … T (d − 1) + 1 (T targets): for each target ``v C_t`` is a
+``Σ c^{i−1} b_i`` for c = 1 … C (d − 1) + 1: for each target ``v C_t`` is a
 polynomial in c of degree < d, not identically zero when some b_i sees the target, so
-it has at most d − 1 roots and some c sees every target. Among those that see every
-target the first with rank Φ = k is taken (else the first, reported). The observer is
+it has at most d − 1 roots and some c sees every target; the same holds for the
+steady-state numerator ``v C_t p(λ₀)`` (p(λ) = (λᵏ, …, λ, 1)ᵀ, λ₀ = 0 in continuous
+time, 1 in discrete time) of each target some member gives a nonzero steady-state gain
+(C counts both kinds of condition). Among the candidates that see every target the first
+that also keeps every such steady-state gain and has rank Φ = k is taken (else the best
+of them by these two, in this order; the rank is reported). The observer is
 stabilised by output injection K r with the eigenvalues of F* − K H* placed exactly
 (:func:`~observer_cad.synthesis.core.pole_placement`), as the canonical diagnostic
 designer does. Linear plants with numeric (rational) matrices; orders below n, as the
@@ -104,29 +108,41 @@ def _fault_blocks(HF, D, Dy, k: int) -> list:
     return [sp.Matrix.hstack(*_block_columns(HF, D[:, t], Dy[:, t], k)) for t in range(D.cols)]
 
 
-def _candidates(basis: list, ntargets: int):
-    """The basis rows, then Σ c^(i−1) b_i for c = 1 … T (d − 1) + 1 (module docstring)."""
+def _candidates(basis: list, conditions: int):
+    """The basis rows, then Σ c^(i−1) b_i for c = 1 … C (d − 1) + 1 for C polynomial
+    conditions on c (module docstring)."""
     yield from basis
     d = len(basis)
-    for c in range(1, ntargets * (d - 1) + 2):
+    for c in range(1, conditions * (d - 1) + 2):
         yield sum((sp.Integer(c) ** i * b for i, b in enumerate(basis)), sp.zeros(1, basis[0].cols))
 
 
-def _member(basis, blocks, F, H, k):
-    """(v, Φ, rank Φ) of the first candidate seeing every target with rank Φ = k (else
-    the first seeing every target), v scaled to a leading 1; None when none sees them."""
-    first = None
-    for v in _candidates(basis, len(blocks)):
+def _dc_column(k: int, time: str) -> sp.Matrix:
+    """p(λ₀) = (λ₀ᵏ, …, λ₀, 1)ᵀ at λ₀ = 0 (continuous time) or 1 (discrete time): v C_t
+    p(λ₀) is the numerator of the residual's transfer to fault t at steady state."""
+    lam = 0 if time == "continuous" else 1
+    return sp.Matrix([lam ** (k - i) for i in range(k + 1)])
+
+
+def _member(basis, blocks, F, H, k, time):
+    """(v, Φ, rank Φ) of the first candidate seeing every target, v scaled to a leading 1,
+    preferring (in this order) a nonzero steady-state gain to every target some member
+    gives one to, and rank Φ = k; None when no candidate sees every target."""
+    p = _dc_column(k, time)
+    strong = [C * p for C in blocks if any(not (b * C * p).is_zero_matrix for b in basis)]
+    best, rank_best = None, (-1, -1)
+    for v in _candidates(basis, len(blocks) + len(strong)):
         if any((v * C).is_zero_matrix for C in blocks):
             continue
         v = v / next(e for e in v if e != 0)
         _, _, Phi = member_to_phi(v, F, H, k)
         rank = Phi.rank()
-        if rank == k:
-            return v, Phi, rank
-        if first is None:
-            first = (v, Phi, rank)
-    return first
+        score = (all(not (v * c).is_zero_matrix for c in strong), rank == k)
+        if score > rank_best:
+            best, rank_best = (v, Phi, rank), score
+        if all(score):
+            break
+    return best
 
 
 def _search(view: FeedthroughView, below: int):
@@ -144,7 +160,7 @@ def _search(view: FeedthroughView, below: int):
         if not basis:
             attempts.append(f"k={k}: the left null space of (W⁽ᵏ⁾ | L_y⁽ᵏ⁾) is zero")
             continue
-        found = _member(basis, _fault_blocks(HF, D, Dy, k), F, H, k)
+        found = _member(basis, _fault_blocks(HF, D, Dy, k), F, H, k, st.model.time)
         if found is None:
             attempts.append(f"k={k}: the left null space of (W⁽ᵏ⁾ | L_y⁽ᵏ⁾) has dimension"
                             f" {len(basis)}, but no member sees every target (V_k C_f = 0"
@@ -168,6 +184,14 @@ def _matrices(view: FeedthroughView, v, Phi, k: int) -> dict:
             "H_star": sp.Matrix([[1] + [0] * (k - 1)]),
             "G_star": Phi * sp.Matrix(st.G) - J * sp.Matrix(st.Gy),
             "D_star": Phi * task.D(st) - J * Dy}
+
+
+def _steady_numerators(mats, Dy, k: int, time: str) -> list:
+    """Per fault to detect: the residual's transfer numerator R* Dy λᵏ + Σ D*_i λ^{k−i} at
+    λ₀ (:func:`_dc_column`); zero means a zero steady-state gain."""
+    p = _dc_column(k, time)
+    C = sp.Matrix.vstack(sp.Matrix(mats["R_star"]) * Dy, sp.Matrix(mats["D_star"]))
+    return [sum((C[i, t] * p[i] for i in range(k + 1)), sp.Integer(0)) for t in range(C.cols)]
 
 
 def _refusal(view: FeedthroughView, attempts) -> InfeasibleDesignError:
@@ -217,13 +241,19 @@ def design_output_faults(view: FeedthroughView, design_cls, *, form: str, eigenv
     eqs = reduced_equations(mats, list(st.model.inputs), xs, list(ys), deep=True,
                             measured=measured)
     r = sp.expand((mats["R_star"] * measured)[0] - xs[0])
+    steady = _steady_numerators(mats, sp.Matrix(st.output_columns(task.targets)), k,
+                                st.model.time)
+    weak = [n for n, g in zip(task.targets, steady) if g == 0]
     choice = (f"k = {k}: the least order found for {', '.join(task.targets)} among residuals"
               " that see the faults through the outputs as well as the dynamics (R* Dy, "
               f"D* = Φ D − J* Dy); the left null space of (W⁽ᵏ⁾ | L_y⁽ᵏ⁾) has dimension {dim}."
               f" Chosen: v = (R*, −J*_1, …) with R* = {list(mats['R_star'])}, the first"
               " member (basis rows first, then generic combinations) that sees every fault"
-              f" to detect" + (f" with rank Φ = {k}" if rank == k else f" (rank Φ = {rank})")
-              + ".")
+              " to detect, "
+              + ("with a nonzero steady-state gain to each" if not weak else
+                 f"with a nonzero steady-state gain wherever a member of this order has one"
+                 f" ({', '.join(weak)}: a transient only)")
+              + (f", and rank Φ = {k}" if rank == k else f" (rank Φ = {rank})") + ".")
     return design_cls(
         model_name=st.model.name, task=task, structure=st, form="canonical", k=k,
         matrices=mats, conditions=conds, assumptions=(), certificate=cert, symbolic=False,
