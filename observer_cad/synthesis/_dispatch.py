@@ -26,7 +26,7 @@ from .core import PROOF_SECONDS, Design, DesignRequest, prepare
 from .core import feedthrough_view, has_output_feedthrough, lift_kind_design, zero_order_design
 from .core import check_kind_feedthrough, check_robust_feedthrough, lift_robust_design
 from .core import zero_order_first
-from .canonical import design_diagnostic_canonical
+from .canonical import design_diagnostic_canonical, design_output_faults, sees_through_outputs
 from .jordan import design_jordan, design_jordan_unknown_input, proof_seconds_value
 from .core import default_eigenvalues
 from .robust import design_robust_canonical, design_robust_jordan
@@ -92,16 +92,19 @@ def design(model: PlantModel, *, observer: str, faults: Sequence[str] = (),
     if kind == ObserverKind.UNKNOWN_INPUT and not robust:  # continuous time: rank tests first
         continuous_estimation_check(model, task.targets[0], task.decoupled)
     try:
-        if view is not None and zero_order_first(view):
-            # the outputs alone give the residual (every fault to detect enters them)
-            d = zero_order_design(view, Design, form=form)
-        else:
-            d = _exact(model if view is None else view.model,
-                       task if view is None else view.inner, faults, disturbances, estimate,
-                       form, lambdas, eigenvalues, variant, symbolic, method, rtol,
-                       proof_seconds)
-            if view is not None:
-                d = lift_kind_design(d, view)
+        try:
+            d = _first_design(model, view, task, faults, disturbances, estimate, form, lambdas,
+                              eigenvalues, variant, symbolic, method, rtol, proof_seconds)
+            if view is not None and d.k > 1 and not (lambdas or eigenvalues) \
+                    and sees_through_outputs(view):
+                # a lower order may see the faults of the outputs through R* Dy or J* Dy
+                d = _as_strong(d, design_output_faults(view, Design, form=form, below=d.k))
+        except InfeasibleDesignError:
+            if view is None or not sees_through_outputs(view):
+                raise
+            # faults seen through the outputs: the least-order dynamic residual
+            d = design_output_faults(view, Design, form=form, eigenvalues=eigenvalues,
+                                     lambdas=lambdas)
     except InfeasibleDesignError as exc:
         if not robust:
             raise
@@ -132,12 +135,47 @@ def design(model: PlantModel, *, observer: str, faults: Sequence[str] = (),
         proof_seconds=proof_seconds)
     # the full fault signature: every declared fault against the residual
     d = dataclasses.replace(d, request=request).with_signature()
+    _require_seen(d, model)  # a residual generator must respond to what it is meant to detect
+    return d
+
+
+def _require_seen(d: Design, model: PlantModel) -> None:
+    """One line when ``d`` (with its signature) does not respond to a fault it detects."""
     blind = [s for s in d.signature if s.role == "detected" and not s.sensitive]
-    if blind:  # a residual generator must respond to what it is meant to detect
+    if blind:
         s = blind[0]
         raise InfeasibleDesignError(
             f"{model.where}: the residual found does not respond to {s.name}: Φ D_{s.name} ="
             f" {list(s.entry)} enters only rows r does not read (H* (sI − F*)⁻¹ Φ D = 0)")
+
+
+def _as_strong(d: Design, lower: Design | None) -> Design:
+    """``lower`` (a design of lower order) unless it is None or sees a fault to detect as a
+    transient only (a zero steady-state gain) that ``d`` sees with a nonzero one."""
+    if lower is None:
+        return d
+    was = {s.name: s.transient_only for s in d.with_signature().signature}
+    lost = [s.name for s in lower.with_signature().signature
+            if s.role == "detected" and s.transient_only and not was.get(s.name, False)]
+    return d if lost else lower
+
+
+def _first_design(model, view, task, faults, disturbances, estimate, form, lambdas,
+                  eigenvalues, variant, symbolic, method, rtol, proof_seconds) -> Design:
+    """The design of the zero-order residual or of the designers (on the measured part of
+    a plant with feedthrough, lifted); a diagnostic design for faults that enter the outputs
+    is checked here to respond to them (its lifted D* = Φ D − J* Dy and R* Dy)."""
+    if view is not None and zero_order_first(view):
+        # the outputs alone give the residual (every fault to detect enters them)
+        return zero_order_design(view, Design, form=form)
+    d = _exact(model if view is None else view.model, task if view is None else view.inner,
+               faults, disturbances, estimate, form, lambdas, eigenvalues, variant, symbolic,
+               method, rtol, proof_seconds)
+    if view is None:
+        return d
+    d = lift_kind_design(d, view)
+    if sees_through_outputs(view):  # (Φ D − J* Dy and R* Dy may cancel, or be absent)
+        _require_seen(d.with_signature(), model)
     return d
 
 

@@ -182,9 +182,12 @@ def test_every_observer_kind_takes_the_feedthrough(tanks):
     assert "\n" not in str(e.value)
 
 
-def test_a_fault_of_the_outputs_alone_is_refused_as_a_target(tanks):
-    with pytest.raises(InfeasibleDesignError, match="fs1 enters the outputs only"):
-        design(tanks, observer="diagnostic", faults=["fs1"])
+def test_a_fault_of_the_outputs_alone_gets_a_dynamic_residual(tanks):
+    """fs1 (a bias on y1) has no zero-order residual with ρ decoupled; the residual of
+    order 1 (x1 rebuilt from y2 and u1) sees it through the outputs
+    (tests/synthesis/test_feedthrough_sensor_residuals.py tests these residuals)."""
+    d = design(tanks, observer="diagnostic", faults=["fs1"])
+    assert d.k == 1 and d.certificate.passed and d.signature_map["fs1"]
 
 
 def test_robust_designs_take_the_feedthrough(tanks):

@@ -22,8 +22,10 @@ This is exact, not only sufficient: every design of the plant has that form
 (J* = J̃ N + S M with S = Φ L₁ Y₁⁻¹ forced by Φ L = J* Ly), so no order is lost: the
 designed orders are the least orders of :func:`observer_cad.analysis.feedthrough_orders`
 wherever the designers reach them (they search orders below n, for a residual that sees
-each fault to detect through Φ D; one that would see a fault only through its output
-column N Dy, with Φ D = 0, is not searched for). It holds for every model
+each fault to detect through Φ D; one that sees a fault only through its output
+column, with Φ D = 0, is searched by
+:func:`observer_cad.synthesis.canonical.design_output_faults`, which the design takes
+when the designers give none or a higher order). It holds for every model
 the structure extraction accepts (ρ enters the dynamics linearly with constant
 coefficients; the outputs are linear in x).
 Other observer kinds see ỹ alone (sufficient, not necessary). The lifted design is
@@ -34,7 +36,10 @@ Faults to detect that all enter the outputs only (sensor faults: no Φ D for the
 to search on, after the elimination above: a bias on a sensor that a decoupled input also
 reaches enters the dynamics through y_a) get a zero-order residual r = R* (y − Gy u) with
 R* H = 0, R* Ly = 0 and R* Dy ≠ 0 for each of them (:func:`zero_order_design`; no
-observer state), or a one-line refusal when the outputs alone cannot give one. A
+observer state) when the outputs alone give one; else the least-order dynamic residual
+that sees them through the outputs (R* Dy, Φ D − J* Dy:
+:func:`observer_cad.synthesis.canonical.design_output_faults`, linear plants with numeric
+matrices), or a one-line refusal. A
 diagnostic design whose faults all enter the outputs gets that zero-order residual too
 whenever one exists (order 0, the least; :func:`zero_order_first`). Unknown-input,
 sliding-mode and interval observers and robust designs with feedthrough:
@@ -122,7 +127,7 @@ def feedthrough_view(work: PlantModel, task: Task) -> FeedthroughView:
     inner = dataclasses.replace(task, targets=tuple(n for n in task.targets
                                                     if n not in outputs_only),
                                 assumed_zero=tuple(task.assumed_zero) + tuple(outputs_only))
-    zero = {s: 0 for s in list(work.inputs) + list(work.faults) + list(work.disturbances)}
+    zero = {s: sp.S.Zero for s in list(work.inputs) + list(work.faults) + list(work.disturbances)}
     outs = [h.xreplace(zero) for h in work.outputs]
     if N != sp.eye(st.l):
         outs = [sp.expand(e) for e in N * sp.Matrix(outs)]
@@ -308,8 +313,8 @@ def zero_order_design(view: FeedthroughView, design_cls, *, form: str):
         raise InfeasibleDesignError(
             f"{where}: {which} the outputs only, and no combination R* y of the outputs is"
             f" free of the states (R* H = 0){dec} while seeing it: no zero-order residual;"
-            " dynamic residuals for such faults are not designed yet (design for a fault of"
-            " the dynamics and read the residual's sensitivity in its fault signature)")
+            " dynamic residuals that see such faults through the outputs are designed for"
+            " linear plants with numeric parameters (not nonlinear ones, nor with --symbolic)")
     n, l, m_in = st.n, st.l, len(st.model.inputs)
     mats = {"Phi": sp.zeros(0, n), "F_star": sp.zeros(0, 0), "J_star": sp.zeros(0, l),
             "G_star": sp.zeros(0, m_in), "R_star": R, "H_star": sp.zeros(1, 0),
