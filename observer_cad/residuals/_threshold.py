@@ -539,7 +539,7 @@ def _initial_box(model: PlantModel, observer: Observer, xi, Phi):
     rad = sp.Matrix([(sp.Rational(model.initial[x][1]) - sp.Rational(model.initial[x][0])) / 2
                      for x in model.states])
     par = dict(observer.parameters)
-    start = [sp.nsimplify(sp.sympify(observer.initial[s]).xreplace(par).xreplace(c)) for s in xi]
+    start = [sp.sympify(observer.initial[s]).xreplace(par).xreplace(c) for s in xi]
     return start, list(P.applyfunc(abs) * rad), model.initial
 
 

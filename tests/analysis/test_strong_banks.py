@@ -71,6 +71,7 @@ def _assert_strong(bank: ResidualBank, published_strong: set):
     assert [ok for p, ok in bank.strongly_isolable] == [ok for p, ok in bank.isolable]
 
 
+@pytest.mark.slow
 def test_yuan_bank_takes_strong_rows_only():
     """Yuan 1997: the generalised scheme's rows 11110111 (f5 decoupled) and 11111011
     (f6 decoupled) are achievable but see faults only as transients (published: weak,

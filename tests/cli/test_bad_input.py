@@ -462,6 +462,7 @@ def test_subprocess_script(tmp_path, cid):
 
 
 @pytest.mark.skipif(shutil.which("observer-cad") is None, reason="console script not installed")
+@pytest.mark.slow
 def test_subprocess_script_usage_errors():
     for argv, needle in (([], "COMMAND"), (design_argv(DRIVE, "--bogus"), "--bogus"),
                          (["design", DRIVE, "--observer", "unknown-input"], "--fault")):

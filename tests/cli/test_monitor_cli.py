@@ -231,6 +231,7 @@ def test_the_initial_state_assumption_is_stated(capsys, tmp_path):
     assert "first alarm at t = 0 s" in so
 
 
+@pytest.mark.slow
 def test_monitor_runs_a_frozen_design_like_a_fresh_one(capsys, tmp_path):
     """``--design FILE``: the bank saved by ``design --json`` gives the same monitor.csv as
     designing again (the file is recomputed at load, never believed)."""

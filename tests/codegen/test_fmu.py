@@ -504,6 +504,7 @@ def test_fmu_on_simulate_signals_csv(tmp_path, monkeypatch, capsys):
     assert list(got["diagnosis_code"]) == [1 if d == "d" else 0 for d in sim["diagnosis"]]
 
 
+@pytest.mark.slow
 def test_fmu_equals_the_monitor_on_the_recorded_example(tmp_path, monkeypatch, capsys):
     """The FMU of the monitor example, run by FMPy on the recorded data
     (examples/three_tank_recording.csv), gives ``observer-cad monitor``'s monitor.csv: the

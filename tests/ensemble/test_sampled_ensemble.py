@@ -95,6 +95,7 @@ def test_what_cannot_run_sampled_is_refused(motor):
                      engine="reference", backend=Backend("serial"))
 
 
+@pytest.mark.slow
 def test_ensemble_command_takes_the_sample_time(capsys, tmp_path):
     sc = tmp_path / "sc.json"
     sc.write_text(json.dumps({k: v for k, v in SCEN.items() if k != "sample_time"}))

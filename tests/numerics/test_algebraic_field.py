@@ -58,6 +58,7 @@ def test_powers_and_inverses_are_arithmetic_not_generators():
     assert _linalg._algebraic_field.cache_info().hits == 1
 
 
+@pytest.mark.slow
 def test_exact_product_matches_cancel_and_is_zero_exactly():
     rng = random.Random(2)
     for _ in range(4):

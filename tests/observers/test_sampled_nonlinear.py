@@ -97,6 +97,7 @@ def test_the_band_names_its_nonlinear_terms(plant):
     assert 0.02 < upper < 0.1
 
 
+@pytest.mark.slow
 def test_no_false_alarm_on_records_of_the_true_nonlinear_plant(plant):
     """200 fault-free records (4 s each) with the input switching at every sample and the
     noise at ±its bounds: no sample leaves the band; the records stay in the envelope; the

@@ -119,6 +119,7 @@ def test_no_false_alarm_with_the_exact_hold(motor):
     assert np.max(np.abs(r[200:])) > 0.1 * up[-1, 0]
 
 
+@pytest.mark.slow
 def test_no_false_alarm_with_bang_bang_signals_between_samples(motor):
     """Adversarial records: the input switching between random levels at every sample, the
     load torque a ±0.5 square wave of 37 Hz (it switches inside the sample intervals, which
