@@ -12,7 +12,7 @@ from ..progress import report
 from ._parser import PROG
 
 __all__ = ["design_or_load", "design_from_args", "observer_options", "threshold_from_args", "refuse_failed",
-           "unsampled_band_note"]
+           "unsampled_band_note", "monitor_engine"]
 
 
 def design_from_args(args):
@@ -328,6 +328,23 @@ def unsampled_band_note(observer) -> str:
     th = observer.threshold
     c = next((c for c in th.conditions if c.name == "sampling"), None) if th is not None else None
     return f"note: this band is that of continuous observation: {c.detail}" if c else ""
+
+
+def monitor_engine(args, observer):
+    """(the monitor's engine for ``observer``, its description): the compiled loop unless
+    --engine reference or no C compiler (then a warning), else the reference engine."""
+    if args.engine == "compiled":
+        from ..codegen import CodegenError, CompiledMonitorEngine
+        report("compiling", stage=True)
+        try:
+            eng = CompiledMonitorEngine(observer)
+        except CodegenError as exc:
+            print(f"{PROG}: warning: not compiled ({str(exc).splitlines()[0]}); using the"
+                  " monitor's reference engine", file=sys.stderr)
+        else:
+            return eng, "compiled C" + (" (cache hit)" if eng.cached else "")
+    from ..simulation import ReferenceMonitorEngine
+    return ReferenceMonitorEngine(observer), "reference engine (Python)"
 
 
 def refuse_failed(observer) -> None:

@@ -8,8 +8,8 @@ from pathlib import Path
 from ..errors import UsageError
 from ..residuals import ThresholdSpec
 from ..progress import report
-from ._from_args import (design_or_load, observer_options, refuse_failed, threshold_from_args,
-                         unsampled_band_note)
+from ._from_args import (design_or_load, monitor_engine, observer_options, refuse_failed,
+                         threshold_from_args, unsampled_band_note)
 from ._parser import PROG
 
 __all__ = ["cmd_monitor"]
@@ -60,7 +60,7 @@ def cmd_monitor(args) -> int:
             rule = decision_rule(model, result, persistence=args.persistence)
         elif args.persistence != 1:
             raise UsageError("--persistence applies with --threshold")
-        engine, how = _engine(args, obs)
+        engine, how = monitor_engine(args, obs)
         return Monitor(model, obs, rule=rule, sample_time=args.sample_time, initial=initial,
                        engine=engine), how
     if data is None:
@@ -90,23 +90,6 @@ def _data_step(data, rename):
         return float(t[1]) - float(t[0]) if len(t) > 1 and float(t[1]) > float(t[0]) else None
     except (TypeError, KeyError, ValueError, IndexError):
         return None
-
-
-def _engine(args, observer):
-    """(engine, its description): the compiled loop unless --engine reference or no C
-    compiler (then a warning)."""
-    if args.engine == "compiled":
-        from ..codegen import CodegenError, CompiledMonitorEngine
-        report("compiling", stage=True)
-        try:
-            eng = CompiledMonitorEngine(observer)
-        except CodegenError as exc:
-            print(f"{PROG}: warning: not compiled ({str(exc).splitlines()[0]}); using the"
-                  " reference engine", file=sys.stderr)
-        else:
-            return eng, "compiled C" + (" (cache hit)" if eng.cached else "")
-    from ..simulation import ReferenceMonitorEngine
-    return ReferenceMonitorEngine(observer), "reference engine (Python)"
 
 
 def _finish(args, mon, res, how: str) -> int:

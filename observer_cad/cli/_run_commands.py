@@ -8,8 +8,8 @@ from pathlib import Path
 
 from ..errors import UsageError
 from ..progress import report
-from ._from_args import (design_or_load, observer_options, refuse_failed, threshold_from_args,
-                         unsampled_band_note)
+from ._from_args import (design_or_load, monitor_engine, observer_options, refuse_failed,
+                         threshold_from_args, unsampled_band_note)
 from ._parser import PROG
 
 __all__ = ["cmd_simulate", "cmd_ensemble", "CALIBRATION_OFFSET"]
@@ -133,20 +133,10 @@ def _simulate_sampled(args, model, observer, scenario, kw):
     scenario's grid, inputs held) sampled every H and the observer stepped by the
     monitor's engine (compiled C by default, as ``monitor``): (result, the engines'
     description)."""
-    from ..simulation import ReferenceMonitorEngine, simulate
+    from ..simulation import simulate
     h = float(scenario.sample_time)
-    engine, how = None, "reference engine (Python)"
-    if args.engine == "compiled" and observer is not None:
-        from ..codegen import CodegenError, CompiledMonitorEngine
-        try:
-            engine = CompiledMonitorEngine(observer)
-        except CodegenError as exc:
-            print(f"{PROG}: warning: not compiled ({str(exc).splitlines()[0]}); using the"
-                  " monitor's reference engine", file=sys.stderr)
-        else:
-            how = "compiled C" + (" (cache hit)" if engine.cached else "")
-    if engine is None and observer is not None:
-        engine = ReferenceMonitorEngine(observer)
+    engine, how = (None, "reference engine (Python)") if observer is None \
+        else monitor_engine(args, observer)
     res = simulate(model, observer, scenario, engine=engine, **kw)
     return res, (f"sampled at h = {h:g}: the plant by the reference simulator (numpy, inputs"
                  f" held), the observer by the monitor's step ({how})")

@@ -10,9 +10,10 @@ import numpy as np
 import sympy as sp
 
 from ..errors import UsageError
+from ..synthesis import Condition
 
 __all__ = ["Affine", "split_affine", "box_of", "to_mp", "hold_step", "to_np", "affine_and_rest",
-           "exp_tail", "DPS"]
+           "exp_tail", "DPS", "identity_condition"]
 
 #: working precision (decimal digits) of the step matrices
 DPS = 40
@@ -155,3 +156,21 @@ def exp_tail(M: np.ndarray) -> np.ndarray:
         if not np.any(term > 1e-18 * (total + 1e-300)):
             break
     return total
+
+
+def identity_condition(g: dict, out: Affine, plant: dict, where: str, what: str) -> Condition:
+    """The exact identities the band rests on: the plant's (``plant``: name → matrix that
+    must vanish) and the residual's (C_r Φ + G_r H = 0, G_r D_y + G_ru = 0, G_r h0 + c_r = 0);
+    a one-line refusal naming the first that fails."""
+    checks = dict(plant)
+    checks.update({"C_r Φ + G_r H = 0": g["Cr"] * g["Phi"] + g["Gr"] * out.Mx,
+                   "G_r D_y + G_ru = 0": g["Gr"] * out.Mu + g["Gru"],
+                   "G_r h0 + c_r = 0": g["Gr"] * out.m0 + g["cr"]})
+    for name, M in checks.items():
+        if any(sp.simplify(e) != 0 for e in M):
+            raise UsageError(f"{where}: the observer does not reproduce the nominal plant"
+                             f" ({name} fails); the residual is not zero without faults,"
+                             " noise, disturbances and uncertainty")
+    return Condition("fault-free residual identity", True,
+                     "exact: " + ", ".join(checks) + f" ({what}, observer's own equations)",
+                     "METHOD §3 (residual evaluation)")

@@ -36,7 +36,7 @@ from ..model import PlantModel
 from ..synthesis import Condition
 from ._intervals import abs_bound, interval_range
 from ._sampled_algebra import (DPS, Affine, affine_and_rest, box_of, exp_tail, hold_step,
-                               split_affine, to_mp, to_np)
+                               identity_condition, split_affine, to_mp, to_np)
 
 __all__ = ["NonlinearPlant", "nonlinear_plant", "nonlinear_identities", "nonlinear_inputs"]
 
@@ -80,22 +80,11 @@ def nonlinear_plant(model: PlantModel, g: dict, dynx, outx, unc, where: str):
 
 def nonlinear_identities(g: dict, nl: NonlinearPlant, states, where: str) -> Condition:
     """Φ f0(x, u) = A Φ x + p(x, u) and the residual's identities, exactly."""
-    Phi, out = g["Phi"], nl.out
-    checks = {
+    Phi = g["Phi"]
+    return identity_condition(g, nl.out, {
         "Φ f0(x, u) = A Φ x + G y0 + n(y0, u) + G_u u + c0":
-            Phi * nl.f0 - g["A"] * Phi * sp.Matrix(states) - nl.p,
-        "C_r Φ + G_r H = 0": g["Cr"] * Phi + g["Gr"] * out.Mx,
-        "G_r D_y + G_ru = 0": g["Gr"] * out.Mu + g["Gru"],
-        "G_r h0 + c_r = 0": g["Gr"] * out.m0 + g["cr"],
-    }
-    for name, M in checks.items():
-        if any(sp.simplify(e) != 0 for e in M):
-            raise UsageError(f"{where}: the observer does not reproduce the nominal plant"
-                             f" ({name} fails); the residual is not zero without faults,"
-                             " noise, disturbances and uncertainty")
-    return Condition("fault-free residual identity", True,
-                     "exact: " + ", ".join(checks) + " (nominal nonlinear plant, observer's"
-                     " own equations)", _REF)
+            Phi * nl.f0 - g["A"] * Phi * sp.Matrix(states) - nl.p}, where,
+        "nominal nonlinear plant")
 
 
 def _noise_amplitudes(out: Affine, full: dict, where: str) -> np.ndarray:
