@@ -86,7 +86,7 @@ from ._reach import DiagnosisQuestions, detecting_orders
 
 __all__ = ["analyze", "Analysis", "FaultAnalysis", "PairAnalysis", "StructureRow",
            "StrongFault", "Suggestion", "detecting_orders", "feedthrough_orders",
-           "MAX_ENUMERATED_FAULTS", "STRONG_MAX_STATES"]
+           "MAX_ENUMERATED_FAULTS", "STRONG_MAX_STATES", "parse_frequencies"]
 
 #: Up to this many faults every set of decoupled faults is enumerated for the structure
 #: matrix; above it only the sets of at most two faults (``structure_complete`` False).
@@ -204,7 +204,7 @@ def analyze(model: PlantModel, *, faults: Sequence[str] | None = None,
     if method == "float" and symbolic and model.parameters:
         raise UsageError("the float path needs numeric parameters: analyse without --symbolic")
     # the given structure is the model's: the work model's only when parameters are kept
-    omegas = _frequencies(frequencies, model.time)
+    omegas = parse_frequencies(frequencies, model.time)
     problem = prepare(model, symbolic=symbolic, method=method,
                       structure=structure if (symbolic or not model.parameters) else None)
     work, st = problem.work, problem.structure
@@ -222,7 +222,7 @@ def analyze(model: PlantModel, *, faults: Sequence[str] | None = None,
 STRONG_MAX_STATES = 40
 
 
-def _frequencies(frequencies, time: str) -> tuple:
+def parse_frequencies(frequencies, time: str) -> tuple:
     """The frequencies as exact non-negative rationals (a decimal string or number is
     read by its decimal digits, never evaluated)."""
     out = []

@@ -19,6 +19,7 @@ def cmd_design(args) -> int:
     model, result = design_or_load(args)
     if getattr(args, "isolate", False):
         return _cmd_bank(args, model, result)
+    gains = _gains(args, model, [result])  # a bad --frequency is refused before any output
     if args.observer == "drem":
         if args.json:
             out = result.to_json(equations=False)
@@ -55,6 +56,8 @@ def cmd_design(args) -> int:
         else:
             out["observer_equations"] = None
             out["observer_not_built"] = why_not
+        if args.frequency:
+            out["frequency_gains"] = _gains_json(gains)
         print(json.dumps(out, indent=2))
     else:
         report("formatting the design", stage=True)
@@ -66,8 +69,40 @@ def cmd_design(args) -> int:
             print(format_observer(observer))
         if observer is not None and observer.own_conditions:
             print(format_observer_conditions(observer))
+        if args.frequency:
+            print(_gains_text(gains))
     refuse_failed(observer)
     return 0
+
+
+def _gains(args, model, designs) -> list:
+    """--frequency: each design's (each bank row's) gains to the faults at every ω."""
+    if not args.frequency:
+        return []
+    from ..analysis import parse_frequencies
+    from ..synthesis.certificates import frequency_gains
+    omegas = parse_frequencies(args.frequency, model.time)
+    return [frequency_gains(d, omegas) for d in designs]
+
+
+def _gains_json(gains) -> list:
+    """One entry per residual (bank row): fault → [{"omega": ω, "gain": [|g| per output
+    row] or null}]."""
+    return [{f: [{"omega": str(w), "gain": None if g is None else list(g)} for w, g in rows]
+             for f, rows in per.items()} for per in gains]
+
+
+def _gains_text(gains) -> str:
+    var = "|G(jω)|"
+    lines = [f"\nGains {var} of the residual to each fault (the residual's rows; 0: not seen"
+             " at that frequency)"]
+    for i, per in enumerate(gains, 1):
+        head = f"  r{i} " if len(gains) > 1 else "  "
+        for f, rows in per.items():
+            txt = "; ".join(f"ω = {w}: " + ("no steady state" if g is None else
+                                            ", ".join(f"{v:.6g}" for v in g)) for w, g in rows)
+            lines.append(f"{head}{f}  {txt}")
+    return "\n".join(lines)
 
 
 def _no_observer_reason(args, result) -> str:
@@ -82,6 +117,7 @@ def _no_observer_reason(args, result) -> str:
 
 def _cmd_bank(args, model, bank) -> int:
     from ..reporting import format_bank
+    gains = _gains(args, model, bank.designs)
     observer = None
     if not args.symbolic:
         from ..observers import build_observer
@@ -94,9 +130,13 @@ def _cmd_bank(args, model, bank) -> int:
             out["observer_equations"] = observer.to_json()
             if observer.threshold is not None:
                 out["threshold_conditions"] = [c.to_json() for c in observer.threshold.conditions]
+        if args.frequency:
+            out["frequency_gains"] = _gains_json(gains)
         print(json.dumps(out, indent=2))
     else:
         print(format_bank(bank))
+        if args.frequency:
+            print(_gains_text(gains))
         if observer is not None and observer.threshold is not None:
             from ..reporting import format_observer, format_observer_conditions
             print(format_observer(observer))

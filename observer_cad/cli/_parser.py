@@ -82,6 +82,10 @@ def _add_design(sub) -> None:
     d.add_argument("model", metavar="MODEL", help="path to a model file")
     _add_design_options(d)
     d.add_argument("--json", action="store_true", help="print one JSON object instead of text")
+    d.add_argument("--frequency", metavar="W", action="append", default=None,
+                   help="also report the residual's gain to each fault at ω = W (repeatable;"
+                        " rad per time unit, per sample in discrete time; 0: the steady-state"
+                        " gain); for a bank, each row's")
     _add_threshold_options(d, quantile=False)
 
 

@@ -234,7 +234,7 @@ def test_help_design_mentions_every_option(capsys):
                 "--rtol", "--json", "--help", "--estimate", "--lambda", "--eigenvalues",
                 "--variant", "--robust", "--bound", "--gain", "--tau", "--gamma", "--poles",
                 "--include-epsilon", "--isolate", "--structure", "--threshold", "--initial-error",
-                "--proof-seconds", "--design"}
+                "--proof-seconds", "--design", "--frequency"}
     subparsers = next(a for a in build_parser()._actions if a.choices and "design" in a.choices)
     assert _options(subparsers.choices["design"]) - {"-h"} == expected
     for opt in expected | {"MODEL", "unknown-input", "diagnostic", "virtual-sensor", "interval",

@@ -26,7 +26,7 @@ from __future__ import annotations
 
 import sympy as sp
 
-__all__ = ["steady_state_gain"]
+__all__ = ["steady_state_gain", "frequency_gains"]
 
 
 def _is_float(M) -> bool:
@@ -75,3 +75,54 @@ def steady_state_gain(matrices, structure, column, dy=None, *, rtol: float = 1e-
             g = sp.Integer(0) if abs(float(g)) <= rtol * max(scale, 1e-300) else g
         out.append(g)
     return tuple(out)
+
+
+def frequency_gains(design, frequencies, *, rtol: float = 1e-8) -> dict:
+    """The magnitudes of the residual rows' gains to each declared fault (and target) at
+    λ = jω (continuous time) or e^{jω} (discrete time), for each ω of ``frequencies``
+    (non-negative numbers, rad per time unit or per sample): ``{fault: ((ω, (|g_1|, …)),
+    …)}`` — the formula of the module docstring at λ, in floating point (a magnitude
+    below ``rtol`` times the size of its terms is 0), ``None`` for an ω where λ is an
+    eigenvalue of F_cl. Empty for a design without a residual."""
+    import numpy as np
+    m = design.matrices
+    st = design.structure
+    R, Hs = getattr(m, "R_star", None), getattr(m, "H_star", None)
+    if R is None or Hs is None or st is None:
+        return {}
+
+    def num(M):
+        M = sp.Matrix(M)
+        if M.free_symbols:
+            from ...errors import UsageError
+            raise UsageError("gains at a frequency need numeric matrices: drop --symbolic")
+        return np.array(M.evalf(), dtype=complex).reshape(M.shape)
+    Phi, Fs, J, R, Hs = (num(M) for M in (m.Phi, m.F_star, m.J_star, R, Hs))
+    K = getattr(m, "K", None)
+    K = num(K) if K is not None else None
+    Fcl = Fs - K @ Hs if K is not None else Fs
+    inject = J + K @ R if K is not None else J
+    model = st.model
+    names = [f.name for f in model.faults]
+    names += [n for n in design.task.targets if n not in names]
+    out = {}
+    for n in names:
+        col = num(st.unknown_input_columns([n]))
+        Dy = st.output_columns([n])
+        dy = num(Dy) if Dy.rows else np.zeros((R.shape[1], 1), dtype=complex)
+        b = Phi @ col - inject @ dy
+        rows = []
+        for w in frequencies:
+            lam = 1j * float(w) if model.time == "continuous" else np.exp(1j * float(w))
+            A = lam * np.eye(Fcl.shape[0]) - Fcl
+            if A.size and np.linalg.cond(A) > 1 / rtol:
+                rows.append((w, None))
+                continue
+            x = np.linalg.solve(A, b) if A.size else np.zeros((0, 1))
+            g = R @ dy + Hs @ x
+            scale = np.abs(R @ dy).ravel() + (np.abs(Hs) @ np.abs(x)).ravel()
+            mag = tuple(0.0 if abs(v) <= rtol * max(float(sc), 1e-300) else float(abs(v))
+                        for v, sc in zip(g.ravel(), scale))
+            rows.append((w, mag))
+        out[n] = tuple(rows)
+    return out
