@@ -138,7 +138,8 @@ def falsify(m, ot, h, how, steps):
     """Largest r(k*) and smallest found, per residual; the band at k*; envelope respected;
     whether the residual stayed inside its band at every sample of every run. At each
     corner of the parameter box the plant is LTI: its own impulse responses (not the
-    nominal plant's) give the bang-bang signals that reach the largest r(k*) there."""
+    nominal plant's) give the bang-bang signals that reach the largest r(k*) there, and
+    its response to x(0) the worst corner of the initial box."""
     run = Runner(m, ot, h, how)
     ub, rb, wb = _box(m, m.inputs), _box(m, m.disturbances), _box(m, m.noise)
     x0c = np.array([float(sum(m.initial[x]) / 2) if m.initial else 0.0 for x in m.states])
@@ -158,14 +159,23 @@ def falsify(m, ot, h, how, steps):
                 sig[si][0, j] += 1.0
                 R, _, _ = run(plant, x0c, *sig)
                 chans.append((si, j, R - R0))
+        x0resp = []  # the response of r to a unit step of x(0) in each boxed direction
+        for j, x in enumerate(m.states):
+            if x in m.initial:
+                R, _, _ = run(plant, x0c + np.eye(len(m.states))[j], *base)
+                x0resp.append((j, R - R0))
         for i in range(len(run.res)):
             for side, s in enumerate((-1.0, 1.0)):
+                x0 = x0c.copy()  # the worst corner of the initial box for r(k*)
+                for j, g in x0resp:
+                    lo, hi = (float(v) for v in m.initial[m.states[j]])
+                    x0[j] = hi if s * g[k, i] >= 0 else lo
                 sig = [b.copy() for b in base]
                 for si, j, g in chans:
                     box = (ub, rb, wb)[si][j]
                     resp = g[k::-1, i]  # response at k* of a unit at time 0 … k*
                     sig[si][: k + 1, j] = np.where(s * resp >= 0, box[1], box[0])
-                R, X, B = run(plant, x0c, *sig)
+                R, X, B = run(plant, x0, *sig)
                 inside &= bool(np.all((X >= env[:, 0] - 1e-9) & (X <= env[:, 1] + 1e-9)))
                 included &= bool(np.all((R >= B[:, :, 0]) & (R <= B[:, :, 1])))
                 found[i, side] = max(found[i, side], s * R[k, i])
