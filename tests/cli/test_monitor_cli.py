@@ -156,6 +156,7 @@ def test_streaming_prints_each_change_as_it_happens(tmp_path):
     assert (out / "monitor.csv").read_text() == (ref / "monitor.csv").read_text()
 
 
+@pytest.mark.slow
 def test_streaming_bad_row_one_line_nothing_written(tmp_path):
     env = {**os.environ, "PYTHONPATH": str(ROOT)}
     lines = RECORDING.read_text().splitlines()

@@ -334,6 +334,7 @@ def test_names_that_are_not_fmi_names_are_mapped(drive, tmp_path):
     assert fmi_variable_name("a.b[1]") == "a_b_1_" and fmi_variable_name("") == "_"
 
 
+@pytest.mark.slow
 def test_missing_compiler_is_one_line_and_nothing_is_written(drive, tmp_path, monkeypatch):
     m, d, o, res = drive
     monkeypatch.setenv("CC", "no-such-cc")

@@ -142,6 +142,7 @@ def _equation(draw):
 @settings(max_examples=30, deadline=None, derandomize=True,
           suppress_health_check=[HealthCheck.too_slow])
 @given(st.lists(_equation(), min_size=3, max_size=3))
+@pytest.mark.slow
 def test_generated_right_hand_sides(eqs):
     used = set().union(*[e.free_symbols for e, _, _ in eqs])
     model = PlantModel(name="generated", time="continuous", states=[x1, x2, x3],

@@ -179,6 +179,7 @@ def test_symbolic_analysis_at_the_defaults_equals_the_numeric(case):
         assert all(str(c) in note for c in failing)
 
 
+@pytest.mark.slow
 def test_a_special_case_at_the_defaults_is_reported():
     """random-2's defaults lie on the set where the generic answer fails (the numeric
     answer there differs): the symbolic analysis names the conditions that fail."""
